@@ -1,0 +1,158 @@
+/* pf/mesh.h: the polyhedral mesh, its validation, builders and text view.
+ *
+ * Struct of arrays with CSR offsets, the same shape as the MESH chunk of the pf stream and as VTK's
+ * polyhedron cells. Faces are planar polygons (convex or not), listed counter-clockwise seen from
+ * their first element, i.e. with the outward normal of that element. Elements are closed polyhedra
+ * given as lists of faces, each with an orientation bit: bit 31 of an elem_faces entry set means the
+ * face is used reversed (its nodes are clockwise seen from outside this element). Every face is used
+ * by one element (boundary) or two (interior, once each way round), so the mesh is conforming at face
+ * level even where a large cell meets several small ones.
+ *
+ * The element kind (tet, hex, general polyhedron) is derived from the connectivity, never read.
+ */
+#ifndef PF_MESH_H
+#define PF_MESH_H
+
+#include <stdio.h>
+
+#include <pf/base.h>
+#include <pf/geom.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define PF_FACE_REVERSED 0x80000000u
+#define PF_FACE_INDEX(entry) ((int32_t)((entry) & ~PF_FACE_REVERSED))
+
+typedef enum pf_elem_kind {
+    PF_ELEM_TET = 0,  /* 4 triangles on 4 nodes */
+    PF_ELEM_HEX = 1,  /* 6 quadrilaterals on 8 nodes, 3 faces at every node */
+    PF_ELEM_POLY = 2, /* anything else */
+    PF_ELEM_KIND_COUNT = 3
+} pf_elem_kind;
+
+typedef struct pf_mesh {
+    uint64_t id;            /* generation: a new id for every new topology (refinement, cutting) */
+    int32_t n_nodes;
+    int32_t n_faces;
+    int32_t n_elems;
+    double *x;              /* [3 * n_nodes] node positions */
+    int64_t *face_offsets;  /* [n_faces + 1], face_offsets[0] = 0 */
+    uint32_t *face_nodes;   /* [face_offsets[n_faces]] node indices */
+    int64_t *elem_offsets;  /* [n_elems + 1], elem_offsets[0] = 0 */
+    uint32_t *elem_faces;   /* [elem_offsets[n_elems]] face index | PF_FACE_REVERSED */
+
+    /* Derived by pf_mesh_derive, NULL before. */
+    int32_t *face_elems;    /* [2 * n_faces]: the element using face f as stored, then the one
+                               using it reversed; -1 where there is none */
+    uint8_t *elem_kind;     /* [n_elems] pf_elem_kind */
+} pf_mesh;
+
+/* Allocates all arrays of an empty mesh with the given counts (contents uninitialised except
+ * face_offsets[0] = elem_offsets[0] = 0). m must be zeroed or released. */
+pf_status pf_mesh_alloc(pf_mesh *m, int32_t n_nodes, int32_t n_faces, int64_t n_face_nodes,
+                        int32_t n_elems, int64_t n_elem_faces, pf_error *err);
+/* Frees every array and zeroes the struct. Safe on a zeroed mesh. */
+void pf_mesh_release(pf_mesh *m);
+/* Deep copy of src into dst (dst zeroed or released first). */
+pf_status pf_mesh_copy(pf_mesh *dst, const pf_mesh *src, pf_error *err);
+
+/* Computes face_elems and elem_kind. Fails (PF_ERR_INVALID, naming the face) when a face is
+ * used by more than two elements or twice with the same orientation, or when an index is out of
+ * range. Idempotent. */
+pf_status pf_mesh_derive(pf_mesh *m, pf_error *err);
+
+/* Kind of element e from its connectivity alone. */
+pf_elem_kind pf_mesh_classify_elem(const pf_mesh *m, int32_t e);
+const char *pf_elem_kind_name(pf_elem_kind k);
+
+/* Outward-oriented view of element e: faces copied (reversed where needed) into scratch from the
+ * arena; out->x borrows m->x. Fails with PF_ERR_NOMEM when the arena is too small. */
+pf_status pf_mesh_elem_polyhedron(const pf_mesh *m, int32_t e, pf_arena *scratch,
+                                  pf_polyhedron *out, pf_error *err);
+
+/* Volume of element e (signed: negative when inside out), exact for planar faces. */
+double pf_mesh_elem_volume(const pf_mesh *m, int32_t e);
+
+/* Bounding box of all nodes; both zero for an empty mesh. */
+void pf_mesh_bounds(const pf_mesh *m, pf_vec3 *lo, pf_vec3 *hi);
+
+typedef struct pf_mesh_validate_params {
+    /* A face is non-planar when a vertex lies farther than planarity_tol * face diameter from
+     * its plane. Default 1e-9: well above round-off of coordinates written as doubles, well below
+     * any intentional bend. */
+    double planarity_tol;
+    /* A node counts as repeated in a face when closer than duplicate_tol * face diameter to
+     * another of the face's nodes. Default 1e-12. */
+    double duplicate_tol;
+} pf_mesh_validate_params;
+
+pf_mesh_validate_params pf_mesh_validate_params_default(void);
+
+/* Checks, in this order, and reports the first offending entity in err (PF_ERR_INVALID):
+ * array shapes and index ranges; non-finite coordinates; a face with fewer than 3 distinct nodes;
+ * a non-planar face; a face used by more than two elements or twice with the same orientation; an
+ * element that is not closed or not consistently oriented (every directed edge of its outward
+ * faces must be matched by the opposite directed edge); a non-positive element volume.
+ * params may be NULL for the defaults. Does not modify m (derived arrays are not needed). */
+pf_status pf_mesh_validate(const pf_mesh *m, const pf_mesh_validate_params *params, pf_error *err);
+
+/* ---- builders from cell lists ------------------------------------------------------------------
+ * Faces shared by two cells are created once. Node numbering of cells follows Gmsh/VTK:
+ * tet (0,1,2,3) with node 3 on the positive side of (0,1,2); hex with bottom 0-1-2-3 and top 4-5-6-7
+ * above them. Cells given inside-out (negative volume) are reoriented, so the result is valid for
+ * any non-degenerate input. Node coordinates are copied. */
+pf_status pf_mesh_from_tets(pf_mesh *m, const double *x, int32_t n_nodes, const uint32_t *tets,
+                            int32_t n_tets, pf_error *err);
+pf_status pf_mesh_from_hexes(pf_mesh *m, const double *x, int32_t n_nodes, const uint32_t *hexes,
+                             int32_t n_hexes, pf_error *err);
+/* Mixed: cells[cell_offsets[c] .. cell_offsets[c+1]) are 4 (tet) or 8 (hex) node indices. */
+pf_status pf_mesh_from_cells(pf_mesh *m, const double *x, int32_t n_nodes,
+                             const int64_t *cell_offsets, const uint32_t *cells, int32_t n_cells,
+                             pf_error *err);
+
+/* ---- triangle surfaces ------------------------------------------------------------------------
+ * The render / embedded surface (SURF chunk): triangles counter-clockwise seen from outside. */
+typedef struct pf_surface {
+    uint64_t id;
+    int32_t n_verts;
+    int32_t n_tris;
+    double *x;     /* [3 * n_verts] */
+    uint32_t *tri; /* [3 * n_tris] vertex indices */
+} pf_surface;
+
+pf_status pf_surface_alloc(pf_surface *s, int32_t n_verts, int32_t n_tris, pf_error *err);
+void pf_surface_release(pf_surface *s);
+
+typedef struct pf_surface_stats {
+    int32_t n_verts, n_tris;
+    int closed;           /* every edge used by exactly two triangles */
+    int manifold;         /* edge-manifold, consistently oriented, vertex-manifold */
+    int64_t n_boundary_edges, n_nonmanifold_edges, n_flipped_edges;
+    double volume;        /* enclosed volume by the divergence theorem (meaningful when closed) */
+    double area;
+    pf_vec3 lo, hi;
+} pf_surface_stats;
+
+/* Fails (PF_ERR_INVALID) on indices out of range or non-finite coordinates. */
+pf_status pf_surface_compute_stats(const pf_surface *s, pf_surface_stats *out, pf_error *err);
+
+/* Summary statistics, as printed by pf-info. */
+typedef struct pf_mesh_stats {
+    int32_t n_nodes, n_faces, n_elems, n_boundary_faces;
+    int32_t n_by_kind[PF_ELEM_KIND_COUNT];
+    double volume, min_volume, max_volume; /* exact, from the element moments */
+    pf_vec3 lo, hi;                        /* bounding box */
+} pf_mesh_stats;
+
+pf_status pf_mesh_compute_stats(const pf_mesh *m, pf_mesh_stats *out, pf_error *err);
+
+/* Stable text view: counts, then every node, face and element, one per line, %.17g numbers.
+ * Golden tests diff it. */
+void pf_mesh_print(const pf_mesh *m, FILE *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,163 @@
+/* Command-line plumbing shared by the pf tools. */
+#define _POSIX_C_SOURCE 200809L /* isatty, fileno */
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+void pf_cli_init(pf_cli *cli, const char *tool, const char *usage, int argc, char **argv)
+{
+    *cli = (pf_cli){.tool = tool, .usage = usage, .argc = argc, .argv = argv, .next = 1};
+    for (int i = 1; i < argc; ++i) {
+        if (strcmp(argv[i], "--") == 0)
+            break;
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            fputs(usage, stdout);
+            exit(PF_EXIT_OK);
+        }
+        if (strcmp(argv[i], "--version") == 0) {
+            printf("%s (pf) %s\n", tool, PF_VERSION_STRING);
+            exit(PF_EXIT_OK);
+        }
+    }
+}
+
+void pf_cli_usage_error(const pf_cli *cli, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "%s: ", cli->tool);
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\nTry '%s --help'.\n", cli->tool);
+    va_end(ap);
+    exit(PF_EXIT_USAGE);
+}
+
+void pf_cli_fail(const pf_cli *cli, const pf_error *err)
+{
+    fprintf(stderr, "%s: %s\n", cli->tool, err->msg[0] ? err->msg : pf_status_name(err->status));
+    exit(PF_EXIT_INPUT);
+}
+
+int pf_cli_next(pf_cli *cli, const pf_cli_option *options, const char **value)
+{
+    *value = NULL;
+    if (cli->next >= cli->argc)
+        return PF_CLI_END;
+    const char *arg = cli->argv[cli->next++];
+    if (!cli->only_positional && strcmp(arg, "--") == 0) {
+        cli->only_positional = true;
+        return pf_cli_next(cli, options, value);
+    }
+    if (cli->only_positional || strncmp(arg, "--", 2) != 0 || strcmp(arg, "-") == 0) {
+        if (!cli->only_positional && arg[0] == '-' && arg[1] != '\0')
+            pf_cli_usage_error(cli, "unknown option '%s'", arg);
+        *value = arg;
+        return PF_CLI_POSITIONAL;
+    }
+    const char *name = arg + 2;
+    const char *eq = strchr(name, '=');
+    size_t len = eq ? (size_t)(eq - name) : strlen(name);
+    for (const pf_cli_option *o = options; o && o->name; ++o) {
+        if (strlen(o->name) != len || strncmp(o->name, name, len) != 0)
+            continue;
+        if (!o->has_value) {
+            if (eq)
+                pf_cli_usage_error(cli, "option '--%s' takes no value", o->name);
+            return o->id;
+        }
+        if (eq) {
+            *value = eq + 1;
+        } else {
+            if (cli->next >= cli->argc)
+                pf_cli_usage_error(cli, "option '--%s' needs a value", o->name);
+            *value = cli->argv[cli->next++];
+        }
+        return o->id;
+    }
+    pf_cli_usage_error(cli, "unknown option '%s'", arg);
+}
+
+double pf_cli_parse_double(const pf_cli *cli, const char *option, const char *text)
+{
+    char *end = NULL;
+    errno = 0;
+    double v = strtod(text, &end);
+    if (end == text || *end != '\0' || errno != 0 || !isfinite(v))
+        pf_cli_usage_error(cli, "--%s expects a finite number, got '%s'", option, text);
+    return v;
+}
+
+long pf_cli_parse_long(const pf_cli *cli, const char *option, const char *text, long lo, long hi)
+{
+    char *end = NULL;
+    errno = 0;
+    long v = strtol(text, &end, 10);
+    if (end == text || *end != '\0' || errno != 0 || v < lo || v > hi)
+        pf_cli_usage_error(cli, "--%s expects an integer in [%ld, %ld], got '%s'", option, lo, hi,
+                           text);
+    return v;
+}
+
+void pf_cli_parse_vec3(const pf_cli *cli, const char *option, const char *text, double out[3])
+{
+    const char *p = text;
+    for (int i = 0; i < 3; ++i) {
+        char *end = NULL;
+        errno = 0;
+        out[i] = strtod(p, &end);
+        if (end == p || errno != 0 || !isfinite(out[i]) || *end != (i < 2 ? ',' : '\0'))
+            pf_cli_usage_error(cli, "--%s expects x,y,z, got '%s'", option, text);
+        p = end + 1;
+    }
+}
+
+pf_status pf_cli_open_input(const char *path, FILE **f, const char **name, pf_error *err)
+{
+    if (!path || strcmp(path, "-") == 0) {
+        *f = stdin;
+        *name = "stdin";
+        return PF_OK;
+    }
+    *name = path;
+    *f = fopen(path, "rb");
+    PF_CHECK(*f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    return PF_OK;
+}
+
+void pf_cli_close_input(FILE *f)
+{
+    if (f && f != stdin)
+        fclose(f);
+}
+
+FILE *pf_cli_binary_stdout(const pf_cli *cli)
+{
+    if (isatty(fileno(stdout)))
+        pf_cli_usage_error(cli, "refusing to write a binary pf stream to a terminal; redirect "
+                                "stdout to a file or a pipe");
+    return stdout;
+}
+
+char *pf_cli_command_line(const pf_cli *cli)
+{
+    size_t len = 1;
+    for (int i = 0; i < cli->argc; ++i)
+        len += strlen(cli->argv[i]) + 1;
+    char *line = pf_alloc(len);
+    if (!line)
+        return NULL;
+    line[0] = '\0';
+    for (int i = 0; i < cli->argc; ++i) {
+        if (i)
+            strcat(line, " ");
+        strcat(line, cli->argv[i]);
+    }
+    return line;
+}
+
+bool pf_cli_show_progress(bool quiet) { return !quiet && isatty(fileno(stderr)); }

@@ -1,0 +1,73 @@
+/* Command-line plumbing shared by the pf tools: options, --help/--version, exit codes, files.
+ *
+ * Exit codes: 0 success, 1 bad input (message names file, chunk, byte offset or line), 2 bad usage.
+ */
+#ifndef PF_TOOLS_CLI_H
+#define PF_TOOLS_CLI_H
+
+#include <stdbool.h>
+#include <stdio.h>
+
+#include <pf/base.h>
+
+enum { PF_EXIT_OK = 0, PF_EXIT_INPUT = 1, PF_EXIT_USAGE = 2 };
+
+typedef struct pf_cli_option {
+    const char *name;  /* long name without "--" */
+    bool has_value;    /* takes a value: "--name VALUE" or "--name=VALUE" */
+    int id;            /* returned by pf_cli_next */
+} pf_cli_option;
+
+typedef struct pf_cli {
+    const char *tool;   /* "pf-info" */
+    const char *usage;  /* full --help text */
+    int argc;
+    char **argv;
+    int next;           /* index of the next argument to parse */
+    bool only_positional; /* after "--" */
+} pf_cli;
+
+enum { PF_CLI_END = -1, PF_CLI_POSITIONAL = -2 };
+
+/* Starts parsing; handles --help and --version (prints and exits 0) wherever they appear. */
+void pf_cli_init(pf_cli *cli, const char *tool, const char *usage, int argc, char **argv);
+
+/* Next option: its id (value in *value when it has one), PF_CLI_POSITIONAL with the argument in
+ * *value, or PF_CLI_END. An unknown option or a missing value prints a usage error and exits 2. */
+int pf_cli_next(pf_cli *cli, const pf_cli_option *options, const char **value);
+
+/* Prints "tool: message" and a hint to --help, exits 2. */
+void pf_cli_usage_error(const pf_cli *cli, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3), noreturn))
+#endif
+    ;
+
+/* Prints "tool: message" from err and exits 1 (2 for PF_ERR_INVALID raised by option parsing is
+ * the caller's business). */
+void pf_cli_fail(const pf_cli *cli, const pf_error *err)
+#if defined(__GNUC__)
+    __attribute__((noreturn))
+#endif
+    ;
+
+/* Parsers for option values; on failure they call pf_cli_usage_error. */
+double pf_cli_parse_double(const pf_cli *cli, const char *option, const char *text);
+long pf_cli_parse_long(const pf_cli *cli, const char *option, const char *text, long lo, long hi);
+/* "x,y,z" */
+void pf_cli_parse_vec3(const pf_cli *cli, const char *option, const char *text, double out[3]);
+
+/* Opens a stream input: path "-" or NULL is stdin. *name is the path or "stdin" for messages. */
+pf_status pf_cli_open_input(const char *path, FILE **f, const char **name, pf_error *err);
+void pf_cli_close_input(FILE *f);
+
+/* Binary output to stdout: refuses (exit 2) when stdout is a terminal. */
+FILE *pf_cli_binary_stdout(const pf_cli *cli);
+
+/* The command line joined with spaces, for INFO chunks; caller frees with pf_free. */
+char *pf_cli_command_line(const pf_cli *cli);
+
+/* True when progress should be printed: stderr is a terminal and --quiet was not given. */
+bool pf_cli_show_progress(bool quiet);
+
+#endif

@@ -141,16 +141,18 @@ pf_status pf_mesh_derive(pf_mesh *m, pf_error *err)
             int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
             int side = (m->elem_faces[k] & PF_FACE_REVERSED) ? 1 : 0;
             if (f >= m->n_faces || m->face_elems[2 * f + side] >= 0) {
+                if (f >= m->n_faces)
+                    pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                                 "element %d uses face %d of %d", (int)e, (int)f,
+                                 (int)m->n_faces);
+                else
+                    pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                                 "face %d is used twice with the same orientation (by elements "
+                                 "%d and %d)",
+                                 (int)f, (int)m->face_elems[2 * f + side], (int)e);
                 PF_FREE(m->face_elems);
                 PF_FREE(m->elem_kind);
-                if (f >= m->n_faces)
-                    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
-                                        "element %d uses face %d of %d", (int)e, (int)f,
-                                        (int)m->n_faces);
-                return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
-                                    "face %d is used %s by elements %d and %d", (int)f,
-                                    side ? "reversed twice" : "twice with the same orientation",
-                                    (int)m->face_elems[2 * f + side], (int)e);
+                return PF_ERR_INVALID;
             }
             m->face_elems[2 * f + side] = e;
         }

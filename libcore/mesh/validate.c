@@ -139,9 +139,11 @@ static pf_status check_closed(const pf_mesh *m, int32_t e, uint64_t *edges, pf_e
             continue;
         int64_t forward = count_key(edges + i, n - i, key);
         int64_t backward = count_key(edges, n, twin);
+        /* An odd number of uses of the undirected edge: a hole; even but unbalanced: a face
+         * turned the wrong way. */
         PF_CHECK(forward == backward, err, PF_ERR_INVALID,
                  "element %d is %s at edge %u-%u", (int)e,
-                 backward == 0 ? "not closed" : "not consistently oriented",
+                 (forward + backward) % 2 ? "not closed" : "not consistently oriented",
                  (unsigned)(key >> 32), (unsigned)(key & 0xffffffffu));
     }
     return PF_OK;

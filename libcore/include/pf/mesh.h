@@ -138,6 +138,19 @@ typedef struct pf_surface_stats {
 /* Fails (PF_ERR_INVALID) on indices out of range or non-finite coordinates. */
 pf_status pf_surface_compute_stats(const pf_surface *s, pf_surface_stats *out, pf_error *err);
 
+/* ---- generated models (tests, benchmarks, the demo) -------------------------------------------- */
+
+/* Hex grid of nx * ny * nz cells filling the box [lo, hi]. */
+pf_status pf_mesh_make_box(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32_t ny, int32_t nz,
+                           pf_error *err);
+/* Closed torus around the z axis through the origin: tube centre radius R, tube radius r < R,
+ * n_major >= 3 segments around z, n_minor >= 3 around the tube. Volume -> 2 pi^2 R r^2. */
+pf_status pf_surface_make_torus(pf_surface *s, double R, double r, int32_t n_major,
+                                int32_t n_minor, pf_error *err);
+/* Closed sphere around the origin: n_lat >= 2 bands between the poles, n_lon >= 3 segments. */
+pf_status pf_surface_make_sphere(pf_surface *s, double radius, int32_t n_lat, int32_t n_lon,
+                                 pf_error *err);
+
 /* Summary statistics, as printed by pf-info. */
 typedef struct pf_mesh_stats {
     int32_t n_nodes, n_faces, n_elems, n_boundary_faces;

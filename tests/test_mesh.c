@@ -1,0 +1,451 @@
+/* mesh: builders, derived adjacency and kinds, validation of every defect, stats, surfaces. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <pf/mesh.h>
+
+/* Two unit cubes side by side along x: [0,2]x[0,1]x[0,1], 12 nodes. */
+static const double TWO_CUBES_X[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1,
+                                     1, 1, 1, 0, 1, 1, 2, 0, 0, 2, 1, 0, 2, 0, 1, 2, 1, 1};
+static const uint32_t TWO_CUBES_HEX[] = {0, 1, 2, 3, 4, 5, 6, 7, 1, 8, 9, 2, 5, 10, 11, 6};
+
+static void two_cubes(pf_mesh *m)
+{
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_from_hexes(m, TWO_CUBES_X, 12, TWO_CUBES_HEX, 2, &err), PF_OK);
+}
+
+static void teardown_check(void)
+{
+    assert_int_equal(pf_alloc_live_bytes(), 0);
+}
+
+static void expect_invalid(const pf_mesh *m, const char *needle)
+{
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_validate(m, NULL, &err), PF_ERR_INVALID);
+    if (!strstr(err.msg, needle))
+        fail_msg("message '%s' lacks '%s'", err.msg, needle);
+}
+
+static void test_hexes_share_a_face(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    assert_int_equal(m.n_faces, 11); /* 6 + 6 - 1 shared */
+    assert_int_equal(m.n_elems, 2);
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    assert_int_equal(m.elem_kind[0], PF_ELEM_HEX);
+    assert_int_equal(m.elem_kind[1], PF_ELEM_HEX);
+    int interior = 0;
+    for (int32_t f = 0; f < m.n_faces; ++f)
+        if (m.face_elems[2 * f] >= 0 && m.face_elems[2 * f + 1] >= 0) {
+            interior++;
+            assert_int_equal(m.face_elems[2 * f], 0);
+            assert_int_equal(m.face_elems[2 * f + 1], 1);
+        }
+    assert_int_equal(interior, 1);
+    pf_mesh_stats st;
+    assert_int_equal(pf_mesh_compute_stats(&m, &st, &err), PF_OK);
+    /* Exact: unit cubes with coordinates that are small integers. */
+    assert_true(st.volume == 2.0 && st.min_volume == 1.0 && st.max_volume == 1.0);
+    assert_int_equal(st.n_boundary_faces, 10);
+    assert_int_equal(st.n_by_kind[PF_ELEM_HEX], 2);
+    assert_true(st.hi.x == 2 && st.hi.y == 1 && st.lo.z == 0);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_inside_out_cells_are_reoriented(void **state)
+{
+    (void)state;
+    /* The same tet given with both orientations, and a hex given upside down. */
+    const double x[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const uint32_t tets[] = {0, 1, 2, 3, 0, 2, 1, 3};
+    pf_mesh m;
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_from_tets(&m, x, 4, tets, 1, &err), PF_OK);
+    assert_true(fabs(pf_mesh_elem_volume(&m, 0) - 1.0 / 6) < 1e-16);
+    assert_int_equal(m.elem_kind[0], PF_ELEM_TET);
+    pf_mesh_release(&m);
+    assert_int_equal(pf_mesh_from_tets(&m, x, 4, tets + 4, 1, &err), PF_OK);
+    assert_true(fabs(pf_mesh_elem_volume(&m, 0) - 1.0 / 6) < 1e-16);
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    pf_mesh_release(&m);
+    const uint32_t flipped[] = {4, 5, 6, 7, 0, 1, 2, 3};
+    assert_int_equal(pf_mesh_from_hexes(&m, TWO_CUBES_X, 12, flipped, 1, &err), PF_OK);
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    assert_true(pf_mesh_elem_volume(&m, 0) == 1.0);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_builder_rejects_bad_cells(void **state)
+{
+    (void)state;
+    const double x[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1};
+    const uint32_t out_of_range[] = {0, 1, 2, 9};
+    pf_mesh m;
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_from_tets(&m, x, 4, out_of_range, 1, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "node 9"));
+    /* Three tets on one triangle. */
+    const uint32_t fan[] = {0, 1, 2, 3, 0, 2, 1, 4, 0, 1, 2, 4};
+    assert_int_equal(pf_mesh_from_tets(&m, x, 5, fan, 3, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "three or more"));
+    teardown_check();
+}
+
+static void test_validate_non_finite(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    m.x[3 * 5 + 1] = NAN;
+    expect_invalid(&m, "node 5 has a non-finite coordinate");
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_validate_degenerate_face(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    /* Collapse face 0 to two distinct nodes by repeating one. */
+    const uint32_t *f0 = m.face_nodes;
+    uint32_t keep0 = f0[0], keep1 = f0[1];
+    m.face_nodes[2] = keep0;
+    m.face_nodes[3] = keep1;
+    expect_invalid(&m, "face 0 has 2 distinct nodes");
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_validate_non_planar(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    m.x[3 * 11 + 0] = 2.1; /* node 11 = (2,1,1) moves out of the x = 2 end face */
+    expect_invalid(&m, "is not planar");
+    /* A displacement at round-off level is not a bend. */
+    m.x[3 * 11 + 0] = 2.0 + 1e-15;
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_validate_not_closed(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    /* Drop the face element 1 shares with element 0 (still used by 0, so no orphan face). */
+    for (int64_t k = m.elem_offsets[1]; k < m.elem_offsets[2]; ++k)
+        if (m.elem_faces[k] & PF_FACE_REVERSED) {
+            m.elem_faces[k] = m.elem_faces[m.elem_offsets[2] - 1];
+            break;
+        }
+    m.elem_offsets[2]--;
+    expect_invalid(&m, "element 1 is not closed");
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_validate_inconsistent_orientation(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    /* Flip a boundary face of element 0 only: its use is no longer outward. */
+    for (int64_t k = m.elem_offsets[0]; k < m.elem_offsets[1]; ++k) {
+        int32_t f = PF_FACE_INDEX(m.elem_faces[k]);
+        if (m.face_elems[2 * f + 1] < 0) {
+            m.elem_faces[k] ^= PF_FACE_REVERSED;
+            break;
+        }
+    }
+    expect_invalid(&m, "element 0 is not consistently oriented");
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_validate_face_used_twice_same_way(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    /* Element 1 uses the shared face the way element 0 does. */
+    for (int64_t k = m.elem_offsets[1]; k < m.elem_offsets[2]; ++k)
+        if (m.elem_faces[k] & PF_FACE_REVERSED)
+            m.elem_faces[k] &= ~PF_FACE_REVERSED;
+    expect_invalid(&m, "used twice with the same orientation");
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_derive(&m, &err), PF_ERR_INVALID);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_validate_negative_volume(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    /* Turn every face of element 1 inside out: closed, consistent, but volume -1. Element 0
+     * then shares the face with the same orientation, so validate element 1 alone: a one-cell
+     * mesh. */
+    pf_mesh_release(&m);
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_from_hexes(&m, TWO_CUBES_X, 12, TWO_CUBES_HEX, 1, &err), PF_OK);
+    for (int64_t k = 0; k < m.elem_offsets[1]; ++k)
+        m.elem_faces[k] ^= PF_FACE_REVERSED;
+    expect_invalid(&m, "element 0 has non-positive volume -1");
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_validate_index_out_of_range(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    two_cubes(&m);
+    m.face_nodes[5] = 99;
+    expect_invalid(&m, "references node 99");
+    pf_mesh_release(&m);
+    two_cubes(&m);
+    m.elem_faces[3] = 77;
+    expect_invalid(&m, "references face 77");
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static void test_general_polyhedron_kind(void **state)
+{
+    (void)state;
+    /* A triangular prism: 2 triangles + 3 quads is neither tet nor hex. */
+    const double x[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1};
+    const int64_t fo[] = {0, 3, 6, 10, 14, 18};
+    const uint32_t fn[] = {0, 2, 1, 3, 4, 5, 0, 1, 4, 3, 1, 2, 5, 4, 2, 0, 3, 5};
+    const int64_t eo[] = {0, 5};
+    const uint32_t ef[] = {0, 1, 2, 3, 4};
+    pf_mesh m = {.n_nodes = 6, .n_faces = 5, .n_elems = 1, .x = (double *)x,
+                 .face_offsets = (int64_t *)fo, .face_nodes = (uint32_t *)fn,
+                 .elem_offsets = (int64_t *)eo, .elem_faces = (uint32_t *)ef};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    assert_int_equal(pf_mesh_classify_elem(&m, 0), PF_ELEM_POLY);
+    assert_true(fabs(pf_mesh_elem_volume(&m, 0) - 0.5) < 1e-15);
+    pf_mesh copy = {0};
+    assert_int_equal(pf_mesh_copy(&copy, &m, &err), PF_OK);
+    pf_arena arena;
+    assert_int_equal(pf_arena_init(&arena, 4096, &err), PF_OK);
+    pf_polyhedron p;
+    assert_int_equal(pf_mesh_elem_polyhedron(&copy, 0, &arena, &p, &err), PF_OK);
+    assert_int_equal(p.n_faces, 5);
+    assert_int_equal(p.face_offsets[5], 18);
+    pf_arena_release(&arena);
+    pf_mesh_release(&copy);
+    teardown_check();
+}
+
+static void test_print_is_stable(void **state)
+{
+    (void)state;
+    const double x[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const uint32_t tet[] = {0, 1, 2, 3};
+    pf_mesh m;
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_from_tets(&m, x, 4, tet, 1, &err), PF_OK);
+    FILE *f = tmpfile();
+    pf_mesh_print(&m, f);
+    rewind(f);
+    char text[1024] = {0};
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    assert_true(n > 0);
+    const char *expected = "mesh 0: 4 nodes, 4 faces, 1 elements\n"
+                           "node 0 0 0 0\nnode 1 1 0 0\nnode 2 0 1 0\nnode 3 0 0 1\n"
+                           "face 0 0 2 1\nface 1 0 1 3\nface 2 0 3 2\nface 3 1 2 3\n"
+                           "elem 0 tet +0 +1 +2 +3\n";
+    assert_string_equal(text, expected);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+/* The surface of the unit cube: 8 vertices, 12 triangles, outward. */
+static const double CUBE_V[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0,
+                                0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1};
+static const uint32_t CUBE_T[] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                  1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7};
+
+static void surface_stats(const double *v, int nv, const uint32_t *t, int nt,
+                          pf_surface_stats *st)
+{
+    pf_surface s = {.n_verts = nv, .n_tris = nt, .x = (double *)v, .tri = (uint32_t *)t};
+    pf_error err = {0};
+    assert_int_equal(pf_surface_compute_stats(&s, st, &err), PF_OK);
+}
+
+static void test_surface_closed_cube(void **state)
+{
+    (void)state;
+    pf_surface_stats st;
+    surface_stats(CUBE_V, 8, CUBE_T, 12, &st);
+    assert_true(st.closed && st.manifold);
+    assert_true(fabs(st.volume - 1) < 1e-15 && fabs(st.area - 6) < 1e-14);
+    /* Open: drop the last two triangles. */
+    surface_stats(CUBE_V, 8, CUBE_T, 10, &st);
+    assert_false(st.closed);
+    assert_true(st.manifold);
+    assert_int_equal(st.n_boundary_edges, 4);
+    /* Flip one triangle: closed but inconsistently oriented. */
+    uint32_t flipped[36];
+    memcpy(flipped, CUBE_T, sizeof flipped);
+    flipped[1] = CUBE_T[2];
+    flipped[2] = CUBE_T[1];
+    surface_stats(CUBE_V, 8, flipped, 12, &st);
+    assert_true(st.closed);
+    assert_false(st.manifold);
+    assert_int_equal(st.n_flipped_edges, 3);
+    teardown_check();
+}
+
+static void test_surface_two_cubes_touching_at_a_vertex(void **state)
+{
+    (void)state;
+    /* The second cube is the first shifted by (1,1,1) and shares vertex 6 = (1,1,1). */
+    double v[3 * 15];
+    memcpy(v, CUBE_V, sizeof CUBE_V);
+    uint32_t t[72];
+    memcpy(t, CUBE_T, sizeof CUBE_T);
+    uint32_t map[8];
+    for (int i = 0, next = 8; i < 8; ++i) {
+        if (i == 0) {
+            map[i] = 6;
+            continue;
+        }
+        for (int k = 0; k < 3; ++k)
+            v[3 * next + k] = CUBE_V[3 * i + k] + 1;
+        map[i] = (uint32_t)next++;
+    }
+    for (int i = 0; i < 36; ++i)
+        t[36 + i] = map[CUBE_T[i]];
+    pf_surface_stats st;
+    surface_stats(v, 15, t, 24, &st);
+    assert_true(st.closed);
+    assert_false(st.manifold); /* the shared vertex has two fans */
+    assert_true(fabs(st.volume - 2) < 1e-14);
+    teardown_check();
+}
+
+static void test_surface_rejects_bad_indices(void **state)
+{
+    (void)state;
+    uint32_t t[3] = {0, 1, 8};
+    pf_surface s = {.n_verts = 8, .n_tris = 1, .x = (double *)CUBE_V, .tri = t};
+    pf_surface_stats st;
+    pf_error err = {0};
+    assert_int_equal(pf_surface_compute_stats(&s, &st, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "vertex 8"));
+    teardown_check();
+}
+
+static void test_box_grid(void **state)
+{
+    (void)state;
+    pf_mesh m;
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_make_box(&m, pf_v3(-1, 0, 0), pf_v3(3, 1, 0.5), 4, 3, 2, &err), PF_OK);
+    assert_int_equal(m.n_elems, 24);
+    assert_int_equal(m.n_nodes, 5 * 4 * 3);
+    /* Faces: (nx+1) ny nz + nx (ny+1) nz + nx ny (nz+1). */
+    assert_int_equal(m.n_faces, 5 * 3 * 2 + 4 * 4 * 2 + 4 * 3 * 3);
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    pf_mesh_stats st;
+    assert_int_equal(pf_mesh_compute_stats(&m, &st, &err), PF_OK);
+    assert_true(fabs(st.volume - 2) < 1e-14); /* 4 x 1 x 0.5, sum of 24 rounded cell volumes */
+    assert_int_equal(st.n_by_kind[PF_ELEM_HEX], 24);
+    assert_int_equal(pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(1, 1, 1), 0, 1, 1, &err),
+                     PF_ERR_INVALID);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+static const double PI = 3.14159265358979323846;
+
+/* Relative error of a closed generated surface's volume against the smooth solid's. */
+static double torus_volume_error(int n)
+{
+    pf_surface s;
+    pf_error err = {0};
+    assert_int_equal(pf_surface_make_torus(&s, 2, 0.5, 2 * n, n, &err), PF_OK);
+    pf_surface_stats st;
+    assert_int_equal(pf_surface_compute_stats(&s, &st, &err), PF_OK);
+    assert_true(st.closed && st.manifold);
+    pf_surface_release(&s);
+    const double exact = 2 * PI * PI * 2 * 0.25;
+    return fabs(st.volume - exact) / exact;
+}
+
+static double sphere_volume_error(int n)
+{
+    pf_surface s;
+    pf_error err = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1.5, n, 2 * n, &err), PF_OK);
+    pf_surface_stats st;
+    assert_int_equal(pf_surface_compute_stats(&s, &st, &err), PF_OK);
+    assert_true(st.closed && st.manifold);
+    assert_true(st.volume > 0);
+    pf_surface_release(&s);
+    const double exact = 4.0 / 3.0 * PI * 1.5 * 1.5 * 1.5;
+    return fabs(st.volume - exact) / exact;
+}
+
+static void test_generated_surfaces_converge(void **state)
+{
+    (void)state;
+    /* Inscribed polyhedra lose volume as O(h^2): doubling the resolution divides the error by
+     * about 4 (3.5..4.5 leaves room for the higher-order terms at these sizes). */
+    double t1 = torus_volume_error(16), t2 = torus_volume_error(32);
+    double s1 = sphere_volume_error(16), s2 = sphere_volume_error(32);
+    assert_true(t1 < 0.05 && s1 < 0.05);
+    assert_true(t1 / t2 > 3.5 && t1 / t2 < 4.5);
+    assert_true(s1 / s2 > 3.5 && s1 / s2 < 4.5);
+    teardown_check();
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_hexes_share_a_face),
+        cmocka_unit_test(test_inside_out_cells_are_reoriented),
+        cmocka_unit_test(test_builder_rejects_bad_cells),
+        cmocka_unit_test(test_validate_non_finite),
+        cmocka_unit_test(test_validate_degenerate_face),
+        cmocka_unit_test(test_validate_non_planar),
+        cmocka_unit_test(test_validate_not_closed),
+        cmocka_unit_test(test_validate_inconsistent_orientation),
+        cmocka_unit_test(test_validate_face_used_twice_same_way),
+        cmocka_unit_test(test_validate_negative_volume),
+        cmocka_unit_test(test_validate_index_out_of_range),
+        cmocka_unit_test(test_general_polyhedron_kind),
+        cmocka_unit_test(test_print_is_stable),
+        cmocka_unit_test(test_surface_closed_cube),
+        cmocka_unit_test(test_surface_two_cubes_touching_at_a_vertex),
+        cmocka_unit_test(test_surface_rejects_bad_indices),
+        cmocka_unit_test(test_box_grid),
+        cmocka_unit_test(test_generated_surfaces_converge),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -119,6 +119,27 @@ static inline double pf_m3_norm(pf_mat3 a)
     return sqrt(s);
 }
 
+/* Inverse of a by the adjugate, A^-1 = adj(A) / det(A). Stores det(A) in *det when det is not
+ * NULL. A singular matrix (det exactly 0, or 1/det not finite) returns the zero matrix; the
+ * caller decides from *det, relative to its own scale, whether the inverse is usable. */
+static inline pf_mat3 pf_m3_inverse(pf_mat3 a, double *det)
+{
+    pf_mat3 c;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            int i1 = (i + 1) % 3, i2 = (i + 2) % 3, j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+            /* cyclic index order makes the cofactor sign implicit; c = adj(A) = cof(A)^T */
+            c.m[j][i] = a.m[i1][j1] * a.m[i2][j2] - a.m[i1][j2] * a.m[i2][j1];
+        }
+    double d = a.m[0][0] * c.m[0][0] + a.m[0][1] * c.m[1][0] + a.m[0][2] * c.m[2][0];
+    if (det)
+        *det = d;
+    double inv = 1.0 / d;
+    if (d == 0 || !isfinite(inv))
+        return (pf_mat3){{{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}};
+    return pf_m3_scale(c, inv);
+}
+
 /* Rotation part R of the polar decomposition A = R S (R proper orthogonal, det R = +1, S
  * symmetric). Defined for every finite A: for a reflection (det A < 0) R is the nearest proper
  * rotation (the singular vector of the smallest singular value is flipped); for a singular or
@@ -128,12 +149,45 @@ pf_mat3 pf_mat3_polar_rotation(pf_mat3 a);
 
 /* Eigen-decomposition of a symmetric matrix (only the upper triangle is read): eigenvalues in
  * ascending order in values[3], unit eigenvectors as the columns of *vectors (right-handed).
- * Jacobi rotations, accurate to a few ulps relative to the largest |eigenvalue|. */
+ * Jacobi rotations, accurate to a few ulps relative to the largest |eigenvalue|. Non-finite
+ * input gives NaN values and the identity. */
 void pf_mat3_sym_eigen(pf_mat3 s, double values[3], pf_mat3 *vectors);
 
 /* Singular value decomposition A = U diag(sigma) V^T, sigma descending and non-negative, U and V
- * orthogonal (not necessarily proper). Used by the polar decomposition and as a test oracle. */
+ * orthogonal (not necessarily proper). One-sided Jacobi: U diag(sigma) V^T reproduces A to a few
+ * ulps of |A|, U and V are orthogonal to a few ulps, for any rank and any magnitude of A. Where
+ * singular values vanish, the missing columns of U complete an orthonormal frame. Used by the
+ * polar decomposition and as a test oracle. Non-finite input gives sigma = NaN, U = V = I. */
 void pf_mat3_svd(pf_mat3 a, pf_mat3 *u, double sigma[3], pf_mat3 *v);
+
+/* ---- planes ----------------------------------------------------------------------------------
+ * The points p with dot(n, p) = d; n is a unit vector, so dot(n, p) - d is a signed distance in
+ * model units, positive on the side n points to. */
+typedef struct pf_plane {
+    pf_vec3 n; /* unit normal */
+    double d;  /* offset along n: dot(n, p) for every p on the plane */
+} pf_plane;
+
+/* The plane through p with normal direction n (normalised here, any finite length > 0). A zero or
+ * non-finite n gives n = 0, d = 0: every point is then at distance 0. */
+pf_plane pf_plane_from_point_normal(pf_vec3 p, pf_vec3 n);
+
+/* Signed distance of q from the plane (model units, positive on the normal's side). Absolute
+ * rounding error about |q| * 1e-16: centre coordinates first when |q| is far above the model
+ * size. */
+static inline double pf_plane_signed_distance(pf_plane pl, pf_vec3 q)
+{
+    return pf_v3_dot(pl.n, q) - pl.d;
+}
+
+/* Side of q: +1 when its signed distance exceeds tol, -1 when below -tol, 0 otherwise (on the
+ * plane within tol, model units, tol >= 0). A NaN distance classifies as 0: check inputs for
+ * finiteness first. Classify each vertex once and reuse the result in every later decision. */
+static inline int pf_plane_classify(pf_plane pl, pf_vec3 q, double tol)
+{
+    double s = pf_plane_signed_distance(pl, q);
+    return s > tol ? 1 : s < -tol ? -1 : 0;
+}
 
 /* ---- planar polygons ------------------------------------------------------------------------
  * A polygon is n >= 3 indices into a node array x[3 * n_nodes], counter-clockwise seen from the
@@ -162,6 +216,16 @@ typedef struct pf_polyhedron {
     const int64_t *face_offsets; /* [n_faces + 1] */
     const uint32_t *face_nodes;  /* [face_offsets[n_faces]] outward-oriented node indices */
 } pf_polyhedron;
+
+/* Signed volume enclosed by the polyhedron (model units cubed): positive when every face is
+ * oriented outward, negative when every face is reversed. Exact for planar faces, convex or not,
+ * and non-convex polyhedra (divergence theorem over fan triangles of each face, relative to the
+ * first node of the first face so coordinate offsets cost no digits). 0 when n_faces is 0. */
+double pf_polyhedron_volume(const pf_polyhedron *p);
+
+/* Axis-aligned bounding box of the nodes the faces reference, in *lo and *hi. Both are the zero
+ * vector when the polyhedron has no face nodes. */
+void pf_polyhedron_bounds(const pf_polyhedron *p, pf_vec3 *lo, pf_vec3 *hi);
 
 #ifdef __cplusplus
 }

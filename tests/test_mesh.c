@@ -425,6 +425,177 @@ static void test_generated_surfaces_converge(void **state)
     teardown_check();
 }
 
+static void test_rayscene_crossings(void **state)
+{
+    (void)state;
+    pf_rayscene *rs = NULL;
+    pf_error err = {0};
+    assert_int_equal(pf_rayscene_create(&rs, CUBE_V, 8, CUBE_T, 12, &err), PF_OK);
+    pf_crossing hits[8];
+    int64_t n = 0;
+    /* Through the open faces: enter at t = 1, leave at t = 2 (float precision inside Embree). */
+    assert_int_equal(pf_rayscene_crossings(rs, pf_v3(-1, 0.3, 0.4), pf_v3(1, 0, 0), 10, 1e-6, hits,
+                                           8, &n, &err),
+                     PF_OK);
+    assert_int_equal(n, 2);
+    assert_true(fabs(hits[0].t - 1) < 1e-6 && fabs(hits[1].t - 2) < 1e-6);
+    assert_int_equal(hits[0].sign, -1);
+    assert_int_equal(hits[1].sign, 1);
+    /* Exactly through the diagonal edges of the x = 0 and x = 1 faces: still one crossing each. */
+    assert_int_equal(pf_rayscene_crossings(rs, pf_v3(-1, 0.5, 0.5), pf_v3(1, 0, 0), 10, 1e-6, hits,
+                                           8, &n, &err),
+                     PF_OK);
+    assert_int_equal(n, 2);
+    assert_true(hits[0].sign == -1 && hits[1].sign == 1);
+    /* A ray that misses, and one too short to arrive. */
+    assert_int_equal(pf_rayscene_crossings(rs, pf_v3(-1, 3, 0.5), pf_v3(1, 0, 0), 10, 1e-6, hits,
+                                           8, &n, &err),
+                     PF_OK);
+    assert_int_equal(n, 0);
+    assert_int_equal(pf_rayscene_crossings(rs, pf_v3(-1, 0.3, 0.4), pf_v3(1, 0, 0), 0.5, 1e-6,
+                                           hits, 8, &n, &err),
+                     PF_OK);
+    assert_int_equal(n, 0);
+    pf_rayscene_destroy(&rs);
+    assert_null(rs);
+    double bad[24];
+    memcpy(bad, CUBE_V, sizeof bad);
+    bad[4] = NAN;
+    assert_int_equal(pf_rayscene_create(&rs, bad, 8, CUBE_T, 12, &err), PF_ERR_INVALID);
+    teardown_check();
+}
+
+static void test_winding_number(void **state)
+{
+    (void)state;
+    /* Closed outward surface: exactly 1 inside, 0 outside (up to round-off of atan2 sums). */
+    assert_true(fabs(pf_winding_number(CUBE_V, CUBE_T, 12, pf_v3(0.3, 0.6, 0.2)) - 1) < 1e-14);
+    assert_true(fabs(pf_winding_number(CUBE_V, CUBE_T, 12, pf_v3(1.3, 0.6, 0.2))) < 1e-14);
+    /* The open box (no top): at the centre of the missing face's mirror, w = 1 - 1/6 by symmetry
+     * (the top subtends a sixth of the sphere from the cube centre). */
+    assert_true(fabs(pf_winding_number(CUBE_V, CUBE_T, 10, pf_v3(0.5, 0.5, 0.5)) - 5.0 / 6) <
+                1e-14);
+    teardown_check();
+}
+
+static pf_surface cube_surface(void)
+{
+    return (pf_surface){.n_verts = 8, .n_tris = 12, .x = (double *)CUBE_V, .tri = (uint32_t *)CUBE_T};
+}
+
+static void test_voxelize_grid_aligned_cube(void **state)
+{
+    (void)state;
+    pf_surface s = cube_surface();
+    pf_voxelize_params p = pf_voxelize_params_default();
+    p.res = 4;
+    for (int mode = 0; mode < 2; ++mode) {
+        p.mode = (pf_voxel_mode)mode;
+        pf_mesh m;
+        pf_grid g;
+        pf_inside_method method;
+        pf_error err = {0};
+        assert_int_equal(pf_mesh_voxelize(&m, &s, &p, &g, &method, &err), PF_OK);
+        assert_int_equal(method, PF_INSIDE_RAYS);
+        assert_true(g.h == 0.25 && g.n[0] == 4 && g.origin.x == 0);
+        /* The surface lies on grid planes: exactly the 64 cells inside, in both modes (touching
+         * a cell's face is not overlapping it). */
+        assert_int_equal(m.n_elems, 64);
+        pf_mesh_stats st;
+        assert_int_equal(pf_mesh_compute_stats(&m, &st, &err), PF_OK);
+        assert_true(st.volume == 1.0);
+        assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+        pf_mesh_release(&m);
+    }
+    /* Open box: the winding number decides, with the same result. */
+    s.n_tris = 10;
+    p.mode = PF_VOXEL_INSIDE;
+    pf_mesh m;
+    pf_inside_method method;
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_voxelize(&m, &s, &p, NULL, &method, &err), PF_OK);
+    assert_int_equal(method, PF_INSIDE_WINDING);
+    assert_int_equal(m.n_elems, 64);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
+/* Rays and the winding number are independent computations: on a closed surface they must give
+ * the same cells, except centres within float precision of the surface, which none of these
+ * grids has (the cell centres are at least 1e-3 h away from the surface for these parameters;
+ * a disagreement would show as a count difference). */
+static void check_rays_match_winding(const pf_surface *s, int32_t res)
+{
+    pf_surface_stats st;
+    pf_error err = {0};
+    assert_int_equal(pf_surface_compute_stats(s, &st, &err), PF_OK);
+    pf_voxelize_params p = pf_voxelize_params_default();
+    p.res = res;
+    pf_grid g;
+    assert_int_equal(pf_grid_fit(st.lo, st.hi, &p, &g, &err), PF_OK);
+    size_t cells = (size_t)g.n[0] * g.n[1] * g.n[2];
+    uint8_t *inside = pf_alloc(cells);
+    pf_inside_method method;
+    assert_int_equal(pf_surface_classify_cells(s, &g, inside, &method, &err), PF_OK);
+    assert_int_equal(method, PF_INSIDE_RAYS);
+    int64_t mismatches = 0, n_inside = 0;
+    for (int32_t k = 0; k < g.n[2]; ++k)
+        for (int32_t j = 0; j < g.n[1]; ++j)
+            for (int32_t i = 0; i < g.n[0]; ++i) {
+                pf_vec3 c = pf_v3(g.origin.x + (i + 0.5) * g.h, g.origin.y + (j + 0.5) * g.h,
+                                  g.origin.z + (k + 0.5) * g.h);
+                int w = pf_winding_number(s->x, s->tri, s->n_tris, c) >= 0.5;
+                int r = inside[((size_t)k * g.n[1] + j) * g.n[0] + i];
+                mismatches += w != r;
+                n_inside += r;
+            }
+    assert_int_equal(mismatches, 0);
+    assert_true(n_inside > 0);
+    pf_free(inside);
+}
+
+static void test_voxelize_matches_winding_number(void **state)
+{
+    (void)state;
+    pf_surface s;
+    pf_error err = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 12, 24, &err), PF_OK);
+    check_rays_match_winding(&s, 16);
+    pf_surface_release(&s);
+    assert_int_equal(pf_surface_make_torus(&s, 1, 0.35, 24, 12, &err), PF_OK);
+    check_rays_match_winding(&s, 20);
+    pf_surface_release(&s);
+    teardown_check();
+}
+
+static void test_voxelize_overlap_covers_surface(void **state)
+{
+    (void)state;
+    pf_surface s;
+    pf_error err = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 16, 32, &err), PF_OK);
+    pf_voxelize_params p = pf_voxelize_params_default();
+    p.res = 10;
+    pf_mesh inside, overlap;
+    assert_int_equal(pf_mesh_voxelize(&inside, &s, &p, NULL, NULL, &err), PF_OK);
+    p.mode = PF_VOXEL_OVERLAP;
+    assert_int_equal(pf_mesh_voxelize(&overlap, &s, &p, NULL, NULL, &err), PF_OK);
+    pf_mesh_stats a, b;
+    assert_int_equal(pf_mesh_compute_stats(&inside, &a, &err), PF_OK);
+    assert_int_equal(pf_mesh_compute_stats(&overlap, &b, &err), PF_OK);
+    pf_surface_stats ss;
+    assert_int_equal(pf_surface_compute_stats(&s, &ss, &err), PF_OK);
+    /* The overlap mesh contains the solid; the inside mesh is within one cell of it. */
+    assert_true(b.volume > ss.volume);
+    assert_true(a.volume < b.volume);
+    assert_true(b.lo.x <= ss.lo.x && b.hi.z >= ss.hi.z);
+    assert_int_equal(pf_mesh_validate(&overlap, NULL, &err), PF_OK);
+    pf_mesh_release(&inside);
+    pf_mesh_release(&overlap);
+    pf_surface_release(&s);
+    teardown_check();
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -446,6 +617,11 @@ int main(void)
         cmocka_unit_test(test_surface_rejects_bad_indices),
         cmocka_unit_test(test_box_grid),
         cmocka_unit_test(test_generated_surfaces_converge),
+        cmocka_unit_test(test_rayscene_crossings),
+        cmocka_unit_test(test_winding_number),
+        cmocka_unit_test(test_voxelize_grid_aligned_cube),
+        cmocka_unit_test(test_voxelize_matches_winding_number),
+        cmocka_unit_test(test_voxelize_overlap_covers_surface),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -227,6 +227,37 @@ double pf_polyhedron_volume(const pf_polyhedron *p);
  * vector when the polyhedron has no face nodes. */
 void pf_polyhedron_bounds(const pf_polyhedron *p, pf_vec3 *lo, pf_vec3 *hi);
 
+/* ---- ray queries against a triangle surface ----------------------------------------------------
+ * An opaque engine over Embree 3 (single precision inside, coordinates taken relative to the
+ * surface's bounding-box centre to keep the float error small). Thread-safe for queries. */
+typedef struct pf_rayscene pf_rayscene;
+
+/* One crossing of a line with the surface: parameter t along the line and the side it crosses
+ * from: +1 when the line leaves the solid (dot(normal, dir) > 0), -1 when it enters. */
+typedef struct pf_crossing {
+    double t;
+    int sign;
+} pf_crossing;
+
+/* Builds the scene over triangles tri[3 nt] into vertices x[3 nv] (copied; nothing borrowed).
+ * PF_ERR_INVALID on an index out of range or a non-finite coordinate. */
+pf_status pf_rayscene_create(pf_rayscene **rs, const double *x, int32_t nv, const uint32_t *tri,
+                             int32_t nt, pf_error *err);
+void pf_rayscene_destroy(pf_rayscene **rs);
+
+/* Every crossing of the line org + t dir (dir need not be unit), 0 <= t <= t_max, sorted by t,
+ * written to out[0 .. *n) (at most cap; when *n > cap nothing is sorted: call again with an array
+ * of *n). Hits of the same sign whose t differ by at most merge_eps are one crossing (the line
+ * passed through an edge or vertex shared by several triangles). */
+pf_status pf_rayscene_crossings(const pf_rayscene *rs, pf_vec3 org, pf_vec3 dir, double t_max,
+                                double merge_eps, pf_crossing *out, int64_t cap, int64_t *n,
+                                pf_error *err);
+
+/* Generalised winding number of the triangles tri[3 nt] (into x) at p: the sum of their signed
+ * solid angles over 4 pi (Van Oosterom-Strackee). 1 inside a closed outward surface, 0 outside,
+ * and a smooth inside-ness for open surfaces (threshold 1/2). O(nt) per query. */
+double pf_winding_number(const double *x, const uint32_t *tri, int32_t nt, pf_vec3 p);
+
 #ifdef __cplusplus
 }
 #endif

@@ -13,6 +13,7 @@
 #ifndef PF_MESH_H
 #define PF_MESH_H
 
+#include <stdbool.h>
 #include <stdio.h>
 
 #include <pf/base.h>
@@ -150,6 +151,50 @@ pf_status pf_surface_make_torus(pf_surface *s, double R, double r, int32_t n_maj
 /* Closed sphere around the origin: n_lat >= 2 bands between the poles, n_lon >= 3 segments. */
 pf_status pf_surface_make_sphere(pf_surface *s, double radius, int32_t n_lat, int32_t n_lon,
                                  pf_error *err);
+
+/* ---- voxelization -------------------------------------------------------------------------------
+ * A regular grid of cubes: cell (i, j, k) is [origin + h (i, j, k), origin + h (i+1, j+1, k+1)]. */
+typedef struct pf_grid {
+    pf_vec3 origin;
+    double h;      /* cell edge length */
+    int32_t n[3];  /* cells along x, y, z */
+} pf_grid;
+
+typedef enum pf_voxel_mode {
+    PF_VOXEL_INSIDE = 0,  /* cells whose centre is inside the surface */
+    PF_VOXEL_OVERLAP = 1, /* those, plus every cell a triangle passes through */
+} pf_voxel_mode;
+
+typedef enum pf_inside_method {
+    PF_INSIDE_RAYS = 0,    /* closed surfaces: signed crossings along grid rows in x, y and z
+                              (Embree), inside where at least two of the three agree */
+    PF_INSIDE_WINDING = 1, /* open surfaces: generalised winding number >= 1/2 */
+} pf_inside_method;
+
+typedef struct pf_voxelize_params {
+    int32_t res;         /* cells along the longest side of the bounding box (default 32) */
+    double cell;         /* cell size; > 0 overrides res */
+    bool has_origin;     /* grid origin given; else the grid is centred on the bounding box */
+    pf_vec3 origin;
+    pf_voxel_mode mode;
+} pf_voxelize_params;
+
+pf_voxelize_params pf_voxelize_params_default(void);
+
+/* The grid the voxelizer uses for a surface's bounding box [lo, hi]: covering it whole. */
+pf_status pf_grid_fit(pf_vec3 lo, pf_vec3 hi, const pf_voxelize_params *p, pf_grid *grid,
+                      pf_error *err);
+
+/* inside[(k n1 + j) n0 + i] = 1 when the centre of cell (i, j, k) is inside the surface. The
+ * method is chosen by the surface: rays for closed ones, the winding number for open ones;
+ * *method says which. */
+pf_status pf_surface_classify_cells(const pf_surface *s, const pf_grid *grid, uint8_t *inside,
+                                    pf_inside_method *method, pf_error *err);
+
+/* A hex mesh of the selected grid cells. Nodes not used by a cell are dropped. *grid and *method
+ * report what was used (either may be NULL). PF_ERR_INVALID when no cell is selected. */
+pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_params *p,
+                           pf_grid *grid, pf_inside_method *method, pf_error *err);
 
 /* Summary statistics, as printed by pf-info. */
 typedef struct pf_mesh_stats {

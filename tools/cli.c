@@ -2,6 +2,8 @@
 #define _POSIX_C_SOURCE 200809L /* isatty, fileno */
 #include "cli.h"
 
+#include <pf/io.h>
+
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -133,6 +135,18 @@ void pf_cli_close_input(FILE *f)
 {
     if (f && f != stdin)
         fclose(f);
+}
+
+bool pf_cli_file_is_stream(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return false;
+    pf_stream_reader *r = NULL;
+    bool is_stream = pf_stream_reader_create(&r, f, path, NULL) == PF_OK;
+    pf_stream_reader_destroy(&r);
+    fclose(f);
+    return is_stream;
 }
 
 FILE *pf_cli_binary_stdout(const pf_cli *cli)

@@ -61,6 +61,9 @@ void pf_cli_parse_vec3(const pf_cli *cli, const char *option, const char *text, 
 pf_status pf_cli_open_input(const char *path, FILE **f, const char **name, pf_error *err);
 void pf_cli_close_input(FILE *f);
 
+/* True when the file at path opens and starts with the pf stream signature. */
+bool pf_cli_file_is_stream(const char *path);
+
 /* Binary output to stdout: refuses (exit 2) when stdout is a terminal. */
 FILE *pf_cli_binary_stdout(const pf_cli *cli);
 

@@ -206,6 +206,15 @@ double pf_polygon_planarity_error(const double *x, const uint32_t *idx, int64_t 
 /* Largest distance between two of the polygon's vertices. */
 double pf_polygon_diameter(const double *x, const uint32_t *idx, int64_t n);
 
+/* Triangulates the planar polygon idx[0 .. n) into x (counter-clockwise about its Newell normal)
+ * into n - 2 triangles tri[3 (n - 2)] of positions 0 .. n-1 within the polygon, each
+ * counter-clockwise about the same normal: a fan when the polygon is convex, ear clipping in the
+ * polygon's plane otherwise. edges[n - 2] (may be NULL) receives the polygon-edge bits as in
+ * pf_boundary (pf/mesh.h). Needs n >= 3 and scratch for 2 n doubles and 2 n int32_t plus alignment (the arena
+ * is reset afterwards). PF_ERR_INVALID for n < 3, PF_ERR_NOMEM when the arena is too small. */
+pf_status pf_polygon_triangulate(const double *x, const uint32_t *idx, int32_t n, pf_arena *scratch,
+                                uint32_t *tri, uint8_t *edges, pf_error *err);
+
 /* ---- closed polyhedra ------------------------------------------------------------------------
  * A borrowed view of one closed polyhedron with planar faces, every face listed with outward
  * orientation (counter-clockwise seen from outside). Face f has the nodes

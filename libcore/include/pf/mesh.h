@@ -210,6 +210,52 @@ pf_status pf_mesh_compute_stats(const pf_mesh *m, pf_mesh_stats *out, pf_error *
  * Golden tests diff it. */
 void pf_mesh_print(const pf_mesh *m, FILE *out);
 
+/* ---- embedding weights ------------------------------------------------------------------------
+ * The WGHT chunk: a CSR matrix (surface vertex x sim node): the displaced position of
+ * surface vertex i is x_i + sum_k val[k] u[col[k]], k in [row_offsets[i], row_offsets[i+1]). */
+typedef struct pf_weights {
+    uint64_t surface_id;  /* the SURF the rows refer to */
+    uint64_t mesh_id;     /* the MESH the columns refer to */
+    int32_t rows;         /* surface vertices */
+    int32_t cols;         /* sim nodes */
+    int64_t *row_offsets; /* [rows + 1], row_offsets[0] = 0, non-decreasing */
+    uint32_t *col;        /* [row_offsets[rows]] node indices < cols */
+    double *val;          /* [row_offsets[rows]] weights (dimensionless) */
+} pf_weights;
+/* Allocates the arrays (contents uninitialised except row_offsets[0] = 0); w zeroed or released.
+ * PF_ERR_INVALID on negative counts, PF_ERR_NOMEM. */
+pf_status pf_weights_alloc(pf_weights *w, int32_t rows, int32_t cols, int64_t nnz, pf_error *err);
+void pf_weights_release(pf_weights *w);
+
+/* out[3 i + c] = x0[3 i + c] + sum_k val[k] u[3 col[k] + c] for every row i: the embedded
+ * surface's positions (x0 at rest, [3 rows]) for nodal displacements u [3 cols]. out may not alias
+ * x0 or u. */
+void pf_weights_apply(const pf_weights *w, const double *x0, const double *u, double *out);
+/* out[i] = sum_k val[k] v[col[k]]: a nodal scalar field (v [cols]) at the surface vertices. */
+void pf_weights_apply_scalar(const pf_weights *w, const double *v, double *out);
+
+/* ---- boundary ----------------------------------------------------------------------------------
+ * The faces of a mesh used by exactly one element, each triangulated in its own plane (a fan for
+ * convex faces, ear clipping for non-convex ones), oriented outward from their element. Depends
+ * only on the topology and the rest positions: compute once per MESH. */
+typedef struct pf_boundary {
+    int32_t n_faces;      /* boundary faces */
+    int32_t *face;        /* [n_faces] mesh face index */
+    int32_t *elem;        /* [n_faces] the element using it */
+    uint8_t *reversed;    /* [n_faces] 1 when that element uses the face reversed */
+    int64_t *tri_offsets; /* [n_faces + 1] triangles of boundary face i: [tri_offsets[i], ..+1) */
+    uint8_t *tri_edges;   /* [tri_offsets[n_faces]] bit k set: the edge from corner k to corner
+                             k+1 (mod 3) of the triangle is an edge of the polygon */
+    uint32_t *tri;        /* [3 tri_offsets[n_faces]] mesh node indices, counter-clockwise seen
+                             from outside the element */
+} pf_boundary;
+
+/* Extracts the boundary of m (no derived arrays needed). Faces used by more than two elements are
+ * not boundary. Statuses: PF_ERR_INVALID when an index is out of range (naming the element or
+ * face), PF_ERR_NOMEM. b zeroed or released; zero again after a failure. */
+pf_status pf_boundary_extract(const pf_mesh *m, pf_boundary *b, pf_error *err);
+void pf_boundary_release(pf_boundary *b);
+
 #ifdef __cplusplus
 }
 #endif

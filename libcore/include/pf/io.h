@@ -1,0 +1,284 @@
+/* pf/io.h: the pf stream (reader, writer, chunk codecs), surface and volume-mesh importers, and
+ * exporters for ParaView (.vtu/.pvd) and Blender/Houdini (OBJ/PLY).
+ *
+ * The stream format is specified in docs/stream-format.md.
+ */
+#ifndef PF_IO_H
+#define PF_IO_H
+
+#include <stdbool.h>
+#include <stdio.h>
+
+#include <pf/base.h>
+#include <pf/geom.h>
+#include <pf/mesh.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ==== pf stream ================================================================================ */
+
+/* A pf stream is a signature followed by chunks (docs/stream-format.md):
+ *
+ *   signature  8 bytes  0x89 'P' 'F' 'S' '\r' '\n' 0x1a '\n'
+ *   chunk      tag[4] | u32 version | u64 payload bytes | payload | u32 CRC-32 of the payload
+ *
+ * all little-endian, ending with an END_ chunk. The reader checks the framing, sizes and CRCs and
+ * hands out raw chunks (known or not, any version) so that tools can pass on what they do not
+ * consume; the codecs turn payloads into pf data and back, checking every count, offset, index and
+ * number, and refuse versions they do not read (PF_ERR_UNSUPPORTED). Every error message names the
+ * input, the chunk tag and the byte offset of the chunk header. */
+
+enum {
+    PF_STREAM_SIGNATURE_BYTES = 8, /* the signature at byte 0 */
+    PF_STREAM_HEADER_BYTES = 16,   /* tag, version, payload size */
+    PF_STREAM_CRC_BYTES = 4,       /* after the payload */
+};
+
+/* One chunk as read from a stream. */
+typedef struct pf_chunk {
+    char tag[5];            /* 4 printable ASCII characters and a terminating NUL */
+    uint32_t version;       /* the chunk's own version */
+    uint64_t size;          /* payload bytes */
+    uint64_t offset;        /* byte offset of the chunk header from the start of the stream */
+    unsigned char *payload; /* [size] bytes, owned by the reader, valid until its next read */
+    uint32_t crc;           /* CRC-32 of the payload (already checked by the reader) */
+} pf_chunk;
+
+/* ---- the chunk table ----------------------------------------------------------------------------
+ * Known tags: INFO SCEN MESH SURF WGHT FRAM STRS END_. Critical: a tool that consumes such a chunk
+ * and cannot decode it (an unknown version) must stop rather than skip it (SCEN MESH SURF WGHT FRAM
+ * END_). Mesh-dependent: refers to the nodes or elements of the latest MESH and is dropped or
+ * recomputed by a tool that emits a new MESH (WGHT FRAM STRS). Unknown tags are neither; tools pass
+ * them on byte for byte. tag is a NUL-terminated string; anything but 4 characters is unknown. */
+bool pf_stream_tag_is_known(const char *tag);
+bool pf_stream_tag_is_critical(const char *tag);
+bool pf_stream_tag_is_mesh_dependent(const char *tag);
+/* The version of a known chunk that this pf reads and writes; 0 for an unknown tag. */
+uint32_t pf_stream_tag_version(const char *tag);
+/* PF_ERR_UNSUPPORTED (naming chunk, offset and versions) when c is a known chunk of a version this
+ * pf does not read; PF_OK otherwise, unknown tags included. */
+pf_status pf_stream_check_version(const pf_chunk *c, pf_error *err);
+
+/* ---- reader ---------------------------------------------------------------------------------- */
+typedef struct pf_stream_reader pf_stream_reader;
+
+/* Reads and checks the signature from f (borrowed: f must outlive the reader; the reader never
+ * closes it). name labels every message ("mesh.pfs", "stdin"); it is copied. Seekable inputs have
+ * every chunk size checked against the bytes left in the file; for pipes the payload buffer grows
+ * only as bytes actually arrive, so a damaged size never allocates more than the input holds.
+ * Statuses: PF_ERR_FORMAT "NAME: empty input, expected a pf stream" or "NAME: not a pf stream (bad
+ * signature)"; PF_ERR_IO; PF_ERR_NOMEM. On failure *r is NULL. */
+pf_status pf_stream_reader_create(pf_stream_reader **r, FILE *f, const char *name, pf_error *err);
+
+/* Reads the next chunk into *c, its CRC checked. Tags must be 4 printable ASCII characters; any
+ * tag and any version is returned (use the codecs to decode, pf_stream_write_raw to pass on). The
+ * END_ chunk is returned like the others (its counts checked against the chunks before it when it
+ * is version 1); the read after it sets *end = true when the input ends there, and any byte after
+ * END_ is a format error. Errors (PF_ERR_FORMAT unless said otherwise), each naming the input:
+ * - input ends after a chunk without END_: "truncated after chunk FRAM #12 at byte N (no END_
+ *   chunk); 3 frames read" (#12: the chunk's ordinal, from 1);
+ * - input ends inside a chunk, or a size claims more bytes than the file holds: "truncated inside
+ *   chunk FRAM at byte N ..."; a size beyond this machine's address space: PF_ERR_TOO_LARGE;
+ * - "chunk MESH at byte N: CRC mismatch (stored 0x..., computed 0x...)";
+ * - a tag that is not 4 printable ASCII characters; END_ counts that disagree; PF_ERR_IO, NOMEM.
+ * Chunks returned before an error stay valid for the caller (they were complete and checked); after
+ * an error every later call fails with the same message. */
+pf_status pf_stream_read_chunk(pf_stream_reader *r, pf_chunk *c, bool *end, pf_error *err);
+
+/* Chunks (END_ excluded) and FRAM chunks returned so far. */
+void pf_stream_reader_counts(const pf_stream_reader *r, uint64_t *chunks, uint64_t *frames);
+
+/* Frees the reader and its payload buffer and sets *r to NULL; safe on NULL. Does not close f. */
+void pf_stream_reader_destroy(pf_stream_reader **r);
+
+/* ---- writer ---------------------------------------------------------------------------------- */
+typedef struct pf_stream_writer pf_stream_writer;
+
+/* Writes the signature to f (borrowed, never closed). name labels messages ("stdout"); copied.
+ * Statuses: PF_ERR_IO, PF_ERR_NOMEM. On failure *w is NULL. */
+pf_status pf_stream_writer_create(pf_stream_writer **w, FILE *f, const char *name, pf_error *err);
+
+/* Writes one chunk (header, payload of size bytes, CRC) and flushes f, so that a reader at the
+ * other end of a pipe gets it at once. tag: 4 printable ASCII characters, not END_ (written by
+ * pf_stream_writer_finish). payload may be NULL when size is 0. PF_ERR_INVALID for a bad tag or
+ * a write after finish; PF_ERR_IO when f fails, and for every write after that (the output ends
+ * inside a chunk and reads as truncated). */
+pf_status pf_stream_write_chunk(pf_stream_writer *w, const char *tag, uint32_t version,
+                                const void *payload, uint64_t size, pf_error *err);
+
+/* Passes a chunk from a reader on byte for byte (same tag, version, payload and CRC).
+ * PF_ERR_INVALID when c is END_ or its crc does not match its payload. */
+pf_status pf_stream_write_raw(pf_stream_writer *w, const pf_chunk *c, pf_error *err);
+
+/* Writes END_ with the number of chunks and of FRAM chunks written before it, and flushes. Later
+ * writes fail. Without it a stream reads as truncated. */
+pf_status pf_stream_writer_finish(pf_stream_writer *w, pf_error *err);
+
+/* Frees the writer and sets *w to NULL; safe on NULL. Writes nothing (no END_), closes nothing. */
+void pf_stream_writer_destroy(pf_stream_writer **w);
+
+/* ---- chunk data ---------------------------------------------------------------------------------
+ * The codecs below encode by appending a payload to a pf_buffer (its earlier contents are kept)
+ * and decode from a chunk into a struct that the caller zero-initialised or released; the struct is
+ * zero again after a failed decode. Encoders fail with PF_ERR_INVALID on data the decoder would
+ * refuse (counts, indices, non-finite numbers), so a written stream always reads back. Decoders
+ * fail with PF_ERR_INVALID when c has another tag, PF_ERR_UNSUPPORTED on an unknown version, and
+ * PF_ERR_FORMAT (naming chunk, offset and entity) on bytes that do not form a valid payload. A
+ * decoder checks memory safety and ranges only: a decoded mesh still wants pf_mesh_validate. */
+
+/* INFO: who wrote the stream. */
+typedef struct pf_info_data {
+    char *producer; /* tool name, NUL-terminated UTF-8 */
+    char *version;  /* producer version */
+    char *command;  /* command line */
+} pf_info_data;
+void pf_info_data_release(pf_info_data *d);
+
+/* END_: counts of the chunks before it. */
+typedef struct pf_end_data {
+    uint64_t chunk_count; /* chunks before END_, signature excluded */
+    uint64_t frame_count; /* FRAM chunks among them */
+} pf_end_data;
+
+/* FRAM: nodal displacements of one frame. */
+typedef struct pf_frame_data {
+    uint64_t mesh_id; /* the MESH whose nodes these are */
+    uint32_t index;   /* frame number */
+    double time;      /* simulated time, seconds */
+    int32_t n_nodes;
+    double *u; /* [3 * n_nodes] displacements, model units */
+} pf_frame_data;
+pf_status pf_frame_data_alloc(pf_frame_data *f, int32_t n_nodes, pf_error *err);
+void pf_frame_data_release(pf_frame_data *f);
+
+/* STRS: per-element stress of one frame. */
+typedef struct pf_stress_data {
+    uint64_t mesh_id;
+    uint32_t frame; /* the FRAM index it belongs to */
+    int32_t n_elems;
+    int32_t components; /* 1: von Mises; 6: xx yy zz xy yz zx */
+    double *values;     /* [n_elems * components], element-major, stress units of the scene */
+} pf_stress_data;
+/* PF_ERR_INVALID unless components is 1 or 6 and n_elems >= 0. */
+pf_status pf_stress_data_alloc(pf_stress_data *s, int32_t n_elems, int32_t components,
+                               pf_error *err);
+void pf_stress_data_release(pf_stress_data *s);
+
+/* ---- codecs ---------------------------------------------------------------------------------- */
+pf_status pf_stream_encode_info(const char *producer, const char *version, const char *command,
+                                pf_buffer *out, pf_error *err);
+pf_status pf_stream_encode_scene(const char *json, size_t size, pf_buffer *out, pf_error *err);
+pf_status pf_stream_encode_mesh(const pf_mesh *m, pf_buffer *out, pf_error *err);
+pf_status pf_stream_encode_surface(const pf_surface *s, pf_buffer *out, pf_error *err);
+pf_status pf_stream_encode_weights(const pf_weights *w, pf_buffer *out, pf_error *err);
+pf_status pf_stream_encode_frame(const pf_frame_data *f, pf_buffer *out, pf_error *err);
+pf_status pf_stream_encode_stress(const pf_stress_data *s, pf_buffer *out, pf_error *err);
+pf_status pf_stream_encode_end(const pf_end_data *d, pf_buffer *out, pf_error *err);
+
+/* Strings must be valid UTF-8 without NUL bytes. */
+pf_status pf_stream_decode_info(const pf_chunk *c, pf_info_data *d, pf_error *err);
+/* *json: a NUL-terminated copy of the scene (pf_free it), *size its length; NUL bytes refused. */
+pf_status pf_stream_decode_scene(const pf_chunk *c, char **json, size_t *size, pf_error *err);
+/* Offsets start at 0, never decrease and end at the array lengths; node, face, vertex and column
+ * indices are in range; coordinates, displacements, weights and stresses are finite. */
+pf_status pf_stream_decode_mesh(const pf_chunk *c, pf_mesh *m, pf_error *err);
+pf_status pf_stream_decode_surface(const pf_chunk *c, pf_surface *s, pf_error *err);
+pf_status pf_stream_decode_weights(const pf_chunk *c, pf_weights *w, pf_error *err);
+pf_status pf_stream_decode_frame(const pf_chunk *c, pf_frame_data *f, pf_error *err);
+pf_status pf_stream_decode_stress(const pf_chunk *c, pf_stress_data *s, pf_error *err);
+pf_status pf_stream_decode_end(const pf_chunk *c, pf_end_data *d, pf_error *err);
+
+/* ---- encode and write in one call (the writer reuses one scratch buffer) --------------------- */
+pf_status pf_stream_write_info(pf_stream_writer *w, const char *producer, const char *version,
+                               const char *command, pf_error *err);
+pf_status pf_stream_write_scene(pf_stream_writer *w, const char *json, size_t size, pf_error *err);
+pf_status pf_stream_write_mesh(pf_stream_writer *w, const pf_mesh *m, pf_error *err);
+pf_status pf_stream_write_surface(pf_stream_writer *w, const pf_surface *s, pf_error *err);
+pf_status pf_stream_write_weights(pf_stream_writer *w, const pf_weights *wt, pf_error *err);
+pf_status pf_stream_write_frame(pf_stream_writer *w, const pf_frame_data *f, pf_error *err);
+pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, pf_error *err);
+
+
+/* ==== importers and exporters ==================================================================
+ * Importers name the file and the line (text formats) or the reason assimp gives in every error,
+ * refuse non-finite coordinates and out-of-range indices before building anything, and leave their
+ * output zeroed after a failure. Exporters write each file to "path.part" and rename it over path,
+ * so a file is either absent, the old one, or complete. */
+
+/* True when path names a volume mesh by its extension (.msh, .node, .ele, case-insensitive). */
+bool pf_import_is_volume_path(const char *path);
+
+/* A Gmsh .msh file, format 2.2 or 4.1, ASCII: the tetrahedra (type 4) and hexahedra (type 5) of
+ * every entity become elements; lower-dimensional elements are skipped; nodes no element uses are
+ * dropped. PF_ERR_FORMAT "file:line: reason" on a malformed file (a node index out of range, a
+ * count larger than the file, NaN coordinates, ...), PF_ERR_UNSUPPORTED on binary files and other
+ * versions, PF_ERR_IO when it cannot be read. m zeroed or released first. */
+pf_status pf_import_msh(const char *path, pf_mesh *m, pf_error *err);
+
+/* A TetGen mesh: stem.node + stem.ele (path is either file or the stem); 4- or 10-node tets (the
+ * first four corners are used), indices from 0 or 1 as the .node file's first index says. Same
+ * statuses as pf_import_msh. */
+pf_status pf_import_tetgen(const char *path, pf_mesh *m, pf_error *err);
+
+/* A volume mesh by extension (.msh, or .node/.ele or a stem with both files beside it). */
+pf_status pf_import_volume(const char *path, pf_mesh *m, pf_error *err);
+
+/* A triangle surface from any format assimp reads (OBJ, PLY, STL, glTF, DAE, FBX, ...): all meshes
+ * of the scene, in world coordinates (node transforms applied), polygons triangulated, identical
+ * vertex positions joined (so a surface whose file splits vertices by normal or UV is still closed),
+ * degenerate triangles dropped. s->id = 1. PF_ERR_FORMAT with assimp's reason when it cannot read
+ * the file or the file holds no triangles; PF_ERR_FORMAT for non-finite coordinates. */
+pf_status pf_import_surface(const char *path, pf_surface *s, pf_error *err);
+
+/* A mesh (and optionally one frame) as a VTK unstructured grid (.vtu, XML, ASCII data): every
+ * element a VTK_POLYHEDRON cell (tets as VTK_TETRA and hexes as VTK_HEXAHEDRON where the face
+ * structure allows it); points at rest; point data "displacement" when u is given ([3 n_nodes]);
+ * cell data "kind" (0 tet, 1 hex, 2 polyhedron) and "volume", plus "stress" (von Mises, or 6
+ * components xx yy zz xy yz zx) when stress is given. Numbers printed with %.17g: round-trips. */
+pf_status pf_export_vtu(const char *path, const pf_mesh *m, const double *u,
+                        const pf_stress_data *stress, pf_error *err);
+
+/* A ParaView .pvd collection naming n files (relative to the .pvd's directory) with their times. */
+pf_status pf_export_pvd(const char *path, const char *const *files, const double *times, int32_t n,
+                        pf_error *err);
+
+/* A triangle surface at positions x [3 n_verts] (NULL: s->x) as Wavefront OBJ (v / f lines,
+ * 1-based, %.17g) or binary little-endian PLY (float32 positions, uint32 indices) for
+ * Blender/Houdini sequences. */
+pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err);
+pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, pf_error *err);
+
+
+/* ==== PNG ======================================================================================
+ * 8-bit RGB and RGBA images as PNG files. The writer is deterministic: no time stamp (tIME) or text
+ * chunks, the sRGB chunk, zlib level 6 with the default strategy, window and memory level, and the
+ * Paeth filter on every row, all set explicitly, so the same pixels give the same bytes. */
+
+/* An image in memory: rows top to bottom, channels interleaved. */
+typedef struct pf_image {
+    int32_t width, height;
+    int32_t channels; /* 3 (RGB) or 4 (RGBA) */
+    uint8_t *pixels;  /* [height * width * channels] */
+} pf_image;
+
+void pf_image_release(pf_image *img);
+
+/* Writes pixels (width x height, channels 3 or 4, rows top to bottom) to path: first to
+ * "path.part", then renamed over path, so that path is either absent, the old file, or complete.
+ * PF_ERR_INVALID on bad sizes; PF_ERR_IO naming the file (nothing is left at path.part). */
+pf_status pf_png_write(const char *path, const uint8_t *pixels, int32_t width, int32_t height,
+                       int32_t channels, pf_error *err);
+
+/* Reads any PNG (palette, grey, 16-bit and interlaced included) into 8-bit sRGB RGBA (channels =
+ * 4) as libpng's simplified reader converts it: 8-bit sRGB files exactly, grey replicated, missing
+ * alpha 255, 16-bit and gamma-tagged files converted to 8-bit sRGB. img zeroed or released;
+ * zero again after a failure. PF_ERR_IO when path cannot be opened; PF_ERR_FORMAT (naming the
+ * file and libpng's reason) when it is not a readable PNG; PF_ERR_TOO_LARGE beyond 2^30 pixels. */
+pf_status pf_png_read(const char *path, pf_image *img, pf_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

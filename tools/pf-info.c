@@ -1,0 +1,386 @@
+/* pf-info: every chunk of a pf stream, as text or as JSON lines. */
+#include <math.h>
+#include <string.h>
+
+#include <pf/io.h>
+
+#include "cli.h"
+
+static const char USAGE[] =
+    "Usage: pf-info [--json] [--probe X,Y,Z] [--print-mesh] [FILE | -]\n"
+    "\n"
+    "Prints every chunk of a pf stream (default: stdin).\n"
+    "  MESH  counts of nodes, faces, elements by kind, exact total volume, smallest and largest\n"
+    "        element volume, bounding box, and the validation result (first offending entity)\n"
+    "  SURF  vertices, triangles, enclosed volume, closed / manifold\n"
+    "  FRAM  consecutive frames as one entry: frame count, time range, largest displacement\n"
+    "  STRS  consecutive stress chunks as one entry: count, largest value\n"
+    "  others: tag, version, size; unknown chunks are listed, not interpreted\n"
+    "\n"
+    "  --json          one JSON object per line and entry, for scripts\n"
+    "  --probe X,Y,Z   for every frame, the displacement of the mesh node nearest to the point,\n"
+    "                  with that node's position and its distance to the point\n"
+    "  --print-mesh    also print every node, face and element of each MESH (text mode)\n"
+    "  --help, --version\n"
+    "\n"
+    "A damaged or truncated stream: everything before the damage is printed, then the error;\n"
+    "exit 1. Exit 2 on bad usage.\n";
+
+enum { OPT_JSON = 1, OPT_PROBE, OPT_PRINT_MESH };
+
+typedef struct probe_sample {
+    uint32_t frame;
+    double time;
+    double u[3];
+} probe_sample;
+
+typedef struct info {
+    bool json, print_mesh, has_probe;
+    double probe[3];
+    pf_mesh mesh;          /* the latest MESH, for probes */
+    bool have_mesh;
+    int32_t probe_node;    /* nearest node of mesh to the probe point, -1 before a mesh */
+    /* The current run of FRAM / STRS chunks. */
+    int64_t frames, stresses;
+    uint64_t frame_mesh_id;
+    uint64_t first_offset;
+    double t0, t1, max_u, max_stress;
+    probe_sample *samples;
+    int64_t n_samples, cap_samples;
+} info;
+
+static void json_vec(const double *v)
+{
+    printf("[");
+    for (int i = 0; i < 3; ++i)
+        printf(isfinite(v[i]) ? "%s%.17g" : "%snull", i ? "," : "", v[i]);
+    printf("]");
+}
+
+static void json_string(const char *s, size_t n)
+{
+    putchar('"');
+    for (size_t i = 0; i < n; ++i) {
+        unsigned char c = (unsigned char)s[i];
+        if (c == '"' || c == '\\')
+            printf("\\%c", c);
+        else if (c < 0x20)
+            printf("\\u%04x", c);
+        else
+            putchar(c);
+    }
+    putchar('"');
+}
+
+static void print_mesh_chunk(info *in, const pf_chunk *c, pf_mesh *m)
+{
+    pf_error err = {0};
+    pf_mesh_stats st;
+    pf_status valid = pf_mesh_validate(m, NULL, &err);
+    const char *verdict = valid == PF_OK ? "ok" : err.msg;
+    if (pf_mesh_compute_stats(m, &st, &err) < 0) {
+        memset(&st, 0, sizeof st);
+    }
+    double lo[3] = {st.lo.x, st.lo.y, st.lo.z}, hi[3] = {st.hi.x, st.hi.y, st.hi.z};
+    if (in->json) {
+        printf("{\"chunk\":\"MESH\",\"offset\":%llu,\"version\":%u,\"id\":%llu,\"nodes\":%d,"
+               "\"faces\":%d,\"boundary_faces\":%d,\"elements\":%d,\"tets\":%d,\"hexes\":%d,"
+               "\"polyhedra\":%d,\"volume\":%.17g,\"min_element_volume\":%.17g,"
+               "\"max_element_volume\":%.17g,\"bbox\":[",
+               (unsigned long long)c->offset, c->version, (unsigned long long)m->id,
+               (int)st.n_nodes, (int)st.n_faces, (int)st.n_boundary_faces, (int)st.n_elems,
+               (int)st.n_by_kind[PF_ELEM_TET], (int)st.n_by_kind[PF_ELEM_HEX],
+               (int)st.n_by_kind[PF_ELEM_POLY], st.volume, st.min_volume, st.max_volume);
+        json_vec(lo);
+        printf(",");
+        json_vec(hi);
+        printf("],\"valid\":%s,\"validation\":", valid == PF_OK ? "true" : "false");
+        json_string(verdict, strlen(verdict));
+        printf("}\n");
+    } else {
+        printf("MESH  at byte %llu, id %llu: %d nodes, %d faces (%d on the boundary), %d elements "
+               "(%d tets, %d hexes, %d polyhedra)\n",
+               (unsigned long long)c->offset, (unsigned long long)m->id, (int)st.n_nodes,
+               (int)st.n_faces, (int)st.n_boundary_faces, (int)st.n_elems,
+               (int)st.n_by_kind[PF_ELEM_TET], (int)st.n_by_kind[PF_ELEM_HEX],
+               (int)st.n_by_kind[PF_ELEM_POLY]);
+        printf("      volume %.17g (elements %.6g .. %.6g)\n", st.volume, st.min_volume,
+               st.max_volume);
+        printf("      bounds (%.6g, %.6g, %.6g) .. (%.6g, %.6g, %.6g)\n", lo[0], lo[1], lo[2], hi[0],
+               hi[1], hi[2]);
+        printf("      validation: %s\n", verdict);
+        if (in->print_mesh)
+            pf_mesh_print(m, stdout);
+    }
+}
+
+static void print_surface_chunk(const info *in, const pf_chunk *c, const pf_surface *s)
+{
+    pf_error err = {0};
+    pf_surface_stats st;
+    if (pf_surface_compute_stats(s, &st, &err) < 0) {
+        memset(&st, 0, sizeof st);
+    }
+    double lo[3] = {st.lo.x, st.lo.y, st.lo.z}, hi[3] = {st.hi.x, st.hi.y, st.hi.z};
+    if (in->json) {
+        printf("{\"chunk\":\"SURF\",\"offset\":%llu,\"version\":%u,\"id\":%llu,\"vertices\":%d,"
+               "\"triangles\":%d,\"volume\":%.17g,\"area\":%.17g,\"closed\":%s,\"manifold\":%s,"
+               "\"boundary_edges\":%lld,\"nonmanifold_edges\":%lld,\"flipped_edges\":%lld,"
+               "\"bbox\":[",
+               (unsigned long long)c->offset, c->version, (unsigned long long)s->id,
+               (int)st.n_verts, (int)st.n_tris, st.volume, st.area, st.closed ? "true" : "false",
+               st.manifold ? "true" : "false", (long long)st.n_boundary_edges,
+               (long long)st.n_nonmanifold_edges, (long long)st.n_flipped_edges);
+        json_vec(lo);
+        printf(",");
+        json_vec(hi);
+        printf("]}\n");
+    } else {
+        printf("SURF  at byte %llu, id %llu: %d vertices, %d triangles, %s, %s\n",
+               (unsigned long long)c->offset, (unsigned long long)s->id, (int)st.n_verts,
+               (int)st.n_tris, st.closed ? "closed" : "open (not watertight)",
+               st.manifold ? "manifold" : "not manifold");
+        printf("      enclosed volume %.17g, area %.17g\n", st.volume, st.area);
+        if (st.n_boundary_edges || st.n_nonmanifold_edges || st.n_flipped_edges)
+            printf("      %lld boundary edges, %lld non-manifold edges, %lld inconsistently "
+                   "oriented edges\n",
+                   (long long)st.n_boundary_edges, (long long)st.n_nonmanifold_edges,
+                   (long long)st.n_flipped_edges);
+        printf("      bounds (%.6g, %.6g, %.6g) .. (%.6g, %.6g, %.6g)\n", lo[0], lo[1], lo[2], hi[0],
+               hi[1], hi[2]);
+    }
+}
+
+static void print_frames(info *in)
+{
+    if (in->frames == 0 && in->stresses == 0)
+        return;
+    const double *pos = in->probe_node >= 0 ? in->mesh.x + 3 * (size_t)in->probe_node : NULL;
+    if (in->frames && in->json) {
+        printf("{\"chunk\":\"FRAM\",\"offset\":%llu,\"frames\":%lld,\"mesh_id\":%llu,"
+               "\"time\":[%.17g,%.17g],\"max_displacement\":%.17g",
+               (unsigned long long)in->first_offset, (long long)in->frames,
+               (unsigned long long)in->frame_mesh_id, in->t0, in->t1, in->max_u);
+        if (in->has_probe && pos) {
+            double d = pf_v3_dist(pf_v3_load(pos), pf_v3_load(in->probe));
+            printf(",\"probe\":{\"point\":");
+            json_vec(in->probe);
+            printf(",\"node\":%d,\"position\":", (int)in->probe_node);
+            json_vec(pos);
+            printf(",\"distance\":%.17g,\"frames\":[", d);
+            for (int64_t i = 0; i < in->n_samples; ++i) {
+                printf("%s{\"frame\":%u,\"time\":%.17g,\"u\":", i ? "," : "",
+                       in->samples[i].frame, in->samples[i].time);
+                json_vec(in->samples[i].u);
+                printf("}");
+            }
+            printf("]}");
+        }
+        printf("}\n");
+    } else if (in->frames) {
+        printf("FRAM  at byte %llu: %lld frames of mesh %llu, time %.6g .. %.6g, largest "
+               "displacement %.6g\n",
+               (unsigned long long)in->first_offset, (long long)in->frames,
+               (unsigned long long)in->frame_mesh_id, in->t0, in->t1, in->max_u);
+        if (in->has_probe && pos) {
+            printf("      probe (%.6g, %.6g, %.6g): node %d at (%.17g, %.17g, %.17g), distance %.6g\n",
+                   in->probe[0], in->probe[1], in->probe[2], (int)in->probe_node, pos[0], pos[1],
+                   pos[2], pf_v3_dist(pf_v3_load(pos), pf_v3_load(in->probe)));
+            for (int64_t i = 0; i < in->n_samples; ++i)
+                printf("      frame %u t %.17g u %.17g %.17g %.17g\n", in->samples[i].frame,
+                       in->samples[i].time, in->samples[i].u[0], in->samples[i].u[1],
+                       in->samples[i].u[2]);
+        }
+    }
+    if (in->stresses) {
+        if (in->json)
+            printf("{\"chunk\":\"STRS\",\"count\":%lld,\"max\":%.17g}\n", (long long)in->stresses,
+                   in->max_stress);
+        else
+            printf("STRS  %lld stress chunks, largest value %.6g\n", (long long)in->stresses,
+                   in->max_stress);
+    }
+    in->frames = in->stresses = in->n_samples = 0;
+}
+
+static int32_t nearest_node(const pf_mesh *m, const double *p)
+{
+    int32_t best = -1;
+    double best_d = INFINITY;
+    for (int32_t i = 0; i < m->n_nodes; ++i) {
+        double d = pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)i), pf_v3_load(p));
+        if (d < best_d) {
+            best_d = d;
+            best = i;
+        }
+    }
+    return best;
+}
+
+static pf_status add_frame(info *in, const pf_chunk *c, pf_error *err)
+{
+    pf_frame_data fr = {0};
+    PF_TRY(pf_stream_decode_frame(c, &fr, err));
+    if (in->frames == 0 || fr.mesh_id != in->frame_mesh_id) {
+        print_frames(in);
+        in->frame_mesh_id = fr.mesh_id;
+        in->first_offset = c->offset;
+        in->t0 = fr.time;
+        in->max_u = 0;
+    }
+    in->frames++;
+    in->t1 = fr.time;
+    for (int32_t i = 0; i < fr.n_nodes; ++i)
+        in->max_u = fmax(in->max_u, pf_v3_norm(pf_v3_load(fr.u + 3 * (size_t)i)));
+    pf_status s = PF_OK;
+    if (in->has_probe && in->probe_node >= 0 && in->probe_node < fr.n_nodes &&
+        fr.mesh_id == in->mesh.id) {
+        if (in->n_samples == in->cap_samples) {
+            int64_t cap = in->cap_samples ? 2 * in->cap_samples : 64;
+            probe_sample *grown = pf_realloc_array(in->samples, (size_t)cap, sizeof *grown);
+            if (!grown)
+                s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+            else
+                in->samples = grown, in->cap_samples = cap;
+        }
+        if (s == PF_OK) {
+            probe_sample *p = &in->samples[in->n_samples++];
+            p->frame = fr.index;
+            p->time = fr.time;
+            memcpy(p->u, fr.u + 3 * (size_t)in->probe_node, sizeof p->u);
+        }
+    }
+    pf_frame_data_release(&fr);
+    return s;
+}
+
+static pf_status add_stress(info *in, const pf_chunk *c, pf_error *err)
+{
+    pf_stress_data st = {0};
+    PF_TRY(pf_stream_decode_stress(c, &st, err));
+    if (in->stresses == 0)
+        in->max_stress = 0;
+    in->stresses++;
+    for (int64_t i = 0; i < (int64_t)st.n_elems * st.components; ++i)
+        in->max_stress = fmax(in->max_stress, fabs(st.values[i]));
+    pf_stress_data_release(&st);
+    return PF_OK;
+}
+
+static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
+{
+    if (strcmp(c->tag, "FRAM") == 0)
+        return add_frame(in, c, err);
+    if (strcmp(c->tag, "STRS") == 0)
+        return add_stress(in, c, err);
+    print_frames(in);
+    if (strcmp(c->tag, "MESH") == 0) {
+        pf_mesh m = {0};
+        PF_TRY(pf_stream_decode_mesh(c, &m, err));
+        print_mesh_chunk(in, c, &m);
+        pf_mesh_release(&in->mesh);
+        in->mesh = m;
+        in->probe_node = in->has_probe ? nearest_node(&m, in->probe) : -1;
+    } else if (strcmp(c->tag, "SURF") == 0) {
+        pf_surface s = {0};
+        PF_TRY(pf_stream_decode_surface(c, &s, err));
+        print_surface_chunk(in, c, &s);
+        pf_surface_release(&s);
+    } else if (strcmp(c->tag, "INFO") == 0) {
+        pf_info_data d = {0};
+        PF_TRY(pf_stream_decode_info(c, &d, err));
+        if (in->json) {
+            printf("{\"chunk\":\"INFO\",\"offset\":%llu,\"version\":%u,\"producer\":",
+                   (unsigned long long)c->offset, c->version);
+            json_string(d.producer, strlen(d.producer));
+            printf(",\"producer_version\":");
+            json_string(d.version, strlen(d.version));
+            printf(",\"command\":");
+            json_string(d.command, strlen(d.command));
+            printf("}\n");
+        } else {
+            printf("INFO  at byte %llu: %s %s: %s\n", (unsigned long long)c->offset, d.producer,
+                   d.version, d.command);
+        }
+        pf_info_data_release(&d);
+    } else if (strcmp(c->tag, "END_") == 0) {
+        pf_end_data d = {0};
+        PF_TRY(pf_stream_decode_end(c, &d, err));
+        if (in->json)
+            printf("{\"chunk\":\"END_\",\"offset\":%llu,\"chunks\":%llu,\"frames\":%llu}\n",
+                   (unsigned long long)c->offset, (unsigned long long)d.chunk_count,
+                   (unsigned long long)d.frame_count);
+        else
+            printf("END_  at byte %llu: %llu chunks, %llu frames\n", (unsigned long long)c->offset,
+                   (unsigned long long)d.chunk_count, (unsigned long long)d.frame_count);
+    } else if (in->json) {
+        printf("{\"chunk\":");
+        json_string(c->tag, 4);
+        printf(",\"offset\":%llu,\"version\":%u,\"bytes\":%llu,\"known\":%s}\n",
+               (unsigned long long)c->offset, c->version, (unsigned long long)c->size,
+               pf_stream_tag_is_known(c->tag) ? "true" : "false");
+    } else {
+        printf("%s  at byte %llu: version %u, %llu bytes%s\n", c->tag,
+               (unsigned long long)c->offset, c->version, (unsigned long long)c->size,
+               pf_stream_tag_is_known(c->tag) ? "" : " (unknown to this pf, passed through)");
+    }
+    return PF_OK;
+}
+
+static pf_status run(info *in, FILE *f, const char *name, pf_error *err)
+{
+    pf_stream_reader *r = NULL;
+    PF_TRY(pf_stream_reader_create(&r, f, name, err));
+    pf_status s = PF_OK;
+    for (;;) {
+        pf_chunk c;
+        bool end = false;
+        s = pf_stream_read_chunk(r, &c, &end, err);
+        if (s < 0 || end)
+            break;
+        s = print_chunk(in, &c, err);
+        if (s < 0)
+            break;
+    }
+    print_frames(in);
+    pf_stream_reader_destroy(&r);
+    return s;
+}
+
+int main(int argc, char **argv)
+{
+    static const pf_cli_option options[] = {{"json", false, OPT_JSON},
+                                            {"probe", true, OPT_PROBE},
+                                            {"print-mesh", false, OPT_PRINT_MESH},
+                                            {NULL, false, 0}};
+    pf_cli cli;
+    pf_cli_init(&cli, "pf-info", USAGE, argc, argv);
+    info in = {.probe_node = -1};
+    const char *path = NULL, *value;
+    for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
+        if (id == OPT_JSON)
+            in.json = true;
+        else if (id == OPT_PRINT_MESH)
+            in.print_mesh = true;
+        else if (id == OPT_PROBE) {
+            pf_cli_parse_vec3(&cli, "probe", value, in.probe);
+            in.has_probe = true;
+        } else if (path)
+            pf_cli_usage_error(&cli, "one input only (got '%s' and '%s')", path, value);
+        else
+            path = value;
+    }
+    pf_error err = {0};
+    FILE *f;
+    const char *name;
+    if (pf_cli_open_input(path, &f, &name, &err) < 0)
+        pf_cli_fail(&cli, &err);
+    pf_status s = run(&in, f, name, &err);
+    pf_cli_close_input(f);
+    pf_mesh_release(&in.mesh);
+    pf_free(in.samples);
+    fflush(stdout);
+    if (s < 0)
+        pf_cli_fail(&cli, &err);
+    return PF_EXIT_OK;
+}

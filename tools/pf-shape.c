@@ -1,0 +1,101 @@
+/* pf-shape: generated models (a torus, a sphere, a hex box) as a pf stream, for tests and demos. */
+#include <string.h>
+
+#include <pf/io.h>
+
+#include "cli.h"
+
+static const char USAGE[] =
+    "Usage: pf-shape torus [--R R] [--r r] [--res N]\n"
+    "       pf-shape sphere [--radius R] [--res N]\n"
+    "       pf-shape box [--size X,Y,Z] [--origin X,Y,Z] [--cells NX,NY,NZ]\n"
+    "\n"
+    "Writes a pf stream (INFO + SURF for torus and sphere, INFO + MESH for box) to stdout.\n"
+    "  torus   around the z axis, tube centre radius --R (default 1), tube radius --r (0.35),\n"
+    "          2N x N segments (--res N, default 32)\n"
+    "  sphere  radius --radius (default 1), N bands x 2N segments (--res N, default 32)\n"
+    "  box     a hex grid filling [origin, origin + size] (defaults: origin 0,0,0, size 4,1,1,\n"
+    "          cells 8,2,2)\n"
+    "  --help, --version\n";
+
+enum { OPT_R = 1, OPT_SMALL_R, OPT_RES, OPT_RADIUS, OPT_SIZE, OPT_ORIGIN, OPT_CELLS };
+
+static void parse_cells(const pf_cli *cli, const char *text, int32_t cells[3])
+{
+    double v[3];
+    pf_cli_parse_vec3(cli, "cells", text, v);
+    for (int i = 0; i < 3; ++i) {
+        if (v[i] < 1 || v[i] > 4096 || v[i] != (double)(int32_t)v[i])
+            pf_cli_usage_error(cli, "--cells expects three integers in [1, 4096], got '%s'", text);
+        cells[i] = (int32_t)v[i];
+    }
+}
+
+int main(int argc, char **argv)
+{
+    static const pf_cli_option options[] = {
+        {"R", true, OPT_R},           {"r", true, OPT_SMALL_R},       {"res", true, OPT_RES},
+        {"radius", true, OPT_RADIUS}, {"size", true, OPT_SIZE},       {"origin", true, OPT_ORIGIN},
+        {"cells", true, OPT_CELLS},   {NULL, false, 0}};
+    pf_cli cli;
+    pf_cli_init(&cli, "pf-shape", USAGE, argc, argv);
+    const char *shape = NULL, *value;
+    double R = 1, r = 0.35, radius = 1, size[3] = {4, 1, 1}, origin[3] = {0, 0, 0};
+    long res = 32;
+    int32_t cells[3] = {8, 2, 2};
+    for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
+        switch (id) {
+        case OPT_R: R = pf_cli_parse_double(&cli, "R", value); break;
+        case OPT_SMALL_R: r = pf_cli_parse_double(&cli, "r", value); break;
+        case OPT_RADIUS: radius = pf_cli_parse_double(&cli, "radius", value); break;
+        case OPT_RES: res = pf_cli_parse_long(&cli, "res", value, 3, 4096); break;
+        case OPT_SIZE: pf_cli_parse_vec3(&cli, "size", value, size); break;
+        case OPT_ORIGIN: pf_cli_parse_vec3(&cli, "origin", value, origin); break;
+        case OPT_CELLS: parse_cells(&cli, value, cells); break;
+        default:
+            if (shape)
+                pf_cli_usage_error(&cli, "one shape only (got '%s' and '%s')", shape, value);
+            shape = value;
+        }
+    }
+    if (!shape)
+        pf_cli_usage_error(&cli, "which shape? torus, sphere or box");
+    pf_error err = {0};
+    pf_surface surface = {0};
+    pf_mesh mesh = {0};
+    pf_status s;
+    bool is_mesh = false;
+    if (strcmp(shape, "torus") == 0) {
+        s = pf_surface_make_torus(&surface, R, r, (int32_t)(2 * res), (int32_t)res, &err);
+    } else if (strcmp(shape, "sphere") == 0) {
+        s = pf_surface_make_sphere(&surface, radius, (int32_t)res, (int32_t)(2 * res), &err);
+    } else if (strcmp(shape, "box") == 0) {
+        pf_vec3 lo = pf_v3_load(origin);
+        s = pf_mesh_make_box(&mesh, lo, pf_v3_add(lo, pf_v3_load(size)), cells[0], cells[1],
+                             cells[2], &err);
+        is_mesh = true;
+    } else {
+        pf_cli_usage_error(&cli, "unknown shape '%s' (torus, sphere or box)", shape);
+    }
+    if (s < 0) /* the parameters were the user's: a usage error */
+        pf_cli_usage_error(&cli, "%s", err.msg);
+
+    FILE *out = pf_cli_binary_stdout(&cli);
+    char *command = pf_cli_command_line(&cli);
+    pf_stream_writer *w = NULL;
+    s = pf_stream_writer_create(&w, out, "stdout", &err);
+    if (s >= 0)
+        s = pf_stream_write_info(w, "pf-shape", PF_VERSION_STRING, command ? command : "", &err);
+    if (s >= 0)
+        s = is_mesh ? pf_stream_write_mesh(w, &mesh, &err)
+                    : pf_stream_write_surface(w, &surface, &err);
+    if (s >= 0)
+        s = pf_stream_writer_finish(w, &err);
+    pf_stream_writer_destroy(&w);
+    pf_free(command);
+    pf_mesh_release(&mesh);
+    pf_surface_release(&surface);
+    if (s < 0)
+        pf_cli_fail(&cli, &err);
+    return PF_EXIT_OK;
+}

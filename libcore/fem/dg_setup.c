@@ -1,0 +1,340 @@
+/* DG set-up: everything that depends on the mesh and the material only, computed once per
+ * topology. Element terms come from the element's own moments (a derivative of a monomial is a
+ * monomial, so every element integral is one moment); face terms from the face's moments after
+ * writing both elements' basis functions in the face's frame. */
+#include <pf/fem.h>
+
+#include <math.h>
+#include <string.h>
+
+void pf_lame(double E, double nu, double *lambda, double *mu)
+{
+    *mu = E / (2 * (1 + nu));
+    *lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+}
+
+double pf_von_mises(const double s[6])
+{
+    double a = s[0] - s[1], b = s[1] - s[2], c = s[2] - s[0];
+    return sqrt(0.5 * (a * a + b * b + c * c) + 3 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]));
+}
+
+void pf_dg_release(pf_dg *dg)
+{
+    pf_free(dg->frame);
+    pf_free(dg->volume);
+    pf_free(dg->centroid);
+    pf_free(dg->ke);
+    pf_free(dg->me);
+    pf_free(dg->phi_int);
+    pf_free(dg->faces);
+    pf_free(dg->face_slot);
+    pf_free(dg->face_storage);
+    pf_free(dg->node_offsets);
+    pf_free(dg->node_elem);
+    pf_free(dg->node_phi);
+    memset(dg, 0, sizeof *dg);
+}
+
+static void exponents_of(int index, int e[3])
+{
+    pf_moment_exponents(index, &e[0], &e[1], &e[2]);
+}
+
+/* int_K d_i phi_a d_k phi_b = e_a[i] e_b[k] / h^2 times the moment of the product of the two
+ * lowered monomials. */
+static double gradient_product(const double *m, double h, int a, int i, int b, int k)
+{
+    int ea[3], eb[3];
+    exponents_of(a, ea);
+    exponents_of(b, eb);
+    if (ea[i] == 0 || eb[k] == 0)
+        return 0;
+    double factor = (double)ea[i] * eb[k] / (h * h);
+    ea[i]--;
+    eb[k]--;
+    return factor * m[pf_moment_index(ea[0] + eb[0], ea[1] + eb[1], ea[2] + eb[2])];
+}
+
+/* K[(a, i), (b, k)] = lambda D(a i, b k) + mu (delta_ik sum_j D(a j, b j) + D(a k, b i)), the
+ * isotropic form of int B^T C B (sec. 4.2, eq. 23). */
+static void element_stiffness(const pf_dg *dg, const double *m, double h, double *ke)
+{
+    int nb = dg->nb, n = 3 * nb;
+    for (int a = 0; a < nb; ++a)
+        for (int b = 0; b < nb; ++b) {
+            double d[3][3];
+            for (int i = 0; i < 3; ++i)
+                for (int k = 0; k < 3; ++k)
+                    d[i][k] = gradient_product(m, h, a, i, b, k);
+            double trace = d[0][0] + d[1][1] + d[2][2];
+            for (int i = 0; i < 3; ++i)
+                for (int k = 0; k < 3; ++k)
+                    ke[(3 * a + i) * n + 3 * b + k] =
+                        dg->lambda * d[i][k] + dg->mu * ((i == k ? trace : 0) + d[k][i]);
+        }
+}
+
+static void element_mass(const pf_dg *dg, const double *m, double *me, double *phi_int)
+{
+    int nb = dg->nb;
+    for (int a = 0; a < nb; ++a) {
+        int ea[3];
+        exponents_of(a, ea);
+        phi_int[a] = m[a];
+        for (int b = 0; b < nb; ++b) {
+            int eb[3];
+            exponents_of(b, eb);
+            me[a * nb + b] =
+                dg->density * m[pf_moment_index(ea[0] + eb[0], ea[1] + eb[1], ea[2] + eb[2])];
+        }
+    }
+}
+
+static pf_status setup_elements(pf_dg *dg, const pf_mesh *mesh, pf_arena *arena, pf_error *err)
+{
+    int nb = dg->nb, n = 3 * nb;
+    double m[PF_MOMENT_MAX_COUNT];
+    for (int32_t e = 0; e < mesh->n_elems; ++e) {
+        size_t mark = pf_arena_mark(arena);
+        pf_polyhedron p;
+        PF_TRY(pf_mesh_elem_polyhedron(mesh, e, arena, &p, err));
+        pf_frame fr = pf_frame_of_polyhedron(&p);
+        pf_status s = pf_polyhedron_moments(&p, &fr, 2 * dg->degree, m, err);
+        pf_arena_reset(arena, mark);
+        if (s < 0) {
+            pf_error_prefix(err, "element %d", (int)e);
+            return s;
+        }
+        PF_CHECK(m[0] > 0, err, PF_ERR_INVALID, "element %d has volume %g", (int)e, m[0]);
+        dg->frame[e] = fr;
+        dg->volume[e] = m[0];
+        dg->centroid[3 * e + 0] = fr.center.x + fr.scale * m[1] / m[0];
+        dg->centroid[3 * e + 1] = fr.center.y + fr.scale * m[2] / m[0];
+        dg->centroid[3 * e + 2] = fr.center.z + fr.scale * m[3] / m[0];
+        element_stiffness(dg, m, fr.scale, dg->ke + (size_t)e * n * n);
+        element_mass(dg, m, dg->me + (size_t)e * nb * nb, dg->phi_int + (size_t)e * nb);
+    }
+    return PF_OK;
+}
+
+/* The face's frame: centre and half diagonal of its nodes' bounding box. */
+static pf_frame face_frame(const pf_mesh *mesh, int32_t f)
+{
+    pf_vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
+    for (int64_t k = mesh->face_offsets[f]; k < mesh->face_offsets[f + 1]; ++k) {
+        const double *x = mesh->x + 3 * (size_t)mesh->face_nodes[k];
+        lo = (pf_vec3){fmin(lo.x, x[0]), fmin(lo.y, x[1]), fmin(lo.z, x[2])};
+        hi = (pf_vec3){fmax(hi.x, x[0]), fmax(hi.y, x[1]), fmax(hi.z, x[2])};
+    }
+    pf_frame fr = {pf_v3_scale(pf_v3_add(lo, hi), 0.5), 0.5 * pf_v3_norm(pf_v3_sub(hi, lo))};
+    if (!(fr.scale > 0))
+        fr.scale = 1;
+    return fr;
+}
+
+/* Basis functions of element e and their derivatives, written in the face frame: basis[a] has
+ * count(p) coefficients, deriv[a][j] count(p - 1) (padded to count(p)). */
+static void basis_in_face_frame(const pf_dg *dg, int32_t e, const pf_frame *ff, double *basis,
+                                double *deriv)
+{
+    int nb = dg->nb;
+    const pf_frame *fe = &dg->frame[e];
+    memset(basis, 0, (size_t)nb * nb * sizeof *basis);
+    for (int a = 0; a < nb; ++a) {
+        pf_poly_monomial_in_frame(a, fe, ff, basis + a * nb); /* writes count(deg a) entries */
+        int ea[3];
+        exponents_of(a, ea);
+        for (int j = 0; j < 3; ++j) {
+            double *d = deriv + (a * 3 + j) * nb;
+            memset(d, 0, (size_t)nb * sizeof *d);
+            if (ea[j] == 0)
+                continue;
+            int lowered[3] = {ea[0], ea[1], ea[2]};
+            lowered[j]--;
+            pf_poly_monomial_in_frame(pf_moment_index(lowered[0], lowered[1], lowered[2]), fe,
+                                      ff, d);
+            double factor = ea[j] / fe->scale;
+            for (int k = 0; k < nb; ++k)
+                d[k] *= factor;
+        }
+    }
+}
+
+static pf_status setup_face(pf_dg *dg, const pf_mesh *mesh, int32_t f, int32_t left,
+                            int32_t right, double sign, pf_dg_face *out, pf_error *err)
+{
+    int nb = dg->nb, p = dg->degree;
+    const uint32_t *idx = mesh->face_nodes + mesh->face_offsets[f];
+    int64_t count = mesh->face_offsets[f + 1] - mesh->face_offsets[f];
+    pf_frame ff = face_frame(mesh, f);
+    double m[PF_MOMENT_MAX_COUNT];
+    PF_TRY(pf_polygon_moments(mesh->x, idx, count, &ff, 2 * p, m, err));
+    pf_vec3 area_vector = pf_polygon_area_vector(mesh->x, idx, count);
+    double area = pf_v3_norm(area_vector);
+    PF_CHECK(area > 0 && m[0] > 0, err, PF_ERR_INVALID, "face %d has no area", (int)f);
+    out->face = f;
+    out->elem[0] = left;
+    out->elem[1] = right;
+    out->normal = pf_v3_scale(area_vector, sign / area);
+    out->area = m[0];
+    out->centroid = (pf_vec3){ff.center.x + ff.scale * m[1] / m[0],
+                              ff.center.y + ff.scale * m[2] / m[0],
+                              ff.center.z + ff.scale * m[3] / m[0]};
+    out->eta_geometry = m[0] * (1 / dg->volume[left] + (right >= 0 ? 1 / dg->volume[right] : 0));
+
+    double basis[2][10 * 10], deriv[2][10 * 3 * 10];
+    int sides = right >= 0 ? 2 : 1;
+    for (int s = 0; s < sides; ++s)
+        basis_in_face_frame(dg, out->elem[s], &ff, basis[s], deriv[s]);
+    for (int s = 0; s < sides; ++s)
+        for (int t = 0; t < sides; ++t)
+            for (int a = 0; a < nb; ++a)
+                for (int b = 0; b < nb; ++b) {
+                    size_t st = (size_t)((s * 2 + t) * nb + a) * nb + b;
+                    out->S[st] = pf_poly_integrate_product(basis[s] + a * nb, p,
+                                                           basis[t] + b * nb, p, m);
+                    for (int j = 0; j < 3; ++j)
+                        out->G[3 * st + j] = pf_poly_integrate_product(
+                            basis[s] + a * nb, p, deriv[t] + (b * 3 + j) * nb, p - 1, m);
+                }
+    return PF_OK;
+}
+
+static pf_status setup_faces(pf_dg *dg, const pf_mesh *mesh, pf_error *err)
+{
+    int nb = dg->nb;
+    size_t per_face = 4 * (size_t)nb * nb * 4; /* S and G (3 per entry) */
+    dg->faces = pf_calloc((size_t)mesh->n_faces, sizeof *dg->faces);
+    dg->face_slot = pf_alloc_array((size_t)mesh->n_faces, sizeof *dg->face_slot);
+    dg->face_storage = pf_alloc_array((size_t)mesh->n_faces * per_face, sizeof(double));
+    PF_CHECK(dg->faces && dg->face_slot && (dg->face_storage || mesh->n_faces == 0), err, PF_ERR_NOMEM,
+             "cannot allocate the terms of %d faces", (int)mesh->n_faces);
+    dg->n_faces = mesh->n_faces;
+    /* Interior faces first, then boundary faces. */
+    int32_t slot = 0;
+    for (int pass = 0; pass < 2; ++pass)
+        for (int32_t f = 0; f < mesh->n_faces; ++f) {
+            int32_t a = mesh->face_elems[2 * f], b = mesh->face_elems[2 * f + 1];
+            bool interior = a >= 0 && b >= 0;
+            if (interior != (pass == 0))
+                continue;
+            pf_dg_face *out = &dg->faces[slot];
+            dg->face_slot[f] = slot;
+            out->S = dg->face_storage + (size_t)slot * per_face;
+            out->G = out->S + 4 * (size_t)nb * nb;
+            /* The stored orientation is outward for face_elems[2f]; a boundary face used only
+             * reversed has its outward normal opposite to the stored one. */
+            int32_t left = a >= 0 ? a : b, right = a >= 0 ? b : -1;
+            pf_status s = setup_face(dg, mesh, f, left, right, a >= 0 ? 1 : -1, out, err);
+            if (s < 0) {
+                pf_error_prefix(err, "face %d", (int)f);
+                return s;
+            }
+            ++slot;
+            if (pass == 0)
+                dg->n_interior = slot;
+        }
+    return PF_OK;
+}
+
+/* For every node, the elements using it and their basis values there. */
+static pf_status setup_stitching(pf_dg *dg, const pf_mesh *mesh, pf_error *err)
+{
+    int nb = dg->nb;
+    dg->n_nodes = mesh->n_nodes;
+    int32_t *last = pf_alloc_array((size_t)mesh->n_nodes, sizeof *last); /* dedupe marker */
+    dg->node_offsets = pf_calloc((size_t)mesh->n_nodes + 1, sizeof *dg->node_offsets);
+    PF_CHECK(last && dg->node_offsets, err, PF_ERR_NOMEM, "cannot allocate node incidences");
+    for (int pass = 0; pass < 2; ++pass) {
+        for (int32_t i = 0; i < mesh->n_nodes; ++i)
+            last[i] = -1;
+        for (int32_t e = 0; e < mesh->n_elems; ++e)
+            for (int64_t k = mesh->elem_offsets[e]; k < mesh->elem_offsets[e + 1]; ++k) {
+                int32_t f = PF_FACE_INDEX(mesh->elem_faces[k]);
+                for (int64_t q = mesh->face_offsets[f]; q < mesh->face_offsets[f + 1]; ++q) {
+                    uint32_t node = mesh->face_nodes[q];
+                    if (last[node] == e)
+                        continue;
+                    last[node] = e;
+                    if (pass == 0) {
+                        dg->node_offsets[node + 1]++;
+                        continue;
+                    }
+                    int64_t at = dg->node_offsets[node]++;
+                    dg->node_elem[at] = e;
+                    const double *x = mesh->x + 3 * (size_t)node;
+                    const pf_frame *fr = &dg->frame[e];
+                    pf_vec3 local = {(x[0] - fr->center.x) / fr->scale,
+                                     (x[1] - fr->center.y) / fr->scale,
+                                     (x[2] - fr->center.z) / fr->scale};
+                    pf_moment_monomials(local, dg->degree, dg->node_phi + at * nb);
+                }
+            }
+        if (pass == 0) {
+            for (int32_t i = 0; i < mesh->n_nodes; ++i)
+                dg->node_offsets[i + 1] += dg->node_offsets[i];
+            int64_t total = dg->node_offsets[mesh->n_nodes];
+            dg->node_elem = pf_alloc_array((size_t)total, sizeof *dg->node_elem);
+            dg->node_phi = pf_alloc_array((size_t)total * nb, sizeof *dg->node_phi);
+            if (!dg->node_elem || !dg->node_phi) {
+                pf_free(last);
+                return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                    "cannot allocate %lld node incidences", (long long)total);
+            }
+        }
+    }
+    /* The second pass advanced each offset to the next node's start: shift back. */
+    for (int32_t i = mesh->n_nodes; i > 0; --i)
+        dg->node_offsets[i] = dg->node_offsets[i - 1];
+    dg->node_offsets[0] = 0;
+    pf_free(last);
+    return PF_OK;
+}
+
+static pf_status allocate_elements(pf_dg *dg, pf_error *err)
+{
+    size_t ne = (size_t)dg->n_elems, nb = (size_t)dg->nb;
+    dg->frame = pf_alloc_array(ne, sizeof *dg->frame);
+    dg->volume = pf_alloc_array(ne, sizeof *dg->volume);
+    dg->centroid = pf_alloc_array(3 * ne, sizeof *dg->centroid);
+    dg->ke = pf_alloc_array(ne * 9 * nb * nb, sizeof *dg->ke);
+    dg->me = pf_alloc_array(ne * nb * nb, sizeof *dg->me);
+    dg->phi_int = pf_alloc_array(ne * nb, sizeof *dg->phi_int);
+    PF_CHECK(ne == 0 || (dg->frame && dg->volume && dg->centroid && dg->ke && dg->me &&
+                         dg->phi_int),
+             err, PF_ERR_NOMEM, "cannot allocate the terms of %d elements", (int)dg->n_elems);
+    return PF_OK;
+}
+
+pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
+                       double density, pf_error *err)
+{
+    memset(dg, 0, sizeof *dg);
+    PF_CHECK(degree == 1 || degree == 2, err, PF_ERR_INVALID,
+             "DG degree must be 1 or 2, got %d", (int)degree);
+    PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && density > 0 && isfinite(density),
+             err, PF_ERR_INVALID, "bad material: E = %g, nu = %g, density = %g", E, nu, density);
+    PF_CHECK(m->face_elems, err, PF_ERR_INVALID, "mesh not derived (pf_mesh_derive)");
+    dg->degree = degree;
+    dg->nb = pf_moment_count(degree);
+    dg->n_elems = m->n_elems;
+    dg->n_dofs = 3 * (int64_t)dg->nb * m->n_elems;
+    dg->density = density;
+    pf_lame(E, nu, &dg->lambda, &dg->mu);
+
+    pf_arena arena;
+    pf_status s = pf_arena_init(&arena, (size_t)1 << 20, err);
+    if (s >= 0)
+        s = allocate_elements(dg, err);
+    if (s >= 0)
+        s = setup_elements(dg, m, &arena, err);
+    if (s >= 0)
+        s = setup_faces(dg, m, err);
+    if (s >= 0)
+        s = setup_stitching(dg, m, err);
+    pf_arena_release(&arena);
+    if (s < 0)
+        pf_dg_release(dg);
+    return s;
+}

@@ -1,0 +1,153 @@
+/* pf/fem.h: finite element discretisations of linear elasticity on polyhedral meshes.
+ *
+ * DG (Kaufmann et al. 2009, sec. 4-6): per element the monomials of degree <= p (p = 1: 4,
+ * p = 2: 10 functions) of the element's local coordinates xhat = (x - c_K) / h_K (pf_frame of
+ * pf/integrate.h), each with a 3-vector coefficient. Unknowns are ordered element by element,
+ * then basis function, then component: unknown 3 (nb e + a) + i is component i of the
+ * coefficient of basis function a of element e. Every integral is exact (moments by the
+ * divergence theorem); element and face terms are computed once per topology and stored as
+ * scalar integrals, expanded into 3 x 3 blocks (and rotated, for corotation) when assembled.
+ *
+ * Material: isotropic, sigma = lambda tr(eps) I + 2 mu eps. The interior-penalty term follows
+ * Hansbo and Larson (2002): eta_f (2 mu [u].[v] + lambda ([u].n)([v].n)), with eta_f of eq. 20,
+ * so that the penalty scales like the consistency terms it must dominate, and eta stays
+ * dimensionless (order 1-100) for any material, also as nu -> 1/2. */
+#ifndef PF_FEM_H
+#define PF_FEM_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include <pf/base.h>
+#include <pf/geom.h>
+#include <pf/integrate.h>
+#include <pf/mesh.h>
+#include <pf/solve.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Lame parameters from Young's modulus and Poisson's ratio (nu in (-1, 1/2)). */
+void pf_lame(double E, double nu, double *lambda, double *mu);
+
+/* Von Mises equivalent of a symmetric stress s = (xx yy zz xy yz zx). */
+double pf_von_mises(const double s[6]);
+
+/* ==== polynomials in local frames =============================================================
+ * A polynomial of degree <= d is its coefficients in the graded monomial order of pf/integrate.h
+ * (pf_moment_count(d) of them). */
+
+/* Coefficients (in frame `to`) of the monomial `index` of frame `from`:
+ * m((x - c_from) / h_from) written as a polynomial of (x - c_to) / h_to. Writes the first
+ * pf_moment_count(degree of the monomial) entries of out, and no others. */
+void pf_poly_monomial_in_frame(int index, const pf_frame *from, const pf_frame *to, double *out);
+
+/* int P Q over a domain, from the domain's moments m (degree >= deg P + deg Q) in the frame both
+ * polynomials are written in; deg P, deg Q <= PF_MOMENT_MAX_DEGREE / 2. */
+double pf_poly_integrate_product(const double *p, int deg_p, const double *q, int deg_q,
+                                 const double *m);
+
+/* ==== DG discretisation ======================================================================= */
+
+/* Per face f with elements (L, R) and the unit normal n pointing out of L: the scalar integrals
+ * the face terms are made of, for sides s, t in {0 = L, 1 = R}:
+ *   S[s][t][a][b]    = int_f phi_a^s phi_b^t
+ *   G[s][t][a][b][j] = int_f phi_a^s d_j phi_b^t
+ * Boundary faces have R = -1 and only the (0, 0) entries. */
+typedef struct pf_dg_face {
+    int32_t face;    /* mesh face index */
+    int32_t elem[2]; /* L, R (-1 on the boundary) */
+    pf_vec3 normal;  /* unit, out of L */
+    double area;
+    pf_vec3 centroid;
+    double eta_geometry; /* area(f) (1 / vol(L) + 1 / vol(R)) of eq. 20 (R omitted on the
+                            boundary), 1 / length */
+    double *S;           /* [4 nb nb] (s, t, a, b) row-major */
+    double *G;           /* [4 nb nb 3] */
+} pf_dg_face;
+
+typedef struct pf_dg {
+    int32_t degree; /* 1 or 2 */
+    int32_t nb;     /* basis functions per element: 4 or 10 */
+    int32_t n_elems;
+    int64_t n_dofs; /* 3 nb n_elems */
+    double lambda, mu, density;
+    pf_frame *frame;  /* [n_elems] */
+    double *volume;   /* [n_elems] */
+    double *centroid; /* [3 n_elems] */
+    double *ke;       /* [n_elems (3 nb)^2] element stiffness, row-major, unwarped */
+    double *me;       /* [n_elems nb^2] int_K rho phi_a phi_b (the mass is me (x) I3) */
+    double *phi_int;  /* [n_elems nb] int_K phi_a (body forces) */
+    int32_t n_faces;  /* every mesh face, interior first, then boundary */
+    int32_t n_interior;
+    pf_dg_face *faces;
+    int32_t *face_slot; /* [mesh faces] index into faces */
+    double *face_storage;
+    /* stitching to nodes (eq. 30): for node i the pairs (element, basis values at x_i),
+     * averaged over the elements using the node */
+    int32_t n_nodes;
+    int64_t *node_offsets; /* [n_nodes + 1] into node_elem */
+    int32_t *node_elem;    /* element of each incidence */
+    double *node_phi;      /* [nb per incidence] phi_a^elem(x_node) */
+} pf_dg;
+
+/* Sets up everything that depends on the mesh and material only: frames, moments, element
+ * stiffness and mass, face integrals, stitching. The mesh must be valid and derived
+ * (pf_mesh_derive). PF_ERR_INVALID for a degree other than 1 or 2 or a bad material. */
+pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
+                       double density, pf_error *err);
+void pf_dg_release(pf_dg *dg);
+
+/* The coefficient vector of the rest positions, X0 of sec. 6.2 (x = sum_a x0_a phi_a), [n_dofs]. */
+void pf_dg_rest_coefficients(const pf_dg *dg, double *x0);
+
+/* Coefficients of the displacement u(x) = A x + b (A row-major 3 x 3), exact in the basis. */
+void pf_dg_affine_coefficients(const pf_dg *dg, const double a[9], const double b[3], double *u);
+
+/* The displacement of element e at point x. */
+pf_vec3 pf_dg_eval(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x);
+
+/* Displacement gradient of element e at its frame centre (the linear part), row-major 3 x 3:
+ * g[3 i + j] = d u_i / d x_j. */
+void pf_dg_gradient(const pf_dg *dg, const double *u, int32_t e, double g[9]);
+
+/* Stitched nodal displacements (eq. 30), out [3 n_nodes]. */
+void pf_dg_stitch(const pf_dg *dg, const double *u, double *out);
+
+/* Which faces carry which terms. face_fixed[f] (mesh face index; NULL: none) >= 0 marks a
+ * boundary face with weak Dirichlet to the affine displacement g(x) = A x + b given by
+ * fixed_disp[12 face_fixed[f] ..]: A row-major (9), then b (3). */
+typedef struct pf_dg_terms {
+    bool ip;             /* interior penalty (consistency + symmetry + penalty) or BZ (penalty) */
+    double eta;          /* global penalty factor, > 0 */
+    const int32_t *face_fixed;  /* [n mesh faces] index into fixed_disp, or -1 */
+    const double *fixed_disp;   /* [12 k] prescribed affine displacements */
+} pf_dg_terms;
+
+/* The block pattern: one block per element, coupled across interior faces. */
+pf_status pf_dg_pattern(const pf_dg *dg, pf_block_matrix *k, pf_error *err);
+
+/* Assembles the stiffness into k (zeroed first; k from pf_dg_pattern) and adds its constant
+ * right-hand side terms to f [n_dofs] (prescribed displacements; with rotations, the warping
+ * terms R K (I - R^T) X0 of sec. 6.3). rot [9 n_elems] row-major element rotations, or NULL for
+ * linear elasticity. x0 = pf_dg_rest_coefficients (needed with rotations only). */
+void pf_dg_assemble_stiffness(const pf_dg *dg, const pf_dg_terms *terms, const double *rot,
+                              const double *x0, pf_block_matrix *k, double *f);
+
+/* Adds alpha times the mass matrix to k. */
+void pf_dg_add_mass(const pf_dg *dg, double alpha, pf_block_matrix *k);
+
+/* y += alpha M x. */
+void pf_dg_mass_mul(const pf_dg *dg, double alpha, const double *x, double *y);
+
+/* Adds the body force (force per unit volume b, constant) and the traction t on mesh face
+ * `face` (force per area) to f. */
+void pf_dg_add_body_force(const pf_dg *dg, pf_vec3 b, double *f);
+void pf_dg_add_traction(const pf_dg *dg, int32_t face, pf_vec3 t, double *f);
+
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -2,6 +2,8 @@
  * stamp) and a reader for any PNG into 8-bit RGBA. */
 #include <pf/io.h>
 
+#include "atomic_file.h"
+
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
@@ -77,39 +79,15 @@ pf_status pf_png_write(const char *path, const uint8_t *pixels, int32_t width, i
                  (channels == 3 || channels == 4),
              err, PF_ERR_INVALID, "%s: cannot write a %dx%d image with %d channels as PNG", path,
              (int)width, (int)height, (int)channels);
-    size_t n = strlen(path);
-    char *part = pf_alloc(n + 6);
-    PF_CHECK(part, err, PF_ERR_NOMEM, "%s: out of memory", path);
-    memcpy(part, path, n);
-    memcpy(part + n, ".part", 6);
-    FILE *f = fopen(part, "wb");
-    if (!f) {
-        pf_status s = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot create: %s",
-                                   part, strerror(errno));
-        pf_free(part);
-        return s;
-    }
+    pf_atomic_file out;
+    PF_TRY(pf_atomic_file_open(&out, path, err));
     char why[WHY_MAX] = "";
-    bool ok = write_png(f, pixels, width, height, channels, why);
-    if (ok && (ferror(f) || fflush(f) != 0)) {
-        ok = false;
-        snprintf(why, sizeof why, "%s", strerror(errno));
+    if (!write_png(out.f, pixels, width, height, channels, why)) {
+        pf_atomic_file_abort(&out);
+        return pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot write PNG: %s", path,
+                            why);
     }
-    if (fclose(f) != 0 && ok) {
-        ok = false;
-        snprintf(why, sizeof why, "%s", strerror(errno));
-    }
-    if (ok && rename(part, path) != 0) {
-        ok = false;
-        snprintf(why, sizeof why, "cannot rename %s: %s", part, strerror(errno));
-    }
-    pf_status s = PF_OK;
-    if (!ok) {
-        remove(part);
-        s = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot write PNG: %s", path, why);
-    }
-    pf_free(part);
-    return s;
+    return pf_atomic_file_commit(&out, "PNG", err);
 }
 
 pf_status pf_png_read(const char *path, pf_image *img, pf_error *err)

@@ -210,43 +210,57 @@ pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, p
 /* True when path names a volume mesh by its extension (.msh, .node, .ele, case-insensitive). */
 bool pf_import_is_volume_path(const char *path);
 
-/* A Gmsh .msh file, format 2.2 or 4.1, ASCII: the tetrahedra (type 4) and hexahedra (type 5) of
- * every entity become elements; lower-dimensional elements are skipped; nodes no element uses are
- * dropped. PF_ERR_FORMAT "file:line: reason" on a malformed file (a node index out of range, a
- * count larger than the file, NaN coordinates, ...), PF_ERR_UNSUPPORTED on binary files and other
- * versions, PF_ERR_IO when it cannot be read. m zeroed or released first. */
+/* A Gmsh .msh file, format 2.x or 4.1, ASCII: the tetrahedra (type 4) and hexahedra (type 5) of
+ * every entity become elements, second-order ones (types 11, 12, 17) by their corners;
+ * lower-dimensional elements are skipped; nodes no element uses are dropped, the others keep the
+ * file's order. Node tags may be sparse and in any order. PF_ERR_FORMAT "file:line: reason" on a
+ * malformed file (a node index out of range, a count larger than the file, NaN coordinates,
+ * truncated or unterminated sections, an empty file, ...), PF_ERR_UNSUPPORTED "file:line: ..." on
+ * binary files, other versions and other 3D elements (prisms, pyramids), PF_ERR_INVALID when the
+ * file holds no tetrahedron or hexahedron, PF_ERR_IO when it cannot be read. m is overwritten
+ * (zeroed or released first by the caller). */
 pf_status pf_import_msh(const char *path, pf_mesh *m, pf_error *err);
 
 /* A TetGen mesh: stem.node + stem.ele (path is either file or the stem); 4- or 10-node tets (the
- * first four corners are used), indices from 0 or 1 as the .node file's first index says. Same
- * statuses as pf_import_msh. */
+ * first four corners are used), indices from 0 or 1 as the .node file's first index says; points
+ * numbered consecutively; '#' comments. Same statuses as pf_import_msh, each message naming the
+ * .node or .ele file and the line. */
 pf_status pf_import_tetgen(const char *path, pf_mesh *m, pf_error *err);
 
-/* A volume mesh by extension (.msh, or .node/.ele or a stem with both files beside it). */
+/* A volume mesh by extension (.msh, or .node/.ele or a stem with both files beside it).
+ * PF_ERR_UNSUPPORTED for any other path; otherwise the statuses of the reader it calls. */
 pf_status pf_import_volume(const char *path, pf_mesh *m, pf_error *err);
 
 /* A triangle surface from any format assimp reads (OBJ, PLY, STL, glTF, DAE, FBX, ...): all meshes
  * of the scene, in world coordinates (node transforms applied), polygons triangulated, identical
  * vertex positions joined (so a surface whose file splits vertices by normal or UV is still closed),
- * degenerate triangles dropped. s->id = 1. PF_ERR_FORMAT with assimp's reason when it cannot read
- * the file or the file holds no triangles; PF_ERR_FORMAT for non-finite coordinates. */
+ * degenerate triangles dropped, and so are vertices no triangle uses. s->id = 1. PF_ERR_IO when
+ * the file cannot be opened; PF_ERR_FORMAT with assimp's reason when assimp cannot read it or it
+ * holds no triangles; PF_ERR_FORMAT for non-finite coordinates. Prints nothing. s is zeroed
+ * after a failure. */
 pf_status pf_import_surface(const char *path, pf_surface *s, pf_error *err);
 
 /* A mesh (and optionally one frame) as a VTK unstructured grid (.vtu, XML, ASCII data): every
  * element a VTK_POLYHEDRON cell (tets as VTK_TETRA and hexes as VTK_HEXAHEDRON where the face
  * structure allows it); points at rest; point data "displacement" when u is given ([3 n_nodes]);
  * cell data "kind" (0 tet, 1 hex, 2 polyhedron) and "volume", plus "stress" (von Mises, or 6
- * components xx yy zz xy yz zx) when stress is given. Numbers printed with %.17g: round-trips. */
+ * components xx yy zz xy yz zx) when stress is given. Numbers printed with %.17g: round-trips.
+ * Polyhedron faces are written outward. Statuses: PF_ERR_INVALID (naming path and entity) for an
+ * index out of range, a non-finite position, displacement or stress, or a stress whose element
+ * count or components (1 or 6) do not fit; PF_ERR_IO "path: ...: reason" (no .part left);
+ * PF_ERR_NOMEM. */
 pf_status pf_export_vtu(const char *path, const pf_mesh *m, const double *u,
                         const pf_stress_data *stress, pf_error *err);
 
-/* A ParaView .pvd collection naming n files (relative to the .pvd's directory) with their times. */
+/* A ParaView .pvd collection naming n files (relative to the .pvd's directory, XML-escaped) with
+ * their times. PF_ERR_INVALID for a missing name or a non-finite time; PF_ERR_IO as above. */
 pf_status pf_export_pvd(const char *path, const char *const *files, const double *times, int32_t n,
                         pf_error *err);
 
 /* A triangle surface at positions x [3 n_verts] (NULL: s->x) as Wavefront OBJ (v / f lines,
  * 1-based, %.17g) or binary little-endian PLY (float32 positions, uint32 indices) for
- * Blender/Houdini sequences. */
+ * Blender/Houdini sequences. PF_ERR_INVALID for an index out of range or a non-finite position
+ * (for PLY also one beyond float32's range); PF_ERR_IO as above. */
 pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err);
 pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, pf_error *err);
 

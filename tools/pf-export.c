@@ -1,0 +1,575 @@
+/* pf-export: a pf stream -> ParaView (.vtu series + .pvd) or Blender/Houdini (OBJ/PLY sequences). */
+#define _POSIX_C_SOURCE 200809L /* mkdir, isatty, fileno */
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+#include <pf/io.h>
+
+#include "cli.h"
+
+static const char USAGE[] =
+    "Usage: pf-export (--vtu DIR | --obj DIR | --ply DIR) [--frames A:B] [--quiet] [FILE | -]\n"
+    "\n"
+    "Exports the frames (FRAM chunks) of a pf stream (default: stdin) as they arrive.\n"
+    "  --vtu DIR     DIR/mesh_NNNNN.vtu per frame, NNNNN being the frame's index: the latest MESH\n"
+    "                at rest with point data 'displacement' and cell data 'kind' (0 tet, 1 hex,\n"
+    "                2 polyhedron), 'volume' and, when a STRS chunk for the frame follows it,\n"
+    "                'stress'; and DIR/mesh.pvd listing the files with their times (open it in\n"
+    "                ParaView, apply Warp By Vector to see the motion)\n"
+    "  --obj DIR     DIR/frame_NNNNN.obj per frame: the displaced surface (doubles, exact)\n"
+    "  --ply DIR     DIR/frame_NNNNN.ply: the same as binary PLY (float32, compact)\n"
+    "                The surface is the SURF chunk moved by its WGHT embedding when the stream\n"
+    "                has both, else the boundary of the MESH (its referenced nodes only) moved by\n"
+    "                the frame's displacements.\n"
+    "  --frames A:B  only frames with index A..B inclusive ('A:' from A on, ':B' up to B, 'A'\n"
+    "                just A)\n"
+    "  --quiet       no progress and no summary on stderr\n"
+    "  --help, --version\n"
+    "\n"
+    "DIR is created if missing. A stream without frames gives one file of the rest state, index\n"
+    "00000. Each file is written to a temporary name and renamed. A damaged or truncated stream:\n"
+    "the frames before the damage are written (and listed in mesh.pvd), then the error; exit 1.\n"
+    "Exit 2 on bad usage.\n";
+
+enum { OPT_VTU = 1, OPT_OBJ, OPT_PLY, OPT_FRAMES, OPT_QUIET };
+
+typedef enum format { FORMAT_NONE, FORMAT_VTU, FORMAT_OBJ, FORMAT_PLY } format;
+
+typedef struct options {
+    format format;
+    const char *dir, *input;
+    int64_t first, last; /* frame range, inclusive */
+    bool quiet;
+} options;
+
+/* ---- options --------------------------------------------------------------------------------- */
+
+/* A frame index: decimal digits, at most UINT32_MAX. */
+static bool parse_index(const char *s, size_t n, int64_t *v)
+{
+    if (n == 0 || n > 10)
+        return false;
+    int64_t x = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (s[i] < '0' || s[i] > '9')
+            return false;
+        x = 10 * x + (s[i] - '0');
+    }
+    *v = x;
+    return x <= (int64_t)UINT32_MAX;
+}
+
+static void parse_frames(const pf_cli *cli, const char *text, options *o)
+{
+    const char *colon = strchr(text, ':');
+    size_t len = strlen(text);
+    bool ok;
+    o->first = 0;
+    o->last = (int64_t)UINT32_MAX;
+    if (!colon) {
+        ok = parse_index(text, len, &o->first);
+        o->last = o->first;
+    } else {
+        size_t a = (size_t)(colon - text), b = len - a - 1;
+        ok = len > 1 && (a == 0 || parse_index(text, a, &o->first)) &&
+             (b == 0 || parse_index(colon + 1, b, &o->last));
+    }
+    if (!ok || o->first > o->last)
+        pf_cli_usage_error(cli, "--frames expects A:B, A:, :B or A with 0 <= A <= B, got '%s'",
+                           text);
+}
+
+static void set_format(const pf_cli *cli, options *o, format f, const char *dir)
+{
+    if (o->format != FORMAT_NONE)
+        pf_cli_usage_error(cli, "one of --vtu, --obj and --ply only");
+    if (!dir[0])
+        pf_cli_usage_error(cli, "the output directory is empty");
+    o->format = f;
+    o->dir = dir;
+}
+
+static void parse_options(pf_cli *cli, options *o)
+{
+    static const pf_cli_option OPTIONS[] = {
+        {"vtu", true, OPT_VTU},       {"obj", true, OPT_OBJ},      {"ply", true, OPT_PLY},
+        {"frames", true, OPT_FRAMES}, {"quiet", false, OPT_QUIET}, {NULL, false, 0}};
+    *o = (options){.first = 0, .last = (int64_t)UINT32_MAX};
+    const char *value;
+    for (int id; (id = pf_cli_next(cli, OPTIONS, &value)) != PF_CLI_END;) {
+        switch (id) {
+        case OPT_VTU: set_format(cli, o, FORMAT_VTU, value); break;
+        case OPT_OBJ: set_format(cli, o, FORMAT_OBJ, value); break;
+        case OPT_PLY: set_format(cli, o, FORMAT_PLY, value); break;
+        case OPT_FRAMES: parse_frames(cli, value, o); break;
+        case OPT_QUIET: o->quiet = true; break;
+        default:
+            if (o->input)
+                pf_cli_usage_error(cli, "one input only (got '%s' and '%s')", o->input, value);
+            o->input = value;
+        }
+    }
+    if (o->format == FORMAT_NONE)
+        pf_cli_usage_error(cli, "say what to write: --vtu DIR, --obj DIR or --ply DIR");
+    if ((!o->input || strcmp(o->input, "-") == 0) && isatty(STDIN_FILENO))
+        pf_cli_usage_error(cli, "refusing to read a binary pf stream from a terminal; give a FILE "
+                                "or pipe a stream in");
+}
+
+/* ---- the exporter's state -------------------------------------------------------------------- */
+
+typedef struct exporter {
+    const options *o;
+    const pf_cli *cli;
+    const char *name; /* the input, for messages */
+    pf_mesh mesh;     /* the latest MESH */
+    bool have_mesh;
+    /* OBJ/PLY: the embedded surface and its weights, or the mesh boundary as a surface */
+    pf_surface surface;
+    bool have_surface;
+    pf_weights weights;
+    bool have_weights;
+    double *surface_x; /* [3 surface.n_verts] displaced */
+    pf_surface boundary;
+    int32_t *boundary_node; /* [boundary.n_verts] the mesh node of each boundary vertex */
+    double *boundary_x;     /* [3 boundary.n_verts] displaced */
+    bool have_boundary;     /* of the latest MESH */
+    /* VTU: a frame waiting for the STRS chunk that may follow it */
+    pf_frame_data pending;
+    bool have_pending;
+    pf_stress_data stress;
+    bool have_stress; /* for the pending frame */
+    /* VTU: the series so far, for mesh.pvd */
+    uint32_t *series_index;
+    double *series_time;
+    int64_t n_series, cap_series;
+    char *path; /* scratch for file names */
+    int64_t written;
+    bool progress;
+} exporter;
+
+static void exporter_release(exporter *x)
+{
+    pf_mesh_release(&x->mesh);
+    pf_surface_release(&x->surface);
+    pf_weights_release(&x->weights);
+    pf_surface_release(&x->boundary);
+    pf_free(x->surface_x);
+    pf_free(x->boundary_node);
+    pf_free(x->boundary_x);
+    pf_frame_data_release(&x->pending);
+    pf_stress_data_release(&x->stress);
+    pf_free(x->series_index);
+    pf_free(x->series_time);
+    pf_free(x->path);
+}
+
+/* Chunk-level errors name the chunk and offset; the input's name goes in front. */
+static pf_status named(const exporter *x, pf_status s, pf_error *err)
+{
+    if (s < 0)
+        pf_error_prefix(err, "%s", x->name);
+    return s;
+}
+
+static bool in_range(const options *o, uint32_t index)
+{
+    return (int64_t)index >= o->first && (int64_t)index <= o->last;
+}
+
+static void report(exporter *x, uint32_t index)
+{
+    ++x->written;
+    if (x->progress)
+        fprintf(stderr, "\r%s: frame %u, %lld files written", x->cli->tool, (unsigned)index,
+                (long long)x->written);
+}
+
+/* ---- VTU ------------------------------------------------------------------------------------- */
+
+static pf_status add_to_series(exporter *x, uint32_t index, double time, pf_error *err)
+{
+    /* a repeated index rewrote its file: one entry, the latest time */
+    for (int64_t i = x->n_series - 1; i >= 0; --i)
+        if (x->series_index[i] == index) {
+            x->series_time[i] = time;
+            return PF_OK;
+        }
+    if (x->n_series == x->cap_series) {
+        int64_t cap = x->cap_series ? 2 * x->cap_series : 64;
+        uint32_t *idx = pf_realloc_array(x->series_index, (size_t)cap, sizeof *idx);
+        if (idx)
+            x->series_index = idx;
+        double *t = pf_realloc_array(x->series_time, (size_t)cap, sizeof *t);
+        if (t)
+            x->series_time = t;
+        PF_CHECK(idx && t, err, PF_ERR_NOMEM, "out of memory for the list of frames");
+        x->cap_series = cap;
+    }
+    x->series_index[x->n_series] = index;
+    x->series_time[x->n_series++] = time;
+    return PF_OK;
+}
+
+static pf_status write_vtu(exporter *x, uint32_t index, double time, const double *u,
+                           const pf_stress_data *stress, pf_error *err)
+{
+    sprintf(x->path, "%s/mesh_%05u.vtu", x->o->dir, (unsigned)index);
+    PF_TRY(pf_export_vtu(x->path, &x->mesh, u, stress, err));
+    PF_TRY(add_to_series(x, index, time, err));
+    report(x, index);
+    return PF_OK;
+}
+
+static pf_status flush_pending(exporter *x, pf_error *err)
+{
+    if (!x->have_pending)
+        return PF_OK;
+    x->have_pending = false;
+    pf_status s = write_vtu(x, x->pending.index, x->pending.time, x->pending.u,
+                            x->have_stress ? &x->stress : NULL, err);
+    pf_frame_data_release(&x->pending);
+    pf_stress_data_release(&x->stress);
+    x->have_stress = false;
+    return s;
+}
+
+static pf_status write_pvd(exporter *x, pf_error *err)
+{
+    if (x->n_series == 0)
+        return PF_OK;
+    char **files = pf_alloc_array((size_t)x->n_series, sizeof *files);
+    char *names = pf_alloc_array((size_t)x->n_series, 32);
+    pf_status s = PF_OK;
+    if (!files || !names) {
+        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for mesh.pvd");
+    } else {
+        for (int64_t i = 0; i < x->n_series; ++i) {
+            files[i] = names + 32 * i;
+            sprintf(files[i], "mesh_%05u.vtu", (unsigned)x->series_index[i]);
+        }
+        sprintf(x->path, "%s/mesh.pvd", x->o->dir);
+        s = pf_export_pvd(x->path, (const char *const *)files, x->series_time,
+                          (int32_t)x->n_series, err);
+    }
+    pf_free(files);
+    pf_free(names);
+    return s;
+}
+
+/* ---- OBJ / PLY ------------------------------------------------------------------------------- */
+
+/* The mesh boundary as a triangle surface over the nodes it references (no loose vertices in
+ * Blender), computed once per MESH. */
+static pf_status ensure_boundary(exporter *x, pf_error *err)
+{
+    if (x->have_boundary)
+        return PF_OK;
+    pf_surface_release(&x->boundary);
+    PF_FREE(x->boundary_node);
+    PF_FREE(x->boundary_x);
+    pf_boundary b = {0};
+    PF_TRY(named(x, pf_boundary_extract(&x->mesh, &b, err), err));
+    int32_t n_tris = (int32_t)b.tri_offsets[b.n_faces];
+    int32_t *vert = pf_alloc_array((size_t)x->mesh.n_nodes + 1, sizeof *vert);
+    pf_status s = PF_OK;
+    if (!vert) {
+        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+        goto done;
+    }
+    int32_t n_verts = 0;
+    for (int32_t i = 0; i < x->mesh.n_nodes; ++i)
+        vert[i] = -1;
+    for (int64_t k = 0; k < 3 * (int64_t)n_tris; ++k)
+        if (vert[b.tri[k]] < 0)
+            vert[b.tri[k]] = n_verts++;
+    s = pf_surface_alloc(&x->boundary, n_verts, n_tris, err);
+    if (s != PF_OK)
+        goto done;
+    x->boundary.id = x->mesh.id;
+    x->boundary_node = pf_alloc_array((size_t)n_verts + 1, sizeof *x->boundary_node);
+    x->boundary_x = pf_alloc_array(3 * (size_t)n_verts + 1, sizeof *x->boundary_x);
+    if (!x->boundary_node || !x->boundary_x) {
+        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+        goto done;
+    }
+    for (int32_t i = 0; i < x->mesh.n_nodes; ++i)
+        if (vert[i] >= 0) {
+            x->boundary_node[vert[i]] = i;
+            memcpy(x->boundary.x + 3 * (size_t)vert[i], x->mesh.x + 3 * (size_t)i,
+                   3 * sizeof(double));
+        }
+    for (int64_t k = 0; k < 3 * (int64_t)n_tris; ++k)
+        x->boundary.tri[k] = (uint32_t)vert[b.tri[k]];
+    x->have_boundary = true;
+done:
+    pf_free(vert);
+    pf_boundary_release(&b);
+    return s;
+}
+
+/* The surface of a frame (u NULL: at rest) and its positions. */
+static pf_status frame_surface(exporter *x, const double *u, const pf_surface **s,
+                               const double **pos, pf_error *err)
+{
+    if (x->have_surface && (x->have_weights || !u || !x->have_mesh)) {
+        *s = &x->surface;
+        *pos = x->surface.x;
+        if (u && x->have_weights) {
+            pf_weights_apply(&x->weights, x->surface.x, u, x->surface_x);
+            *pos = x->surface_x;
+        }
+        return PF_OK;
+    }
+    PF_TRY(ensure_boundary(x, err));
+    *s = &x->boundary;
+    *pos = x->boundary.x;
+    if (u) {
+        for (int32_t v = 0; v < x->boundary.n_verts; ++v)
+            for (int c = 0; c < 3; ++c)
+                x->boundary_x[3 * v + c] =
+                    x->boundary.x[3 * v + c] + u[3 * (size_t)x->boundary_node[v] + c];
+        *pos = x->boundary_x;
+    }
+    return PF_OK;
+}
+
+static pf_status write_surface(exporter *x, uint32_t index, const double *u, pf_error *err)
+{
+    const pf_surface *s;
+    const double *pos;
+    PF_TRY(frame_surface(x, u, &s, &pos, err));
+    bool obj = x->o->format == FORMAT_OBJ;
+    sprintf(x->path, "%s/frame_%05u.%s", x->o->dir, (unsigned)index, obj ? "obj" : "ply");
+    PF_TRY(obj ? pf_export_obj(x->path, s, pos, err) : pf_export_ply(x->path, s, pos, err));
+    report(x, index);
+    return PF_OK;
+}
+
+/* ---- chunks ---------------------------------------------------------------------------------- */
+
+static pf_status take_mesh(exporter *x, const pf_chunk *c, pf_error *err)
+{
+    PF_TRY(flush_pending(x, err));
+    pf_mesh_release(&x->mesh);
+    x->have_mesh = x->have_boundary = x->have_weights = false; /* they refer to the old mesh */
+    PF_TRY(named(x, pf_stream_decode_mesh(c, &x->mesh, err), err));
+    x->have_mesh = true;
+    return PF_OK;
+}
+
+static pf_status take_surface(exporter *x, const pf_chunk *c, pf_error *err)
+{
+    pf_surface_release(&x->surface);
+    PF_FREE(x->surface_x);
+    x->have_surface = x->have_weights = false;
+    PF_TRY(named(x, pf_stream_decode_surface(c, &x->surface, err), err));
+    x->surface_x = pf_alloc_array(3 * (size_t)x->surface.n_verts + 1, sizeof *x->surface_x);
+    PF_CHECK(x->surface_x, err, PF_ERR_NOMEM, "out of memory for a surface of %d vertices",
+             (int)x->surface.n_verts);
+    x->have_surface = true;
+    return PF_OK;
+}
+
+static pf_status take_weights(exporter *x, const pf_chunk *c, pf_error *err)
+{
+    pf_weights_release(&x->weights);
+    x->have_weights = false;
+    PF_TRY(named(x, pf_stream_decode_weights(c, &x->weights, err), err));
+    const pf_weights *w = &x->weights;
+    PF_CHECK(x->have_surface && w->surface_id == x->surface.id &&
+                 w->rows == x->surface.n_verts,
+             err, PF_ERR_FORMAT,
+             "%s: chunk WGHT at byte %llu: weights for surface %llu with %d vertices, but the "
+             "latest SURF is %s",
+             x->name, (unsigned long long)c->offset, (unsigned long long)w->surface_id,
+             (int)w->rows, x->have_surface ? "another" : "missing");
+    PF_CHECK(x->have_mesh && w->mesh_id == x->mesh.id && w->cols == x->mesh.n_nodes, err,
+             PF_ERR_FORMAT,
+             "%s: chunk WGHT at byte %llu: weights for mesh %llu with %d nodes, but the latest "
+             "MESH is %s",
+             x->name, (unsigned long long)c->offset, (unsigned long long)w->mesh_id,
+             (int)w->cols, x->have_mesh ? "another" : "missing");
+    x->have_weights = true;
+    return PF_OK;
+}
+
+static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
+{
+    PF_TRY(flush_pending(x, err));
+    pf_frame_data f = {0};
+    PF_TRY(named(x, pf_stream_decode_frame(c, &f, err), err));
+    pf_status s = PF_OK;
+    if (!x->have_mesh || f.mesh_id != x->mesh.id || f.n_nodes != x->mesh.n_nodes)
+        s = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,
+                         "%s: chunk FRAM at byte %llu: frame %u is for mesh %llu with %d nodes, "
+                         "but the latest MESH is %s",
+                         x->name, (unsigned long long)c->offset, (unsigned)f.index,
+                         (unsigned long long)f.mesh_id, (int)f.n_nodes,
+                         x->have_mesh ? "another" : "missing");
+    else if (!in_range(x->o, f.index))
+        s = PF_OK;
+    else if (x->o->format == FORMAT_VTU) {
+        x->pending = f; /* its STRS may follow */
+        x->have_pending = true;
+        return PF_OK;
+    } else
+        s = write_surface(x, f.index, f.u, err);
+    pf_frame_data_release(&f);
+    return s;
+}
+
+/* A STRS chunk belongs to the FRAM before it with the same index; others are skipped. */
+static pf_status take_stress(exporter *x, const pf_chunk *c, pf_error *err)
+{
+    pf_stress_data st = {0};
+    PF_TRY(named(x, pf_stream_decode_stress(c, &st, err), err));
+    pf_status s = PF_OK;
+    if (!x->have_mesh || st.mesh_id != x->mesh.id || st.n_elems != x->mesh.n_elems) {
+        s = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,
+                         "%s: chunk STRS at byte %llu: stress of mesh %llu with %d elements, but "
+                         "the latest MESH is %s",
+                         x->name, (unsigned long long)c->offset, (unsigned long long)st.mesh_id,
+                         (int)st.n_elems, x->have_mesh ? "another" : "missing");
+    } else if (x->have_pending && st.frame == x->pending.index) {
+        pf_stress_data_release(&x->stress);
+        x->stress = st;
+        x->have_stress = true;
+        return flush_pending(x, err);
+    }
+    pf_stress_data_release(&st);
+    return s;
+}
+
+static pf_status take_chunk(exporter *x, const pf_chunk *c, pf_error *err)
+{
+    bool vtu = x->o->format == FORMAT_VTU;
+    if (strcmp(c->tag, "MESH") == 0)
+        return take_mesh(x, c, err);
+    if (strcmp(c->tag, "FRAM") == 0)
+        return take_frame(x, c, err);
+    if (strcmp(c->tag, "STRS") == 0)
+        return vtu ? take_stress(x, c, err) : PF_OK;
+    if (strcmp(c->tag, "SURF") == 0)
+        return vtu ? PF_OK : take_surface(x, c, err);
+    if (strcmp(c->tag, "WGHT") == 0)
+        return vtu ? PF_OK : take_weights(x, c, err);
+    if (strcmp(c->tag, "END_") == 0)
+        return flush_pending(x, err);
+    return PF_OK; /* INFO, SCEN and unknown chunks */
+}
+
+/* A stream without frames: the rest state as index 0. */
+static pf_status write_rest(exporter *x, pf_error *err)
+{
+    if (x->o->format == FORMAT_VTU) {
+        PF_CHECK(x->have_mesh, err, PF_ERR_FORMAT, "%s: nothing to export: no MESH chunk",
+                 x->name);
+        return write_vtu(x, 0, 0.0, NULL, NULL, err);
+    }
+    PF_CHECK(x->have_mesh || x->have_surface, err, PF_ERR_FORMAT,
+             "%s: nothing to export: no MESH and no SURF chunk", x->name);
+    return write_surface(x, 0, NULL, err);
+}
+
+static pf_status export_stream(exporter *x, FILE *f, pf_error *err)
+{
+    pf_stream_reader *r = NULL;
+    PF_TRY(pf_stream_reader_create(&r, f, x->name, err));
+    pf_status s;
+    for (;;) {
+        pf_chunk c;
+        bool end = false;
+        s = pf_stream_read_chunk(r, &c, &end, err);
+        if (s != PF_OK || end)
+            break;
+        s = take_chunk(x, &c, err);
+        if (s != PF_OK)
+            break;
+    }
+    uint64_t chunks = 0, frames = 0;
+    pf_stream_reader_counts(r, &chunks, &frames);
+    pf_stream_reader_destroy(&r);
+    /* the frames read before an error are written all the same, and listed */
+    pf_error later = {0};
+    pf_status fs = flush_pending(x, s == PF_OK ? err : &later);
+    if (s == PF_OK)
+        s = fs;
+    if (s == PF_OK && frames == 0 && in_range(x->o, 0))
+        s = write_rest(x, err);
+    if (x->o->format == FORMAT_VTU) {
+        pf_status ps = write_pvd(x, s == PF_OK ? err : &later);
+        if (s == PF_OK)
+            s = ps;
+    }
+    return s;
+}
+
+/* ---- main ------------------------------------------------------------------------------------ */
+
+/* mkdir -p: every missing directory along dir. */
+static pf_status make_dirs(const char *dir, pf_error *err)
+{
+    size_t n = strlen(dir);
+    char *p = pf_alloc(n + 1);
+    PF_CHECK(p, err, PF_ERR_NOMEM, "out of memory");
+    memcpy(p, dir, n + 1);
+    pf_status s = PF_OK;
+    for (size_t i = 1; i <= n && s == PF_OK; ++i) {
+        if (p[i] != '/' && p[i] != '\0')
+            continue;
+        char saved = p[i];
+        p[i] = '\0';
+        if (mkdir(p, 0777) != 0 && errno != EEXIST)
+            s = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot create directory: %s",
+                             p, strerror(errno));
+        p[i] = saved;
+    }
+    pf_free(p);
+    PF_TRY(s);
+    struct stat st;
+    PF_CHECK(stat(dir, &st) == 0 && S_ISDIR(st.st_mode), err, PF_ERR_IO, "%s: not a directory",
+             dir);
+    return PF_OK;
+}
+
+static void summary(const exporter *x)
+{
+    static const char *const WHAT[] = {"", "VTU", "OBJ", "PLY"};
+    fprintf(stderr, "%s: %lld %s file%s written to %s%s\n", x->cli->tool, (long long)x->written,
+            WHAT[x->o->format], x->written == 1 ? "" : "s", x->o->dir,
+            x->o->format == FORMAT_VTU && x->n_series ? ", listed in mesh.pvd" : "");
+}
+
+int main(int argc, char **argv)
+{
+    pf_cli cli;
+    pf_cli_init(&cli, "pf-export", USAGE, argc, argv);
+    options o;
+    parse_options(&cli, &o);
+    pf_error err = {0};
+    FILE *in = NULL;
+    const char *name = NULL;
+    if (pf_cli_open_input(o.input, &in, &name, &err) != PF_OK)
+        pf_cli_fail(&cli, &err);
+    exporter x = {.o = &o, .cli = &cli, .name = name, .progress = pf_cli_show_progress(o.quiet)};
+    pf_status s = make_dirs(o.dir, &err);
+    if (s == PF_OK) {
+        x.path = pf_alloc(strlen(o.dir) + 32);
+        s = x.path ? export_stream(&x, in, &err)
+                   : pf_error_set(&err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+    }
+    if (x.progress && x.written)
+        fputc('\n', stderr);
+    if (!o.quiet && x.path)
+        summary(&x);
+    exporter_release(&x);
+    pf_cli_close_input(in);
+    if (s != PF_OK)
+        pf_cli_fail(&cli, &err);
+    return PF_EXIT_OK;
+}

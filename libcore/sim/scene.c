@@ -1,0 +1,806 @@
+/* Scenes: defaults, the JSON reader (docs/scene.md is the reference of every key), command-line
+ * overrides, completion against a mesh's bounding box, and region tests. The JSON syntax is
+ * checked in scene_json.c; cJSON builds the tree read here.
+ *
+ * The reader is strict on purpose: an unknown key, a duplicate key, a wrong type or a value out
+ * of range is an error naming the key's full path, so that a typo in a scene never silently
+ * leaves a default in place. The same range rules serve the file and the overrides. */
+#include <pf/sim.h>
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "scene_json.h"
+
+/* ---- defaults -------------------------------------------------------------------------------- */
+
+void pf_scene_default(pf_scene *s)
+{
+    *s = (pf_scene){
+        .E = 1e5,
+        .nu = 0.3,
+        .density = 1000,
+        .method = PF_METHOD_DG,
+        .degree = 1,
+        .flux = PF_FLUX_IP,
+        .penalty = 0,
+        .corotation = true,
+        .gravity = {0, 0, -9.81},
+        .body_force = {0, 0, 0},
+        .damping_alpha = 0,
+        .damping_beta = 0.01,
+        .ground = true,
+        .ground_given = false,
+        .ground_auto = true,
+        .ground_normal = {0, 0, 1},
+        .ground_stiffness = 0,
+        .is_static = false,
+        .dt = 1.0 / 30.0,
+        .frames = 60,
+        .substeps = 10,
+    };
+}
+
+void pf_scene_release(pf_scene *s)
+{
+    if (!s)
+        return;
+    pf_free(s->fixed);
+    pf_free(s->loads);
+    pf_free(s->json);
+    memset(s, 0, sizeof *s);
+}
+
+/* A static scene has no ground unless the file asks for one; override of "static" re-applies
+ * this rule, hence ground_given. */
+static void apply_static_ground_rule(pf_scene *s)
+{
+    if (!s->ground_given)
+        s->ground = !s->is_static;
+}
+
+/* ---- value ranges, shared by the file reader and the overrides ------------------------------- */
+
+typedef enum range {
+    RANGE_FINITE,     /* any finite number */
+    RANGE_POSITIVE,   /* > 0 */
+    RANGE_NONNEG,     /* >= 0 */
+    RANGE_POISSON,    /* (-1, 0.5): the bulk and shear moduli are then positive */
+    RANGE_DEGREE,     /* integer 1 or 2 */
+    RANGE_INT_NONNEG, /* integer >= 0 (fits int32) */
+    RANGE_INT_POS,    /* integer >= 1 (fits int32) */
+} range;
+
+static bool range_is_integer(range r)
+{
+    return r == RANGE_DEGREE || r == RANGE_INT_NONNEG || r == RANGE_INT_POS;
+}
+
+static bool in_range(range r, double v)
+{
+    if (!isfinite(v))
+        return false;
+    if (range_is_integer(r) && (v != floor(v) || v > INT32_MAX))
+        return false;
+    switch (r) {
+    case RANGE_FINITE: return true;
+    case RANGE_POSITIVE: return v > 0;
+    case RANGE_NONNEG: return v >= 0;
+    case RANGE_POISSON: return v > -1 && v < 0.5;
+    case RANGE_DEGREE: return v == 1 || v == 2;
+    case RANGE_INT_NONNEG: return v >= 0;
+    case RANGE_INT_POS: return v >= 1;
+    }
+    return false;
+}
+
+static const char *range_text(range r)
+{
+    switch (r) {
+    case RANGE_FINITE: return "must be finite";
+    case RANGE_POSITIVE: return "must be > 0";
+    case RANGE_NONNEG: return "must be >= 0";
+    case RANGE_POISSON: return "must be in (-1, 0.5)";
+    case RANGE_DEGREE: return "must be 1 or 2";
+    case RANGE_INT_NONNEG: return "must be an integer >= 0";
+    case RANGE_INT_POS: return "must be an integer >= 1";
+    }
+    return "out of range";
+}
+
+/* The shortest of %.15g / %.17g that reads back as v: "0.5", not "0.50000000000000000". */
+static void format_number(double v, char buf[32])
+{
+    snprintf(buf, 32, "%.15g", v);
+    if (strtod(buf, NULL) != v)
+        snprintf(buf, 32, "%.17g", v);
+}
+
+/* ---- the JSON reader ------------------------------------------------------------------------- */
+
+enum { PATH_MAX_CHARS = 256 };
+
+/* Where the reader is: the file name and the key path ("fixed[1].plane.normal") for messages. */
+typedef struct reader {
+    const char *name;
+    pf_error *err;
+    char path[PATH_MAX_CHARS];
+    size_t len;
+    bool corotation_seen; /* given at the top level or in method: only one of them */
+} reader;
+
+/* After snprintf wrote n characters at path[len]: the new length, clamped to the truncation. */
+static void advance(reader *r, int n)
+{
+    if (n > 0)
+        r->len = r->len + (size_t)n < sizeof r->path ? r->len + (size_t)n : sizeof r->path - 1;
+}
+
+static size_t push_key(reader *r, const char *key)
+{
+    size_t mark = r->len;
+    advance(r, snprintf(r->path + r->len, sizeof r->path - r->len, "%s%s", r->len ? "." : "",
+                        key));
+    return mark;
+}
+
+static size_t push_index(reader *r, int i)
+{
+    size_t mark = r->len;
+    advance(r, snprintf(r->path + r->len, sizeof r->path - r->len, "[%d]", i));
+    return mark;
+}
+
+static void pop(reader *r, size_t mark)
+{
+    r->len = mark;
+    r->path[mark] = '\0';
+}
+
+/* "name: path: reason" as PF_ERR_INVALID. */
+#if defined(__GNUC__)
+__attribute__((format(printf, 2, 3)))
+#endif
+static pf_status fail(reader *r, const char *fmt, ...)
+{
+    char reason[PF_ERROR_MSG_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(reason, sizeof reason, fmt, ap);
+    va_end(ap);
+    return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: %s: %s", r->name,
+                        r->len ? r->path : "top level", reason);
+}
+
+/* A short description of a JSON value for "got ..." in messages. */
+static void describe(const cJSON *v, char buf[64])
+{
+    if (cJSON_IsNumber(v))
+        format_number(v->valuedouble, buf);
+    else if (cJSON_IsString(v))
+        snprintf(buf, 64, "string \"%.40s\"", v->valuestring);
+    else if (cJSON_IsTrue(v))
+        snprintf(buf, 64, "true");
+    else if (cJSON_IsFalse(v))
+        snprintf(buf, 64, "false");
+    else if (cJSON_IsNull(v))
+        snprintf(buf, 64, "null");
+    else if (cJSON_IsArray(v))
+        snprintf(buf, 64, "an array of %d", cJSON_GetArraySize(v));
+    else if (cJSON_IsObject(v))
+        snprintf(buf, 64, "an object");
+    else
+        snprintf(buf, 64, "an invalid value");
+}
+
+static pf_status fail_type(reader *r, const cJSON *v, const char *expected)
+{
+    char got[64];
+    describe(v, got);
+    return fail(r, "must be %s, got %s", expected, got);
+}
+
+/* Checks that v is an object whose keys are all in keys[] (NULL-terminated) and unique. */
+static pf_status begin_object(reader *r, const cJSON *v, const char *const *keys)
+{
+    if (!cJSON_IsObject(v))
+        return fail_type(r, v, "an object");
+    for (const cJSON *it = v->child; it; it = it->next) {
+        bool known = false;
+        for (const char *const *k = keys; *k && !known; ++k)
+            known = strcmp(*k, it->string) == 0;
+        if (!known) {
+            char expected[PF_ERROR_MSG_MAX / 2] = "";
+            size_t used = 0;
+            for (const char *const *k = keys; *k && used < sizeof expected; ++k) {
+                int n = snprintf(expected + used, sizeof expected - used, "%s%s",
+                                 k == keys ? "" : ", ", *k);
+                used += n > 0 ? (size_t)n : 0;
+            }
+            push_key(r, it->string);
+            return fail(r, "unknown key (expected one of: %s)", expected);
+        }
+        for (const cJSON *prev = v->child; prev != it; prev = prev->next)
+            if (strcmp(prev->string, it->string) == 0) {
+                push_key(r, it->string);
+                return fail(r, "duplicate key");
+            }
+    }
+    return PF_OK;
+}
+
+static pf_status read_number(reader *r, const cJSON *v, range rg, double *out)
+{
+    if (!cJSON_IsNumber(v))
+        return fail_type(r, v, range_is_integer(rg) ? "an integer" : "a number");
+    /* cJSON turns a literal beyond the double range (1e999) into an infinity. */
+    if (!isfinite(v->valuedouble))
+        return fail(r, "must be finite (the number overflows a double)");
+    if (!in_range(rg, v->valuedouble)) {
+        char got[32];
+        format_number(v->valuedouble, got);
+        return fail(r, "%s, got %s", range_text(rg), got);
+    }
+    *out = v->valuedouble;
+    return PF_OK;
+}
+
+static pf_status read_int(reader *r, const cJSON *v, range rg, int32_t *out)
+{
+    double d = 0;
+    PF_TRY(read_number(r, v, rg, &d));
+    *out = (int32_t)d;
+    return PF_OK;
+}
+
+static pf_status read_bool(reader *r, const cJSON *v, bool *out)
+{
+    if (!cJSON_IsBool(v))
+        return fail_type(r, v, "true or false");
+    *out = cJSON_IsTrue(v);
+    return PF_OK;
+}
+
+static pf_status read_vec3(reader *r, const cJSON *v, pf_vec3 *out)
+{
+    if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
+        return fail_type(r, v, "an array of 3 numbers");
+    double c[3];
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+        size_t mark = push_index(r, i);
+        PF_TRY(read_number(r, it, RANGE_FINITE, &c[i]));
+        pop(r, mark);
+    }
+    *out = pf_v3_load(c);
+    return PF_OK;
+}
+
+/* A direction: non-zero, returned as a unit vector. */
+static pf_status read_normal(reader *r, const cJSON *v, pf_vec3 *out)
+{
+    pf_vec3 n;
+    PF_TRY(read_vec3(r, v, &n));
+    pf_plane pl = pf_plane_from_point_normal(pf_v3(0, 0, 0), n);
+    if (pf_v3_max_abs(pl.n) == 0)
+        return fail(r, "must be a non-zero vector");
+    *out = pl.n;
+    return PF_OK;
+}
+
+/* Reads the key of object item v with the given reader function, path pushed around it. */
+#define READ_KEY(r, it, call)                                                                      \
+    do {                                                                                           \
+        size_t mark_ = push_key((r), (it)->string);                                                \
+        PF_TRY(call);                                                                              \
+        pop((r), mark_);                                                                           \
+    } while (0)
+
+static pf_status read_material(reader *r, const cJSON *v, pf_scene *s)
+{
+    static const char *const keys[] = {"E", "nu", "density", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "E"))
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &s->E));
+        else if (!strcmp(it->string, "nu"))
+            READ_KEY(r, it, read_number(r, it, RANGE_POISSON, &s->nu));
+        else
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &s->density));
+    }
+    return PF_OK;
+}
+
+static bool parse_method_name(const char *text, pf_method *out)
+{
+    if (!strcmp(text, "dg"))
+        *out = PF_METHOD_DG;
+    else if (!strcmp(text, "cg"))
+        *out = PF_METHOD_CG;
+    else
+        return false;
+    return true;
+}
+
+static bool parse_flux_name(const char *text, pf_flux *out)
+{
+    if (!strcmp(text, "ip"))
+        *out = PF_FLUX_IP;
+    else if (!strcmp(text, "bz"))
+        *out = PF_FLUX_BZ;
+    else
+        return false;
+    return true;
+}
+
+static pf_status read_method_name(reader *r, const cJSON *v, pf_method *out)
+{
+    if (!cJSON_IsString(v) || !parse_method_name(v->valuestring, out))
+        return fail_type(r, v, "\"dg\" or \"cg\"");
+    return PF_OK;
+}
+
+static pf_status read_flux(reader *r, const cJSON *v, pf_flux *out)
+{
+    if (!cJSON_IsString(v) || !parse_flux_name(v->valuestring, out))
+        return fail_type(r, v, "\"ip\" or \"bz\"");
+    return PF_OK;
+}
+
+static pf_status read_corotation(reader *r, const cJSON *v, pf_scene *s)
+{
+    if (r->corotation_seen)
+        return fail(r, "corotation is given both at the top level and in method: give it once");
+    r->corotation_seen = true;
+    return read_bool(r, v, &s->corotation);
+}
+
+static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
+{
+    if (cJSON_IsString(v))
+        return read_method_name(r, v, &s->method);
+    if (!cJSON_IsObject(v))
+        return fail_type(r, v, "\"dg\", \"cg\" or an object");
+    static const char *const keys[] = {"name", "degree", "flux", "penalty", "corotation", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "name"))
+            READ_KEY(r, it, read_method_name(r, it, &s->method));
+        else if (!strcmp(it->string, "degree"))
+            READ_KEY(r, it, read_int(r, it, RANGE_DEGREE, &s->degree));
+        else if (!strcmp(it->string, "flux"))
+            READ_KEY(r, it, read_flux(r, it, &s->flux));
+        else if (!strcmp(it->string, "penalty"))
+            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->penalty));
+        else
+            READ_KEY(r, it, read_corotation(r, it, s));
+    }
+    return PF_OK;
+}
+
+static pf_status read_damping(reader *r, const cJSON *v, pf_scene *s)
+{
+    static const char *const keys[] = {"alpha", "beta", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "alpha"))
+            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->damping_alpha));
+        else
+            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->damping_beta));
+    }
+    return PF_OK;
+}
+
+static pf_status read_time(reader *r, const cJSON *v, pf_scene *s)
+{
+    static const char *const keys[] = {"dt", "frames", "substeps", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "dt"))
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &s->dt));
+        else if (!strcmp(it->string, "frames"))
+            READ_KEY(r, it, read_int(r, it, RANGE_INT_NONNEG, &s->frames));
+        else
+            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &s->substeps));
+    }
+    return PF_OK;
+}
+
+/* [[xlo, ylo, zlo], [xhi, yhi, zhi]] with lo <= hi componentwise. */
+static pf_status read_box(reader *r, const cJSON *v, pf_region *out)
+{
+    if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 2)
+        return fail_type(r, v, "[[xlo, ylo, zlo], [xhi, yhi, zhi]]");
+    size_t mark = push_index(r, 0);
+    PF_TRY(read_vec3(r, v->child, &out->lo));
+    pop(r, mark);
+    push_index(r, 1);
+    PF_TRY(read_vec3(r, v->child->next, &out->hi));
+    pop(r, mark);
+    for (int i = 0; i < 3; ++i) {
+        double lo = pf_v3_get(out->lo, i), hi = pf_v3_get(out->hi, i);
+        if (lo > hi) {
+            char a[32], b[32];
+            format_number(lo, a);
+            format_number(hi, b);
+            return fail(r, "lower corner above upper corner along %c (%s > %s)", "xyz"[i], a, b);
+        }
+    }
+    out->kind = PF_REGION_BOX;
+    return PF_OK;
+}
+
+/* {"point": [...], "normal": [...], "tol": t}: point and normal required, tol -1 when absent. */
+static pf_status read_plane(reader *r, const cJSON *v, pf_region *out)
+{
+    static const char *const keys[] = {"point", "normal", "tol", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    pf_vec3 point = {0, 0, 0}, normal = {0, 0, 0};
+    bool has_point = false, has_normal = false;
+    out->tol = -1;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "point")) {
+            READ_KEY(r, it, read_vec3(r, it, &point));
+            has_point = true;
+        } else if (!strcmp(it->string, "normal")) {
+            READ_KEY(r, it, read_normal(r, it, &normal));
+            has_normal = true;
+        } else {
+            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &out->tol));
+        }
+    }
+    if (!has_point || !has_normal)
+        return fail(r, "missing key \"%s\"", has_point ? "normal" : "point");
+    out->kind = PF_REGION_PLANE;
+    out->plane = pf_plane_from_point_normal(point, normal);
+    return PF_OK;
+}
+
+/* One entry of "fixed" or "loads": exactly one of box / plane, plus the entry's vector key
+ * (displacement, optional; traction, required). */
+static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector_key,
+                                   bool vector_required, pf_region *region, pf_vec3 *vector)
+{
+    const char *const keys[] = {"box", "plane", vector_key, NULL};
+    PF_TRY(begin_object(r, v, keys));
+    int n_regions = 0;
+    bool has_vector = false;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "box")) {
+            READ_KEY(r, it, read_box(r, it, region));
+            ++n_regions;
+        } else if (!strcmp(it->string, "plane")) {
+            READ_KEY(r, it, read_plane(r, it, region));
+            ++n_regions;
+        } else {
+            READ_KEY(r, it, read_vec3(r, it, vector));
+            has_vector = true;
+        }
+    }
+    if (n_regions != 1)
+        return fail(r, n_regions ? "give one region, \"box\" or \"plane\", not both"
+                                 : "missing region: give \"box\" or \"plane\"");
+    if (vector_required && !has_vector)
+        return fail(r, "missing key \"%s\"", vector_key);
+    return PF_OK;
+}
+
+static pf_status read_fixed(reader *r, const cJSON *v, pf_scene *s)
+{
+    if (!cJSON_IsArray(v))
+        return fail_type(r, v, "an array");
+    int n = cJSON_GetArraySize(v);
+    pf_free(s->fixed);
+    s->n_fixed = 0;
+    s->fixed = pf_calloc((size_t)n, sizeof *s->fixed);
+    PF_CHECK(s->fixed || n == 0, r->err, PF_ERR_NOMEM, "%s: fixed: out of memory", r->name);
+    s->n_fixed = n;
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+        size_t mark = push_index(r, i);
+        PF_TRY(read_region_entry(r, it, "displacement", false, &s->fixed[i].region,
+                                 &s->fixed[i].displacement));
+        pop(r, mark);
+    }
+    return PF_OK;
+}
+
+static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
+{
+    if (!cJSON_IsArray(v))
+        return fail_type(r, v, "an array");
+    int n = cJSON_GetArraySize(v);
+    pf_free(s->loads);
+    s->n_loads = 0;
+    s->loads = pf_calloc((size_t)n, sizeof *s->loads);
+    PF_CHECK(s->loads || n == 0, r->err, PF_ERR_NOMEM, "%s: loads: out of memory", r->name);
+    s->n_loads = n;
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+        size_t mark = push_index(r, i);
+        PF_TRY(read_region_entry(r, it, "traction", true, &s->loads[i].region,
+                                 &s->loads[i].traction));
+        pop(r, mark);
+    }
+    return PF_OK;
+}
+
+static pf_status read_ground(reader *r, const cJSON *v, pf_scene *s)
+{
+    s->ground_given = true;
+    if (cJSON_IsBool(v)) {
+        s->ground = cJSON_IsTrue(v);
+        s->ground_auto = true;
+        return PF_OK;
+    }
+    if (!cJSON_IsObject(v))
+        return fail_type(r, v, "true, false or an object");
+    static const char *const keys[] = {"point", "normal", "stiffness", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    s->ground = true;
+    s->ground_auto = true;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "point")) {
+            READ_KEY(r, it, read_vec3(r, it, &s->ground_point));
+            s->ground_auto = false;
+        } else if (!strcmp(it->string, "normal")) {
+            READ_KEY(r, it, read_normal(r, it, &s->ground_normal));
+        } else {
+            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->ground_stiffness));
+        }
+    }
+    return PF_OK;
+}
+
+static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
+{
+    if (!cJSON_IsObject(root)) {
+        char got[64];
+        describe(root, got);
+        return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__,
+                            "%s: the scene must be a JSON object, got %s", r->name, got);
+    }
+    static const char *const keys[] = {"material", "method", "corotation", "gravity",
+                                       "body_force", "damping", "fixed", "loads",
+                                       "ground", "time", "static", NULL};
+    PF_TRY(begin_object(r, root, keys));
+    for (const cJSON *it = root->child; it; it = it->next) {
+        const char *k = it->string;
+        if (!strcmp(k, "material"))
+            READ_KEY(r, it, read_material(r, it, s));
+        else if (!strcmp(k, "method"))
+            READ_KEY(r, it, read_method(r, it, s));
+        else if (!strcmp(k, "corotation"))
+            READ_KEY(r, it, read_corotation(r, it, s));
+        else if (!strcmp(k, "gravity"))
+            READ_KEY(r, it, read_vec3(r, it, &s->gravity));
+        else if (!strcmp(k, "body_force"))
+            READ_KEY(r, it, read_vec3(r, it, &s->body_force));
+        else if (!strcmp(k, "damping"))
+            READ_KEY(r, it, read_damping(r, it, s));
+        else if (!strcmp(k, "fixed"))
+            READ_KEY(r, it, read_fixed(r, it, s));
+        else if (!strcmp(k, "loads"))
+            READ_KEY(r, it, read_loads(r, it, s));
+        else if (!strcmp(k, "ground"))
+            READ_KEY(r, it, read_ground(r, it, s));
+        else if (!strcmp(k, "time"))
+            READ_KEY(r, it, read_time(r, it, s));
+        else
+            READ_KEY(r, it, read_bool(r, it, &s->is_static));
+    }
+    apply_static_ground_rule(s);
+    return PF_OK;
+}
+
+/* ---- parse and load -------------------------------------------------------------------------- */
+
+pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *name,
+                         pf_error *err)
+{
+    memset(s, 0, sizeof *s);
+    pf_scene_default(s);
+    if (!name)
+        name = "scene";
+    PF_CHECK(text || len == 0, err, PF_ERR_INVALID, "%s: no text", name);
+    PF_CHECK(len < SIZE_MAX, err, PF_ERR_TOO_LARGE, "%s: text too large", name);
+    s->json = pf_alloc(len + 1);
+    PF_CHECK(s->json, err, PF_ERR_NOMEM, "%s: out of memory copying %zu bytes", name, len);
+    if (len)
+        memcpy(s->json, text, len);
+    s->json[len] = '\0';
+
+    size_t start = 0;
+    PF_TRY(pf_scene_json_check(s->json, len, name, &start, err));
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithOpts(s->json + start, &end, 1);
+    if (!root) {
+        /* The check accepted the text, so cJSON ran out of memory (or disagrees on the grammar:
+         * then its stopping point is the best position there is). */
+        bool inside = end && end >= s->json && end <= s->json + len;
+        size_t pos = inside ? (size_t)(end - s->json) : start;
+        return pf_scene_json_error_at(s->json, len, pos, name, NULL, err);
+    }
+    reader r = {.name = name, .err = err};
+    pf_status st = read_scene(&r, root, s);
+    cJSON_Delete(root);
+    return st;
+}
+
+enum { SCENE_MAX_BYTES = 64 << 20 };
+
+pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err)
+{
+    memset(s, 0, sizeof *s);
+    pf_scene_default(s);
+    PF_CHECK(path, err, PF_ERR_INVALID, "scene: no file name");
+    FILE *f = fopen(path, "rb");
+    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    /* Read to the end in growing chunks: works for pipes and process substitution too. */
+    pf_buffer buf = {0};
+    pf_status st = PF_OK;
+    char chunk[8192];
+    size_t n;
+    while (st == PF_OK && (n = fread(chunk, 1, sizeof chunk, f)) > 0) {
+        st = pf_buffer_append(&buf, chunk, n, err);
+        if (st == PF_OK && buf.size > SCENE_MAX_BYTES)
+            st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
+                              "%s: larger than %d bytes: not a scene file", path,
+                              SCENE_MAX_BYTES);
+    }
+    if (st == PF_OK && ferror(f))
+        st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: read failed: %s", path,
+                          strerror(errno));
+    fclose(f);
+    if (st == PF_OK)
+        st = pf_scene_parse(s, (const char *)buf.data, buf.size, path, err);
+    else if (st == PF_ERR_NOMEM)
+        pf_error_prefix(err, "%s", path);
+    pf_buffer_release(&buf);
+    return st;
+}
+
+/* ---- overrides ------------------------------------------------------------------------------- */
+
+#if defined(__GNUC__)
+__attribute__((format(printf, 4, 5)))
+#endif
+static pf_status override_fail(pf_error *err, const char *key, const char *value,
+                               const char *fmt, ...)
+{
+    char reason[PF_ERROR_MSG_MAX];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(reason, sizeof reason, fmt, ap);
+    va_end(ap);
+    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: %s, got '%.64s'", key,
+                        reason, value ? value : "");
+}
+
+/* The whole of value as a number in range rg (strtod: decimal or hexadecimal floating point). */
+static pf_status override_number(const char *key, const char *value, range rg, double *out,
+                                 pf_error *err)
+{
+    const char *what = range_is_integer(rg) ? "an integer" : "a number";
+    if (!value || !*value || strchr(" \t\r\n\f\v", value[0]))
+        return override_fail(err, key, value, "must be %s", what);
+    /* Overflow gives an infinity and underflow a tiny or zero value: in_range judges both. */
+    char *end = NULL;
+    double v = strtod(value, &end);
+    if (*end != '\0')
+        return override_fail(err, key, value, "must be %s", what);
+    if (!in_range(rg, v))
+        return override_fail(err, key, value, "%s", range_text(rg));
+    *out = v;
+    return PF_OK;
+}
+
+/* The whole of value as a decimal integer in range rg (strtol, no fractional part). */
+static pf_status override_int(const char *key, const char *value, range rg, int32_t *out,
+                              pf_error *err)
+{
+    if (!value || !*value || strchr(" \t\r\n\f\v", value[0]))
+        return override_fail(err, key, value, "must be an integer");
+    char *end = NULL;
+    errno = 0;
+    long v = strtol(value, &end, 10);
+    if (*end != '\0')
+        return override_fail(err, key, value, "must be an integer");
+    if (errno == ERANGE || v < INT32_MIN || v > INT32_MAX || !in_range(rg, (double)v))
+        return override_fail(err, key, value, "%s", range_text(rg));
+    *out = (int32_t)v;
+    return PF_OK;
+}
+
+/* true / false; NULL or empty means true (a bare --static). */
+static pf_status override_bool(const char *key, const char *value, bool *out, pf_error *err)
+{
+    if (!value || !*value || !strcmp(value, "true"))
+        *out = true;
+    else if (!strcmp(value, "false"))
+        *out = false;
+    else
+        return override_fail(err, key, value, "must be true or false");
+    return PF_OK;
+}
+
+pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_error *err)
+{
+    PF_CHECK(key, err, PF_ERR_INVALID, "override without a key");
+    if (!strcmp(key, "method")) {
+        if (!value || !parse_method_name(value, &s->method))
+            return override_fail(err, key, value, "must be dg or cg");
+        return PF_OK;
+    }
+    if (!strcmp(key, "flux")) {
+        if (!value || !parse_flux_name(value, &s->flux))
+            return override_fail(err, key, value, "must be ip or bz");
+        return PF_OK;
+    }
+    if (!strcmp(key, "degree"))
+        return override_int(key, value, RANGE_DEGREE, &s->degree, err);
+    if (!strcmp(key, "frames"))
+        return override_int(key, value, RANGE_INT_NONNEG, &s->frames, err);
+    if (!strcmp(key, "substeps"))
+        return override_int(key, value, RANGE_INT_POS, &s->substeps, err);
+    if (!strcmp(key, "dt"))
+        return override_number(key, value, RANGE_POSITIVE, &s->dt, err);
+    if (!strcmp(key, "E"))
+        return override_number(key, value, RANGE_POSITIVE, &s->E, err);
+    if (!strcmp(key, "nu"))
+        return override_number(key, value, RANGE_POISSON, &s->nu, err);
+    if (!strcmp(key, "density"))
+        return override_number(key, value, RANGE_POSITIVE, &s->density, err);
+    if (!strcmp(key, "penalty"))
+        return override_number(key, value, RANGE_NONNEG, &s->penalty, err);
+    if (!strcmp(key, "corotation"))
+        return override_bool(key, value, &s->corotation, err);
+    if (!strcmp(key, "static")) {
+        PF_TRY(override_bool(key, value, &s->is_static, err));
+        apply_static_ground_rule(s);
+        return PF_OK;
+    }
+    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                        "%.64s: unknown scene option (expected one of: method, degree, flux, "
+                        "frames, dt, static, E, nu, density, penalty, substeps, corotation)",
+                        key);
+}
+
+/* ---- completion against a mesh, regions ------------------------------------------------------ */
+
+void pf_scene_resolve(pf_scene *s, pf_vec3 lo, pf_vec3 hi)
+{
+    if (s->ground_auto) {
+        /* The bounding box's extent along the normal from its 8 corners; the plane sits 5 % of
+         * that extent below the lowest corner, so the body starts just above the ground. */
+        pf_vec3 n = s->ground_normal;
+        double smin = INFINITY, smax = -INFINITY;
+        for (int c = 0; c < 8; ++c) {
+            pf_vec3 corner = pf_v3(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
+            double d = pf_v3_dot(n, corner);
+            smin = fmin(smin, d);
+            smax = fmax(smax, d);
+        }
+        s->ground_point = pf_v3_scale(n, smin - 0.05 * (smax - smin));
+    }
+    double tol = 1e-6 * pf_v3_dist(lo, hi);
+    for (int32_t i = 0; i < s->n_fixed; ++i)
+        if (s->fixed[i].region.kind == PF_REGION_PLANE && s->fixed[i].region.tol < 0)
+            s->fixed[i].region.tol = tol;
+    for (int32_t i = 0; i < s->n_loads; ++i)
+        if (s->loads[i].region.kind == PF_REGION_PLANE && s->loads[i].region.tol < 0)
+            s->loads[i].region.tol = tol;
+}
+
+bool pf_region_contains(const pf_region *r, pf_vec3 p)
+{
+    if (r->kind == PF_REGION_BOX)
+        return p.x >= r->lo.x && p.x <= r->hi.x && p.y >= r->lo.y && p.y <= r->hi.y &&
+               p.z >= r->lo.z && p.z <= r->hi.z;
+    return fabs(pf_plane_signed_distance(r->plane, p)) <= r->tol;
+}

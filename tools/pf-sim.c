@@ -1,0 +1,259 @@
+/* pf-sim: the simulator. A stream with a MESH in, the same stream out with SCEN, one FRAM (and
+ * STRS) per frame, flushed as each frame is made. */
+#include <stdlib.h>
+#include <string.h>
+
+#include <pf/io.h>
+#include <pf/sim.h>
+
+#include "cli.h"
+
+static const char USAGE[] =
+    "Usage: pf-sim [SCENE.json] [options] < mesh.pfs > out.pfs\n"
+    "\n"
+    "Simulates the stream's MESH as the scene says (docs/scene.md) and writes the stream on:\n"
+    "every input chunk except earlier frames, then SCEN, and one FRAM (stitched nodal\n"
+    "displacements) and STRS (von Mises stress per element) per frame. Without a scene file,\n"
+    "the defaults drop the body under gravity onto a ground plane below it.\n"
+    "\n"
+    "Overrides of scene keys:\n"
+    "  --method dg|cg     discretisation (cg: harmonic basis, not available yet)\n"
+    "  --degree 1|2       DG polynomial degree\n"
+    "  --flux ip|bz       DG flux: interior penalty or Babuska-Zlamal\n"
+    "  --penalty ETA      DG penalty factor (default: doubled from 1 until K is definite)\n"
+    "  --E VALUE --nu VALUE --density VALUE   material\n"
+    "  --frames N --dt SECONDS --substeps N     time (dt is the time between frames)\n"
+    "  --static           solve K u = f once and write one frame\n"
+    "  --no-corotation    linear elasticity (corotation is on by default)\n"
+    "Other options:\n"
+    "  --input FILE       read the stream from FILE instead of stdin\n"
+    "  --quiet            no progress or summary on stderr\n"
+    "  --help, --version\n"
+    "\n"
+    "Exit 0 ok; 1 bad input or a simulation that diverged (the frames before it are written and\n"
+    "the stream is closed properly); 2 bad usage.\n";
+
+enum {
+    OPT_METHOD = 1, OPT_DEGREE, OPT_FLUX, OPT_PENALTY, OPT_E, OPT_NU, OPT_DENSITY, OPT_FRAMES,
+    OPT_DT, OPT_SUBSTEPS, OPT_STATIC, OPT_NO_COROTATION, OPT_INPUT, OPT_QUIET
+};
+
+typedef struct run {
+    pf_cli cli;
+    pf_scene scene;
+    const char *scene_path;
+    const char *input_path;
+    bool quiet;
+    pf_mesh mesh;
+    bool have_mesh;
+    pf_stream_writer *out;
+    pf_error err;
+} run;
+
+/* Scene keys by option id, for pf_scene_override. */
+static const char *override_key(int id)
+{
+    switch (id) {
+    case OPT_METHOD: return "method";
+    case OPT_DEGREE: return "degree";
+    case OPT_FLUX: return "flux";
+    case OPT_PENALTY: return "penalty";
+    case OPT_E: return "E";
+    case OPT_NU: return "nu";
+    case OPT_DENSITY: return "density";
+    case OPT_FRAMES: return "frames";
+    case OPT_DT: return "dt";
+    case OPT_SUBSTEPS: return "substeps";
+    case OPT_STATIC: return "static";
+    case OPT_NO_COROTATION: return "corotation";
+    default: return NULL;
+    }
+}
+
+static void parse_arguments(run *r, int argc, char **argv)
+{
+    static const pf_cli_option options[] = {
+        {"method", true, OPT_METHOD},   {"degree", true, OPT_DEGREE},
+        {"flux", true, OPT_FLUX},       {"penalty", true, OPT_PENALTY},
+        {"E", true, OPT_E},             {"nu", true, OPT_NU},
+        {"density", true, OPT_DENSITY}, {"frames", true, OPT_FRAMES},
+        {"dt", true, OPT_DT},           {"substeps", true, OPT_SUBSTEPS},
+        {"static", false, OPT_STATIC},  {"no-corotation", false, OPT_NO_COROTATION},
+        {"input", true, OPT_INPUT},     {"quiet", false, OPT_QUIET},
+        {NULL, false, 0}};
+    pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
+    /* Overrides apply after the scene file, wherever they stand: collect them first. */
+    int ids[64];
+    const char *values[64];
+    int n = 0;
+    const char *value;
+    for (int id; (id = pf_cli_next(&r->cli, options, &value)) != PF_CLI_END;) {
+        if (id == PF_CLI_POSITIONAL) {
+            if (r->scene_path)
+                pf_cli_usage_error(&r->cli, "one scene file only (got '%s' and '%s')",
+                                   r->scene_path, value);
+            r->scene_path = value;
+        } else if (id == OPT_INPUT) {
+            r->input_path = value;
+        } else if (id == OPT_QUIET) {
+            r->quiet = true;
+        } else if (n < 64) {
+            ids[n] = id;
+            values[n++] = id == OPT_STATIC ? "true" : id == OPT_NO_COROTATION ? "false" : value;
+        } else {
+            pf_cli_usage_error(&r->cli, "too many options");
+        }
+    }
+    pf_error err = {0};
+    if (r->scene_path) {
+        if (pf_scene_load(&r->scene, r->scene_path, &err) < 0)
+            pf_cli_fail(&r->cli, &err);
+    } else {
+        pf_scene_default(&r->scene);
+    }
+    for (int k = 0; k < n; ++k)
+        if (pf_scene_override(&r->scene, override_key(ids[k]), values[k], &err) < 0)
+            pf_cli_usage_error(&r->cli, "%s", err.msg);
+}
+
+/* Passes every input chunk on except the ones this run replaces (scene, frames, stress, END_),
+ * keeping the last MESH. */
+static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
+{
+    for (;;) {
+        pf_chunk c;
+        bool end = false;
+        PF_TRY(pf_stream_read_chunk(in, &c, &end, err));
+        if (end)
+            return PF_OK;
+        if (!strcmp(c.tag, "END_"))
+            continue;
+        if (!strcmp(c.tag, "FRAM") || !strcmp(c.tag, "STRS") || !strcmp(c.tag, "SCEN"))
+            continue;
+        if (!strcmp(c.tag, "MESH")) {
+            pf_mesh_release(&r->mesh);
+            PF_TRY(pf_stream_decode_mesh(&c, &r->mesh, err));
+            r->have_mesh = true;
+        }
+        PF_TRY(pf_stream_write_raw(r->out, &c, err));
+    }
+}
+
+static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error *err)
+{
+    pf_frame_data f = {0};
+    pf_stress_data s = {0};
+    pf_status st = pf_frame_data_alloc(&f, r->mesh.n_nodes, err);
+    if (st >= 0)
+        st = pf_stress_data_alloc(&s, r->mesh.n_elems, 1, err);
+    if (st >= 0) {
+        f.mesh_id = s.mesh_id = r->mesh.id;
+        f.index = s.frame = (uint32_t)index;
+        f.time = pf_sim_time(sim);
+        pf_sim_nodal_displacements(sim, f.u);
+        pf_sim_von_mises(sim, s.values);
+        st = pf_stream_write_frame(r->out, &f, err);
+    }
+    if (st >= 0)
+        st = pf_stream_write_stress(r->out, &s, err);
+    pf_frame_data_release(&f);
+    pf_stress_data_release(&s);
+    return st;
+}
+
+static void print_summary(const run *r, const pf_sim *sim)
+{
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    fprintf(stderr,
+            "pf-sim: %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; setup "
+            "%.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s\n",
+            (int)r->mesh.n_elems, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
+            (long long)st->steps, st->setup_seconds, st->assemble_seconds, st->factor_seconds,
+            (long long)st->factorisations, st->solve_seconds);
+}
+
+/* The frames: one for a static scene, the rest state and scene->frames more otherwise. */
+static pf_status simulate(run *r, pf_error *err)
+{
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(&r->mesh, &lo, &hi);
+    pf_scene_resolve(&r->scene, lo, hi);
+    pf_sim *sim = NULL;
+    PF_TRY(pf_sim_create(&sim, &r->scene, &r->mesh, err));
+    bool progress = pf_cli_show_progress(r->quiet);
+    pf_status st = PF_OK;
+    if (r->scene.is_static) {
+        st = pf_sim_solve_static(sim, err);
+        if (st >= 0)
+            st = write_frame(r, sim, 0, err);
+    } else {
+        st = write_frame(r, sim, 0, err);
+        for (int32_t k = 1; st >= 0 && k <= r->scene.frames; ++k) {
+            st = pf_sim_frame(sim, err);
+            if (st >= 0)
+                st = write_frame(r, sim, k, err);
+            if (progress)
+                fprintf(stderr, "\rpf-sim: frame %d / %d", (int)k, (int)r->scene.frames);
+        }
+        if (progress)
+            fputc('\n', stderr);
+    }
+    if (!r->quiet)
+        print_summary(r, sim);
+    pf_sim_destroy(&sim);
+    return st;
+}
+
+static pf_status prepare_mesh(run *r, const char *input_name, pf_error *err)
+{
+    PF_CHECK(r->have_mesh, err, PF_ERR_FORMAT, "%s: no MESH chunk to simulate", input_name);
+    pf_status st = pf_mesh_validate(&r->mesh, NULL, err);
+    if (st >= 0)
+        st = pf_mesh_derive(&r->mesh, err);
+    if (st < 0)
+        pf_error_prefix(err, "%s: MESH", input_name);
+    return st;
+}
+
+int main(int argc, char **argv)
+{
+    run r;
+    memset(&r, 0, sizeof r);
+    parse_arguments(&r, argc, argv);
+    pf_error *err = &r.err;
+    FILE *in_file = NULL;
+    const char *in_name = NULL;
+    if (pf_cli_open_input(r.input_path, &in_file, &in_name, err) < 0)
+        pf_cli_fail(&r.cli, err);
+    FILE *out = pf_cli_binary_stdout(&r.cli);
+    pf_stream_reader *in = NULL;
+    char *command = pf_cli_command_line(&r.cli);
+    pf_status st = pf_stream_reader_create(&in, in_file, in_name, err);
+    if (st >= 0)
+        st = pf_stream_writer_create(&r.out, out, "stdout", err);
+    if (st >= 0)
+        st = copy_input(&r, in, err);
+    if (st >= 0)
+        st = prepare_mesh(&r, in_name, err);
+    if (st >= 0)
+        st = pf_stream_write_info(r.out, "pf-sim", PF_VERSION_STRING, command ? command : "", err);
+    if (st >= 0 && r.scene.json)
+        st = pf_stream_write_scene(r.out, r.scene.json, strlen(r.scene.json), err);
+    if (st >= 0)
+        st = simulate(&r, err);
+    /* Close the stream even after a failed frame: the frames written stay readable. */
+    pf_error finish_err = {0};
+    if (r.out && pf_stream_writer_finish(r.out, &finish_err) < 0 && st >= 0) {
+        *err = finish_err;
+        st = finish_err.status;
+    }
+    pf_stream_writer_destroy(&r.out);
+    pf_stream_reader_destroy(&in);
+    pf_cli_close_input(in_file);
+    pf_free(command);
+    pf_mesh_release(&r.mesh);
+    pf_scene_release(&r.scene);
+    if (st < 0)
+        pf_cli_fail(&r.cli, err);
+    return PF_EXIT_OK;
+}

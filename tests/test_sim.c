@@ -267,6 +267,44 @@ static void dropped_box_rests_on_ground(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* The scene written back (SCEN) parses into the same scene: every field, overrides included. */
+static void scene_round_trips_through_json(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    static const char text[] =
+        "{\"material\": {\"E\": 1.5e5, \"nu\": 0.49, \"density\": 3},"
+        " \"method\": {\"name\": \"dg\", \"degree\": 2, \"flux\": \"bz\", \"penalty\": 7},"
+        " \"fixed\": [{\"plane\": {\"point\": [0, 0, 1], \"normal\": [0, 0, 2]},"
+        " \"displacement\": [0.1, 0, 0]}],"
+        " \"loads\": [{\"box\": [[0, 0, 0], [1, 1, 0.1]], \"traction\": [0, 0, -3]}],"
+        " \"ground\": {\"point\": [0, 0, -0.1], \"stiffness\": 1e6},"
+        " \"time\": {\"dt\": 0.1, \"frames\": 3, \"substeps\": 4}}";
+    pf_scene a, b;
+    pf_error err = {0};
+    assert_int_equal(pf_scene_parse(&a, text, sizeof text - 1, "a.json", &err), PF_OK);
+    assert_int_equal(pf_scene_override(&a, "nu", "0.25", &err), PF_OK);
+    char *json = NULL;
+    assert_int_equal(pf_scene_to_json(&a, &json, &err), PF_OK);
+    assert_int_equal(pf_scene_parse(&b, json, strlen(json), "SCEN", &err), PF_OK);
+    assert_true(a.E == b.E && b.nu == 0.25 && a.density == b.density);
+    assert_true(a.method == b.method && a.degree == b.degree && a.flux == b.flux);
+    assert_true(a.penalty == b.penalty && a.corotation == b.corotation);
+    assert_int_equal(b.n_fixed, 1);
+    assert_true(b.fixed[0].region.kind == PF_REGION_PLANE);
+    assert_true(b.fixed[0].region.plane.d == a.fixed[0].region.plane.d);
+    assert_true(b.fixed[0].displacement.x == 0.1);
+    assert_int_equal(b.n_loads, 1);
+    assert_true(b.loads[0].region.hi.z == 0.1 && b.loads[0].traction.z == -3);
+    assert_true(b.ground && !b.ground_auto && b.ground_point.z == -0.1);
+    assert_true(b.ground_stiffness == 1e6);
+    assert_true(b.dt == 0.1 && b.frames == 3 && b.substeps == 4 && !b.is_static);
+    pf_free(json);
+    pf_scene_release(&a);
+    pf_scene_release(&b);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 static void bad_scenes_are_refused(void **state)
 {
     (void)state;
@@ -295,6 +333,7 @@ int main(void)
         cmocka_unit_test(spinning_body_keeps_momentum),
         cmocka_unit_test(cantilever_converges),
         cmocka_unit_test(dropped_box_rests_on_ground),
+        cmocka_unit_test(scene_round_trips_through_json),
         cmocka_unit_test(bad_scenes_are_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <pf/io.h>
+#include <pf/sim.h>
 #include <pf/render.h>
 
 #include "cli.h"
@@ -289,6 +290,8 @@ typedef struct scene {
     pf_stress_data stress; /* the latest STRS */
     bool have_stress;
     double *x; /* [3 surface.n_verts] displaced surface */
+    pf_scene sim_scene; /* the simulation's scene (SCEN), for its ground plane */
+    bool have_sim_scene;
 } scene;
 
 static void scene_release(scene *s)
@@ -297,8 +300,45 @@ static void scene_release(scene *s)
     pf_surface_release(&s->surface);
     pf_weights_release(&s->weights);
     pf_stress_data_release(&s->stress);
+    pf_scene_release(&s->sim_scene);
     pf_free(s->x);
     memset(s, 0, sizeof *s);
+}
+
+/* The simulation's scene, for the ground it simulated against. A scene this pf cannot read is
+ * ignored: the picture then keeps its default ground under the lowest point. */
+static void take_scene(scene *s, const pf_chunk *c)
+{
+    char *json = NULL;
+    size_t size = 0;
+    pf_error err = {0};
+    pf_scene_release(&s->sim_scene);
+    s->have_sim_scene = false;
+    if (pf_stream_decode_scene(c, &json, &size, &err) == PF_OK &&
+        pf_scene_parse(&s->sim_scene, json, size, "SCEN", &err) == PF_OK)
+        s->have_sim_scene = true;
+    pf_free(json);
+}
+
+/* Height along +z of the simulation's ground plane, when the scene has one facing +z (the
+ * renderer's up): the automatic ground is placed as pf-sim places it, under the rest mesh. */
+static bool sim_ground_height(scene *s, double *height)
+{
+    pf_scene *sc = &s->sim_scene;
+    if (!s->have_sim_scene || !sc->ground)
+        return false;
+    if (sc->ground_auto) {
+        if (!s->have_mesh)
+            return false;
+        pf_vec3 lo, hi;
+        pf_mesh_bounds(&s->mesh, &lo, &hi);
+        pf_scene_resolve(sc, lo, hi);
+    }
+    pf_vec3 n = pf_v3_normalize(sc->ground_normal);
+    if (fabs(n.z - 1) > 1e-9)
+        return false;
+    *height = sc->ground_point.z;
+    return true;
 }
 
 static pf_status take_mesh(scene *s, const pf_chunk *c, pf_error *err)
@@ -459,6 +499,10 @@ static pf_status survey_chunk(scene *s, survey *sv, mode m, const pf_chunk *c, i
         return take_surface(s, c, err);
     if (strcmp(c->tag, "WGHT") == 0)
         return take_weights(s, c, err);
+    if (strcmp(c->tag, "SCEN") == 0) {
+        take_scene(s, c);
+        return PF_OK;
+    }
     if (strcmp(c->tag, "STRS") == 0) {
         PF_TRY(take_stress(s, c, err));
         grow_stress(sv, &s->stress);
@@ -502,6 +546,9 @@ static void survey_file(FILE *f, const char *name, mode m, survey *sv)
         frame_bounds(&s, m, NULL, &lo, &hi);
         grow_box(sv, lo, hi);
     }
+    double ground;
+    if (sv->have_box && sim_ground_height(&s, &ground))
+        sv->lo.z = fmin(sv->lo.z, ground); /* the stage reaches down to the simulated ground */
     pf_stream_reader_destroy(&r);
     scene_release(&s);
 }
@@ -610,8 +657,8 @@ static pf_status build_geometry(render *rd, const pf_frame_data *f, bool *legend
 }
 
 /* The auto camera on a pipe: the first frame's box grown by a quarter of its size on every side
- * but the bottom (room for the motion to come; the ground stays under the first frame), fixed from
- * then on. */
+ * but the bottom (room for the motion to come), down to the simulated ground when the stream's
+ * scene has one (else the ground stays under the first frame), fixed from then on. */
 static void ensure_view(render *rd)
 {
     if (rd->view_ready)
@@ -625,6 +672,9 @@ static void ensure_view(render *rd)
         pf_vec3 m = pf_v3_scale(pf_v3_sub(hi, lo), 0.25);
         lo = pf_v3(lo.x - m.x, lo.y - m.y, lo.z);
         hi = pf_v3_add(hi, m);
+        double ground;
+        if (sim_ground_height(&rd->s, &ground))
+            lo.z = fmin(lo.z, ground);
     } else {
         lo = pf_v3(-1, -1, -1);
         hi = pf_v3(1, 1, 1);
@@ -716,7 +766,11 @@ static pf_status render_chunk(render *rd, const pf_chunk *c, pf_error *err)
         return take_surface(&rd->s, c, err);
     if (strcmp(c->tag, "WGHT") == 0)
         return take_weights(&rd->s, c, err);
-    return PF_OK; /* INFO, SCEN, END_ and unknown chunks do not change the picture */
+    if (strcmp(c->tag, "SCEN") == 0) {
+        take_scene(&rd->s, c);
+        return PF_OK;
+    }
+    return PF_OK; /* INFO, END_ and unknown chunks do not change the picture */
 }
 
 static pf_status render_stream(render *rd, FILE *f, const char *name, pf_error *err)

@@ -139,6 +139,17 @@ static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
     }
 }
 
+/* SCEN: the scene as simulated (file, defaults and overrides), so the stream says how it was
+ * made and pf-render finds the ground. */
+static pf_status write_scene(run *r, pf_error *err)
+{
+    char *json = NULL;
+    PF_TRY(pf_scene_to_json(&r->scene, &json, err));
+    pf_status st = pf_stream_write_scene(r->out, json, strlen(json), err);
+    pf_free(json);
+    return st;
+}
+
 static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error *err)
 {
     pf_frame_data f = {0};
@@ -237,8 +248,8 @@ int main(int argc, char **argv)
         st = prepare_mesh(&r, in_name, err);
     if (st >= 0)
         st = pf_stream_write_info(r.out, "pf-sim", PF_VERSION_STRING, command ? command : "", err);
-    if (st >= 0 && r.scene.json)
-        st = pf_stream_write_scene(r.out, r.scene.json, strlen(r.scene.json), err);
+    if (st >= 0)
+        st = write_scene(&r, err);
     if (st >= 0)
         st = simulate(&r, err);
     /* Close the stream even after a failed frame: the frames written stay readable. */

@@ -129,6 +129,10 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
 void pf_scene_resolve(pf_scene *s, pf_vec3 lo, pf_vec3 hi);
 
 /* Frees fixed, loads and json and zeroes s (NULL allowed). */
+/* The scene as a scene file (every key explicit, overrides included; an automatic ground stays
+ * automatic), NUL-terminated, freed with pf_free. Parsing it gives the same scene. */
+pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err);
+
 void pf_scene_release(pf_scene *s);
 
 /* True when point p (a face centroid) is selected by region r: a box with inclusive bounds, a

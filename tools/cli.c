@@ -175,3 +175,63 @@ char *pf_cli_command_line(const pf_cli *cli)
 }
 
 bool pf_cli_show_progress(bool quiet) { return !quiet && isatty(fileno(stderr)); }
+
+/* The SURF of a stream on f, keeping its other chunks to pass on. */
+static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,
+                                     pf_stream_writer *w, pf_error *err)
+{
+    pf_stream_reader *r = NULL;
+    PF_TRY(pf_stream_reader_create(&r, f, name, err));
+    pf_status st = PF_OK;
+    bool have = false;
+    for (;;) {
+        pf_chunk c;
+        bool end = false;
+        st = pf_stream_read_chunk(r, &c, &end, err);
+        if (st < 0 || end)
+            break;
+        if (strcmp(c.tag, "SURF") == 0 && !have) {
+            st = pf_stream_decode_surface(&c, s, err);
+            have = st >= 0;
+        } else if (strcmp(c.tag, "END_") != 0 && !pf_stream_tag_is_mesh_dependent(c.tag) &&
+                   strcmp(c.tag, "MESH") != 0) {
+            st = pf_stream_write_raw(w, &c, err);
+        }
+        if (st < 0)
+            break;
+    }
+    pf_stream_reader_destroy(&r);
+    if (st >= 0 && !have)
+        st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                          "%s: the stream has no SURF chunk to mesh", name);
+    return st;
+}
+
+pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer *w, pf_error *err)
+{
+    bool from_stream = !path || strcmp(path, "-") == 0 || pf_cli_file_is_stream(path);
+    if (!from_stream)
+        return pf_import_surface(path, s, err);
+    FILE *f;
+    const char *name;
+    PF_TRY(pf_cli_open_input(path, &f, &name, err));
+    pf_status st = read_stream_surface(f, name, s, w, err);
+    pf_cli_close_input(f);
+    return st;
+}
+
+void pf_cli_grid_option(const pf_cli *cli, char which, const char *value, pf_voxelize_params *p)
+{
+    if (which == 'r') {
+        p->res = (int32_t)pf_cli_parse_long(cli, "res", value, 1, 4096);
+    } else if (which == 'c') {
+        p->cell = pf_cli_parse_double(cli, "cell", value);
+        if (!(p->cell > 0))
+            pf_cli_usage_error(cli, "--cell must be > 0");
+    } else {
+        double o[3];
+        pf_cli_parse_vec3(cli, "origin", value, o);
+        p->origin = pf_v3_load(o);
+        p->has_origin = true;
+    }
+}

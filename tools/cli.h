@@ -9,6 +9,7 @@
 #include <stdio.h>
 
 #include <pf/base.h>
+#include <pf/io.h>
 
 enum { PF_EXIT_OK = 0, PF_EXIT_INPUT = 1, PF_EXIT_USAGE = 2 };
 
@@ -72,5 +73,16 @@ char *pf_cli_command_line(const pf_cli *cli);
 
 /* True when progress should be printed: stderr is a terminal and --quiet was not given. */
 bool pf_cli_show_progress(bool quiet);
+
+/* ---- surface input and grid options, shared by the meshers ------------------------------------ */
+
+/* The surface to mesh: a file in any format assimp reads, or a pf stream (path "-", NULL or a
+ * file starting with the stream signature) whose first SURF is taken and whose other chunks,
+ * except meshes and what depends on them, are passed on to w. */
+pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer *w,
+                              pf_error *err);
+
+/* The grid options --res N, --cell H, --origin X,Y,Z: which is 'r', 'c' or 'o'. */
+void pf_cli_grid_option(const pf_cli *cli, char which, const char *value, pf_voxelize_params *p);
 
 #endif

@@ -28,37 +28,6 @@ static const char USAGE[] =
 
 enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MODE, OPT_QUIET };
 
-/* The SURF of a stream on f, keeping its other chunks to pass on. */
-static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,
-                                     pf_stream_writer *w, pf_error *err)
-{
-    pf_stream_reader *r = NULL;
-    PF_TRY(pf_stream_reader_create(&r, f, name, err));
-    pf_status st = PF_OK;
-    bool have = false;
-    for (;;) {
-        pf_chunk c;
-        bool end = false;
-        st = pf_stream_read_chunk(r, &c, &end, err);
-        if (st < 0 || end)
-            break;
-        if (strcmp(c.tag, "SURF") == 0 && !have) {
-            st = pf_stream_decode_surface(&c, s, err);
-            have = st >= 0;
-        } else if (strcmp(c.tag, "END_") != 0 && !pf_stream_tag_is_mesh_dependent(c.tag) &&
-                   strcmp(c.tag, "MESH") != 0) {
-            st = pf_stream_write_raw(w, &c, err);
-        }
-        if (st < 0)
-            break;
-    }
-    pf_stream_reader_destroy(&r);
-    if (st >= 0 && !have)
-        st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
-                          "%s: the stream has no SURF chunk to voxelize", name);
-    return st;
-}
-
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {{"res", true, OPT_RES},       {"cell", true, OPT_CELL},
@@ -71,19 +40,9 @@ int main(int argc, char **argv)
     bool quiet = false;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         switch (id) {
-        case OPT_RES: p.res = (int32_t)pf_cli_parse_long(&cli, "res", value, 1, 4096); break;
-        case OPT_CELL:
-            p.cell = pf_cli_parse_double(&cli, "cell", value);
-            if (!(p.cell > 0))
-                pf_cli_usage_error(&cli, "--cell must be > 0");
-            break;
-        case OPT_ORIGIN: {
-            double o[3];
-            pf_cli_parse_vec3(&cli, "origin", value, o);
-            p.origin = pf_v3_load(o);
-            p.has_origin = true;
-            break;
-        }
+        case OPT_RES: pf_cli_grid_option(&cli, 'r', value, &p); break;
+        case OPT_CELL: pf_cli_grid_option(&cli, 'c', value, &p); break;
+        case OPT_ORIGIN: pf_cli_grid_option(&cli, 'o', value, &p); break;
         case OPT_MODE:
             if (strcmp(value, "inside") == 0)
                 p.mode = PF_VOXEL_INSIDE;
@@ -109,18 +68,8 @@ int main(int argc, char **argv)
     if (st >= 0)
         st = pf_stream_write_info(w, "pf-voxelize", PF_VERSION_STRING, command ? command : "",
                                   &err);
-    bool from_stream = !path || strcmp(path, "-") == 0 || pf_cli_file_is_stream(path);
-    if (st >= 0 && from_stream) {
-        FILE *f;
-        const char *name;
-        st = pf_cli_open_input(path, &f, &name, &err);
-        if (st >= 0) {
-            st = read_stream_surface(f, name, &surface, w, &err);
-            pf_cli_close_input(f);
-        }
-    } else if (st >= 0) {
-        st = pf_import_surface(path, &surface, &err);
-    }
+    if (st >= 0)
+        st = pf_cli_read_surface(path, &surface, w, &err);
     pf_grid grid = {0};
     pf_inside_method method = PF_INSIDE_RAYS;
     double t0 = pf_time_seconds();

@@ -196,6 +196,34 @@ pf_status pf_surface_classify_cells(const pf_surface *s, const pf_grid *grid, ui
 pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_params *p,
                            pf_grid *grid, pf_inside_method *method, pf_error *err);
 
+/* ---- slicing (DG paper sec. 9.2) ----------------------------------------------------------------
+ * The solid bounded by a closed surface intersected with a grid of cubes: interior cells are hexes,
+ * every cell the surface crosses becomes the exact polyhedron (one element per connected piece) of
+ * the solid inside it, so the mesh's boundary is the surface. Pieces below merge * h^3 are merged
+ * into the neighbour sharing the most face area with them (sec. 9.4). */
+typedef struct pf_slice_params {
+    pf_voxelize_params grid; /* res / cell / origin (mode unused) */
+    double merge;            /* sliver threshold, fraction of a cell's volume (default 0.05) */
+} pf_slice_params;
+
+pf_slice_params pf_slice_params_default(void);
+
+typedef struct pf_slice_stats {
+    pf_grid grid;
+    int64_t splits;           /* plane splits performed */
+    int32_t pieces;           /* elements before merging */
+    int32_t merged;           /* slivers merged into a neighbour */
+    int32_t isolated_slivers; /* pieces below the threshold touching no other piece (kept) */
+    int32_t kinds[PF_ELEM_KIND_COUNT];
+    double seconds;
+} pf_slice_stats;
+
+/* Slices s (closed, manifold, outward: PF_ERR_INVALID otherwise, saying what is wrong) into m
+ * (derived). stats may be NULL. PF_ERR_NUMERIC when the geometry is too degenerate for a
+ * consistent cut at the model's tolerance (1e-10 of its size). */
+pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *params,
+                        pf_slice_stats *stats, pf_error *err);
+
 /* Summary statistics, as printed by pf-info. */
 typedef struct pf_mesh_stats {
     int32_t n_nodes, n_faces, n_elems, n_boundary_faces;

@@ -1,0 +1,212 @@
+/* mesh: hexahedral slicing against the acceptance of the meshing issue.
+ *
+ * The elements partition the solid exactly: their volumes (exact for planar faces) sum to the
+ * surface's enclosed volume up to rounding, a few ulp per element times the element count, so
+ * 1e-9 relative is a loose bound that only a lost or doubled piece can break (the smallest
+ * piece kept is 5 % of a cell, far above 1e-9 of the solid). Every element is valid, the mesh is
+ * conforming at face level (pf_mesh_derive accepts it: no face used by more than two elements),
+ * its boundary faces are exactly the surface's area, and no element is below the merge
+ * threshold unless it touches no other element. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <pf/mesh.h>
+
+/* A closed box surface [lo, hi], triangles outward. */
+static void add_box(pf_surface *s, pf_vec3 lo, pf_vec3 hi)
+{
+    static const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                    {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+    pf_error err = {0};
+    pf_surface old = *s;
+    pf_surface grown = {0};
+    assert_int_equal(pf_surface_alloc(&grown, old.n_verts + 8, old.n_tris + 12, &err), PF_OK);
+    if (old.n_verts) {
+        memcpy(grown.x, old.x, 3 * (size_t)old.n_verts * sizeof *grown.x);
+        memcpy(grown.tri, old.tri, 3 * (size_t)old.n_tris * sizeof *grown.tri);
+    }
+    for (int v = 0; v < 8; ++v) {
+        double *x = grown.x + 3 * (size_t)(old.n_verts + v);
+        x[0] = v & 1 ? hi.x : lo.x;
+        x[1] = v & 2 ? hi.y : lo.y;
+        x[2] = v & 4 ? hi.z : lo.z;
+    }
+    for (int q = 0; q < 6; ++q) {
+        uint32_t *t = grown.tri + 3 * (size_t)(old.n_tris + 2 * q);
+        uint32_t b = (uint32_t)old.n_verts;
+        const int *c = quads[q];
+        t[0] = b + c[0], t[1] = b + c[1], t[2] = b + c[2];
+        t[3] = b + c[0], t[4] = b + c[2], t[5] = b + c[3];
+    }
+    pf_surface_release(s);
+    *s = grown;
+}
+
+/* Appends b's triangles to a (two separate bodies). */
+static void append(pf_surface *a, const pf_surface *b)
+{
+    pf_error err = {0};
+    pf_surface g = {0};
+    assert_int_equal(pf_surface_alloc(&g, a->n_verts + b->n_verts, a->n_tris + b->n_tris, &err),
+                     PF_OK);
+    memcpy(g.x, a->x, 3 * (size_t)a->n_verts * sizeof *g.x);
+    memcpy(g.x + 3 * (size_t)a->n_verts, b->x, 3 * (size_t)b->n_verts * sizeof *g.x);
+    memcpy(g.tri, a->tri, 3 * (size_t)a->n_tris * sizeof *g.tri);
+    for (int64_t k = 0; k < 3 * (int64_t)b->n_tris; ++k)
+        g.tri[3 * (size_t)a->n_tris + k] = b->tri[k] + (uint32_t)a->n_verts;
+    pf_surface_release(a);
+    *a = g;
+}
+
+static void translate(pf_surface *s, pf_vec3 d)
+{
+    for (int32_t i = 0; i < s->n_verts; ++i) {
+        s->x[3 * i] += d.x;
+        s->x[3 * i + 1] += d.y;
+        s->x[3 * i + 2] += d.z;
+    }
+}
+
+/* Slices and checks every acceptance property; returns the element count. */
+static int32_t slice_and_check(const char *name, const pf_surface *s, pf_slice_params p)
+{
+    pf_error err = {0};
+    pf_surface_stats ss;
+    assert_int_equal(pf_surface_compute_stats(s, &ss, &err), PF_OK);
+    pf_mesh m = {0};
+    pf_slice_stats st;
+    if (pf_mesh_slice(&m, s, &p, &st, &err) != PF_OK)
+        fail_msg("%s: %s", name, err.msg);
+    if (pf_mesh_validate(&m, NULL, &err) != PF_OK)
+        fail_msg("%s: invalid mesh: %s", name, err.msg);
+    double volume = 0, smallest = INFINITY, boundary_area = 0;
+    for (int32_t e = 0; e < m.n_elems; ++e) {
+        double v = pf_mesh_elem_volume(&m, e);
+        volume += v;
+        smallest = fmin(smallest, v);
+    }
+    for (int32_t f = 0; f < m.n_faces; ++f)
+        if (m.face_elems[2 * f] < 0 || m.face_elems[2 * f + 1] < 0)
+            boundary_area += pf_polygon_area(m.x, m.face_nodes + m.face_offsets[f],
+                                             m.face_offsets[f + 1] - m.face_offsets[f]);
+    double cell = st.grid.h * st.grid.h * st.grid.h;
+    printf("%-12s %5d elements (%d hexes, %d polyhedra), volume error %.1e, area error %.1e, "
+           "smallest %.3f cells, %d merged, %.3f s\n",
+           name, (int)m.n_elems, (int)st.kinds[PF_ELEM_HEX], (int)st.kinds[PF_ELEM_POLY],
+           fabs(volume / ss.volume - 1), fabs(boundary_area / ss.area - 1), smallest / cell,
+           (int)st.merged, st.seconds);
+    if (!(fabs(volume / ss.volume - 1) < 1e-9))
+        fail_msg("%s: element volumes %.17g, surface %.17g", name, volume, ss.volume);
+    if (!(fabs(boundary_area / ss.area - 1) < 1e-9))
+        fail_msg("%s: boundary area %.17g, surface %.17g", name, boundary_area, ss.area);
+    if (st.isolated_slivers == 0 && !(smallest >= p.merge * cell))
+        fail_msg("%s: an element of %.3g cells remains below the merge threshold", name,
+                 smallest / cell);
+    int32_t n = m.n_elems;
+    pf_mesh_release(&m);
+    return n;
+}
+
+static void slices_spheres_and_tori(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_slice_params p = pf_slice_params_default();
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 24, 48, &err), PF_OK);
+    for (int res = 2; res <= 16; res *= 2) {
+        p.grid.res = res;
+        slice_and_check("sphere", &s, p);
+    }
+    pf_surface_release(&s);
+    /* a torus: cutting planes through its hole give caps with holes */
+    assert_int_equal(pf_surface_make_torus(&s, 1, 0.35, 48, 24, &err), PF_OK);
+    for (int res = 3; res <= 12; res *= 2) {
+        p.grid.res = res;
+        slice_and_check("torus", &s, p);
+    }
+    p.grid.res = 8;
+    p.merge = 0; /* no merging: every piece is kept, down to the thinnest sliver */
+    slice_and_check("torus,merge0", &s, p);
+    pf_surface_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
+/* A cube whose faces lie exactly on grid planes: surface faces on cutting planes, and every cell
+ * a hex-shaped piece (its boundary faces are the surface's triangles). */
+static void slices_a_grid_aligned_cube(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    pf_surface s = {0};
+    add_box(&s, (pf_vec3){0, 0, 0}, (pf_vec3){1, 1, 1});
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.cell = 0.25;
+    p.grid.has_origin = true;
+    p.grid.origin = (pf_vec3){0, 0, 0};
+    assert_int_equal(slice_and_check("cube", &s, p), 64);
+    pf_surface_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
+/* A plate thinner than a cell, and two separate bodies in one surface. */
+static void slices_thin_and_separate_bodies(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    pf_error err = {0};
+    pf_surface s = {0};
+    add_box(&s, (pf_vec3){-1, -1, -0.02}, (pf_vec3){1.3, 1.1, 0.03});
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.res = 7;
+    slice_and_check("thin plate", &s, p);
+    pf_surface_release(&s);
+
+    pf_surface sphere = {0};
+    assert_int_equal(pf_surface_make_sphere(&sphere, 0.5, 12, 24, &err), PF_OK);
+    add_box(&s, (pf_vec3){0, 0, 0}, (pf_vec3){1, 0.7, 0.4});
+    translate(&sphere, (pf_vec3){2.1, 0.3, 0.2});
+    append(&s, &sphere);
+    p.grid.res = 10;
+    slice_and_check("two bodies", &s, p);
+    pf_surface_release(&sphere);
+    pf_surface_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
+static void refuses_open_surfaces(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    pf_surface s = {0};
+    add_box(&s, (pf_vec3){0, 0, 0}, (pf_vec3){1, 1, 1});
+    s.n_tris -= 2; /* a missing face */
+    pf_mesh m = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_slice(&m, &s, NULL, NULL, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "closed"));
+    s.n_tris += 2;
+    pf_surface_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(slices_spheres_and_tori),
+        cmocka_unit_test(slices_a_grid_aligned_cube),
+        cmocka_unit_test(slices_thin_and_separate_bodies),
+        cmocka_unit_test(refuses_open_surfaces),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

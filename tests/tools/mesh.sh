@@ -1,0 +1,29 @@
+# pf-slice and pf-voxelize: exact volume through the pipe, counts, bad input.
+. "$(dirname "$0")/lib.sh"
+
+# A sphere sliced at 10 cells: the MESH volume equals the SURF's enclosed volume (1e-9).
+"$bin/pf-shape" sphere >"$tmp/sphere.pfs" || { echo "FAIL: pf-shape sphere"; exit 1; }
+expect 0 "pf-slice" "$bin/pf-slice" --res 10 "$tmp/sphere.pfs"
+"$bin/pf-slice" --res 10 --quiet <"$tmp/sphere.pfs" | "$bin/pf-info" --json - >"$tmp/info.json"
+surf=$(grep '"chunk":"SURF"' "$tmp/info.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+mesh=$(grep '"chunk":"MESH"' "$tmp/info.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+check "sliced volume $mesh equals the surface's $surf" \
+  awk -v a="$mesh" -v b="$surf" 'BEGIN { e = a / b - 1; exit !(e < 1e-9 && e > -1e-9) }'
+check "the sliced mesh is valid" grep -q '"valid":true' "$tmp/info.json"
+check "polyhedra at the surface" bash -c "grep '\"chunk\":\"MESH\"' '$tmp/info.json' | grep -vq '\"polyhedra\":0'"
+
+# A surface file directly; the grid-aligned unit cube gives 64 cells of exact volume.
+"$bin/pf-slice" --cell 0.25 --origin 0,0,0 --quiet "$data/cube.obj" | "$bin/pf-info" --json - >"$tmp/cube.json"
+check "64 elements of the cube" grep -q '"elements":64,' "$tmp/cube.json"
+"$bin/pf-voxelize" --res 4 --quiet "$data/cube.obj" | "$bin/pf-info" --json - >"$tmp/vox.json"
+check "voxelized cube: 64 hexes" grep -q '"hexes":64' "$tmp/vox.json"
+
+# Bad input and usage.
+expect 1 "closed" "$bin/pf-slice" "$data/open_box.obj"
+expect 0 "winding" "$bin/pf-voxelize" --res 4 "$data/open_box.obj"
+expect 1 "empty.msh" "$bin/pf-slice" "$data/empty.msh"
+"$bin/pf-shape" box --cells 1,1,1 >"$tmp/box.pfs"
+expect 1 "no SURF" "$bin/pf-slice" "$tmp/box.pfs"
+expect 2 "" "$bin/pf-slice" --merge 2 "$data/cube.obj"
+expect 2 "" "$bin/pf-slice" --res 0 "$data/cube.obj"
+finish

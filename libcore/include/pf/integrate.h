@@ -74,6 +74,28 @@ pf_status pf_polyhedron_moments(const pf_polyhedron *p, const pf_frame *frame, i
 pf_status pf_polygon_moments(const double *x, const uint32_t *idx, int64_t n, const pf_frame *frame,
                              int degree, double *m, pf_error *err);
 
+/* ==== quadrature for non-polynomial integrands ================================================ */
+
+/* n-point Gauss-Legendre rule on [0, 1] (1 <= n <= 16): exact for polynomials of degree 2n - 1;
+ * weights sum to 1. */
+void pf_gauss_legendre(int n, double *nodes, double *weights);
+
+/* Points x [3 n] and weights w [n] (model units cubed) of a rule over a polyhedron. */
+typedef struct pf_quadrature {
+    int64_t n;
+    double *x;
+    double *w;
+} pf_quadrature;
+void pf_quadrature_release(pf_quadrature *q);
+
+/* A rule exact for polynomials of degree <= degree (0..29) over the closed polyhedron p (nodes
+ * x[3 n_nodes]), convex or not: cut into convex pieces by the planes of its reflex faces, each
+ * piece a cone of tetrahedra from its node average, each tetrahedron a collapsed Gauss product
+ * rule. All weights positive. q zeroed first; PF_ERR_INVALID for a bad degree or no faces,
+ * PF_ERR_NUMERIC when the convex decomposition fails. */
+pf_status pf_polyhedron_quadrature(const pf_polyhedron *p, int32_t n_nodes, int degree,
+                                   pf_quadrature *q, pf_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,182 @@
+/* Quadrature over polyhedra for integrands that are not polynomials (harmonic shape functions).
+ *
+ * A non-convex polyhedron is first cut into convex pieces by the planes of its reflex faces
+ * (pf_poly_split): a face is reflex when some node lies beyond its plane. Each convex piece is a
+ * cone from its node average (inside, by convexity) over its faces, each face a fan of triangles,
+ * so the piece is a union of tetrahedra. A tetrahedron gets the collapsed-coordinate (Duffy)
+ * product of Gauss-Legendre rules: with (a, b, c) in [0, 1]^3,
+ *     x = v0 + a e1 + b (1 - a) e2 + c (1 - a)(1 - b) e3,   dx = 6 V (1 - a)^2 (1 - b) da db dc,
+ * so a polynomial of degree d in x becomes one of degree d + 2 in a, d + 1 in b, d in c, and n
+ * Gauss points per direction, exact to degree 2n - 1, integrate it exactly for d <= 2n - 3. All
+ * weights are positive. */
+#include <pf/integrate.h>
+#include <pf/split.h>
+
+#include <math.h>
+#include <stdbool.h>
+#include <string.h>
+
+enum { MAX_POINTS_1D = 16, MAX_CONVEX_DEPTH = 64 };
+
+void pf_gauss_legendre(int n, double *nodes, double *weights)
+{
+    /* Newton on P_n from Chebyshev-like initial guesses; nodes and weights mapped to [0, 1]. */
+    for (int i = 0; i < n; ++i) {
+        double x = cos(3.14159265358979323846 * (i + 0.75) / (n + 0.5)), dp = 1;
+        for (int iter = 0; iter < 100; ++iter) {
+            double p0 = 1, p1 = x;
+            for (int k = 2; k <= n; ++k) {
+                double p2 = ((2 * k - 1) * x * p1 - (k - 1) * p0) / k;
+                p0 = p1;
+                p1 = p2;
+            }
+            double pn = n == 1 ? x : p1, pm = n == 1 ? 1 : p0;
+            dp = n * (x * pn - pm) / (x * x - 1);
+            double dx = pn / dp;
+            x -= dx;
+            if (fabs(dx) < 1e-16)
+                break;
+        }
+        nodes[i] = 0.5 * (1 - x);
+        weights[i] = 1 / ((1 - x * x) * dp * dp); /* 2 / ((1 - x^2) P'^2), halved for [0, 1] */
+    }
+}
+
+void pf_quadrature_release(pf_quadrature *q)
+{
+    pf_free(q->x);
+    pf_free(q->w);
+    memset(q, 0, sizeof *q);
+}
+
+static pf_status push_point(pf_quadrature *q, pf_vec3 p, double w, int64_t *cap, pf_error *err)
+{
+    if (q->n == *cap) {
+        int64_t c = *cap ? 2 * *cap : 256;
+        double *x = pf_realloc_array(q->x, 3 * (size_t)c, sizeof *x);
+        if (x)
+            q->x = x;
+        double *ww = pf_realloc_array(q->w, (size_t)c, sizeof *ww);
+        if (ww)
+            q->w = ww;
+        PF_CHECK(x && ww, err, PF_ERR_NOMEM, "cannot allocate %lld quadrature points",
+                 (long long)c);
+        *cap = c;
+    }
+    q->x[3 * q->n] = p.x;
+    q->x[3 * q->n + 1] = p.y;
+    q->x[3 * q->n + 2] = p.z;
+    q->w[q->n++] = w;
+    return PF_OK;
+}
+
+typedef struct rule {
+    int n;
+    double node[MAX_POINTS_1D], weight[MAX_POINTS_1D];
+    pf_quadrature *out;
+    int64_t cap;
+} rule;
+
+static pf_status add_tet(rule *r, pf_vec3 v0, pf_vec3 v1, pf_vec3 v2, pf_vec3 v3, pf_error *err)
+{
+    pf_vec3 e1 = pf_v3_sub(v1, v0), e2 = pf_v3_sub(v2, v0), e3 = pf_v3_sub(v3, v0);
+    double six_v = pf_v3_dot(e1, pf_v3_cross(e2, e3)); /* signed: reversed tets subtract */
+    if (six_v == 0)
+        return PF_OK;
+    for (int i = 0; i < r->n; ++i)
+        for (int j = 0; j < r->n; ++j)
+            for (int k = 0; k < r->n; ++k) {
+                double a = r->node[i], b = r->node[j], c = r->node[k];
+                pf_vec3 p = pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a),
+                                                    pf_v3_add(pf_v3_scale(e2, b * (1 - a)),
+                                                              pf_v3_scale(e3, c * (1 - a) * (1 - b)))));
+                double w = r->weight[i] * r->weight[j] * r->weight[k] * six_v * (1 - a) * (1 - a) *
+                           (1 - b);
+                PF_TRY(push_point(r->out, p, w, &r->cap, err));
+            }
+    return PF_OK;
+}
+
+/* A convex polyhedron as a cone from its node average over the fans of its faces. */
+static pf_status add_convex(rule *r, const pf_polyhedron *p, pf_error *err)
+{
+    pf_vec3 c = {0, 0, 0};
+    int64_t count = p->face_offsets[p->n_faces];
+    for (int64_t k = 0; k < count; ++k)
+        c = pf_v3_add(c, pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
+    c = pf_v3_scale(c, 1.0 / (double)count);
+    for (int32_t f = 0; f < p->n_faces; ++f) {
+        const uint32_t *idx = p->face_nodes + p->face_offsets[f];
+        int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
+        pf_vec3 a = pf_v3_load(p->x + 3 * (size_t)idx[0]);
+        for (int64_t k = 1; k + 1 < n; ++k)
+            PF_TRY(add_tet(r, c, a, pf_v3_load(p->x + 3 * (size_t)idx[k]),
+                           pf_v3_load(p->x + 3 * (size_t)idx[k + 1]), err));
+    }
+    return PF_OK;
+}
+
+/* The plane of a face some node lies beyond (by more than tol), or false when p is convex. */
+static bool reflex_plane(const pf_polyhedron *p, double tol, pf_plane *plane)
+{
+    int64_t count = p->face_offsets[p->n_faces];
+    double worst = tol;
+    bool found = false;
+    for (int32_t f = 0; f < p->n_faces; ++f) {
+        const uint32_t *idx = p->face_nodes + p->face_offsets[f];
+        int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
+        pf_vec3 normal = pf_polygon_area_vector(p->x, idx, n);
+        if (pf_v3_norm(normal) == 0)
+            continue;
+        pf_plane pl = pf_plane_from_point_normal(pf_v3_load(p->x + 3 * (size_t)idx[0]), normal);
+        for (int64_t k = 0; k < count; ++k) {
+            double d = pf_plane_signed_distance(pl, pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
+            if (d > worst) {
+                worst = d;
+                *plane = pl;
+                found = true;
+            }
+        }
+    }
+    return found;
+}
+
+static pf_status add_pieces(rule *r, const pf_polyhedron *p, int32_t n_nodes, double tol,
+                            int depth, pf_error *err)
+{
+    pf_plane plane;
+    if (!reflex_plane(p, tol, &plane))
+        return add_convex(r, p, err);
+    PF_CHECK(depth < MAX_CONVEX_DEPTH, err, PF_ERR_NUMERIC,
+             "polyhedron not convex after %d cuts by its reflex faces", MAX_CONVEX_DEPTH);
+    pf_split s;
+    pf_split_params params = {.tol = tol};
+    PF_TRY(pf_poly_split(p, n_nodes, &plane, &params, &s, err));
+    pf_status st = PF_OK;
+    for (int32_t k = 0; st >= 0 && k < s.n_pieces; ++k) {
+        pf_polyhedron piece = {s.x, (int32_t)(s.piece_faces[k + 1] - s.piece_faces[k]),
+                               s.face_offsets + s.piece_faces[k], s.face_nodes};
+        st = add_pieces(r, &piece, s.n_nodes, tol, depth + 1, err);
+    }
+    pf_split_release(&s);
+    return st;
+}
+
+pf_status pf_polyhedron_quadrature(const pf_polyhedron *p, int32_t n_nodes, int degree,
+                                   pf_quadrature *q, pf_error *err)
+{
+    memset(q, 0, sizeof *q);
+    int n = (degree + 4) / 2; /* 2n - 3 >= degree */
+    PF_CHECK(degree >= 0 && n <= MAX_POINTS_1D, err, PF_ERR_INVALID,
+             "quadrature degree must be in [0, %d], got %d", 2 * MAX_POINTS_1D - 3, degree);
+    PF_CHECK(p->n_faces > 0, err, PF_ERR_INVALID, "polyhedron without faces");
+    rule r = {.n = n, .out = q};
+    pf_gauss_legendre(n, r.node, r.weight);
+    pf_vec3 lo, hi;
+    pf_polyhedron_bounds(p, &lo, &hi);
+    double tol = 1e-10 * pf_v3_norm(pf_v3_sub(hi, lo));
+    pf_status st = add_pieces(&r, p, n_nodes, tol, 0, err);
+    if (st < 0)
+        pf_quadrature_release(q);
+    return st;
+}

@@ -5,7 +5,8 @@
  *   terms of size |K|, so |K u| <= 1e-12 |K| |u| leaves a factor 10-100 over rounding.
  * - Patch test (K09 fig. 1 in 3D): an affine displacement prescribed weakly on the whole
  *   boundary is reproduced inside by IP, whatever the element shapes: the IP form is consistent
- *   and the affine field lies in the space. The error is the solve's, |du| / |u| below
+ *   and the affine field lies in the space (hex, tet, merged non-convex and sliced-sphere meshes).
+ *   The error is the solve's, |du| / |u| below
  *   cond(K) u; the penalty search keeps cond(K) near 1e4-1e6, so 1e-9 is the bound.
  * - Mass: u^T M u for a unit translation is the mass rho V exactly (moments are exact), and
  *   for u = x it is rho int |x|^2, known in closed form for a box. */
@@ -134,10 +135,24 @@ static void make_poly_box(pf_mesh *m)
     pf_mesh_release(&grid);
 }
 
+/* A sphere sliced at 3 cells across (pf_mesh_slice): hexes inside, exact polyhedra (many-faced,
+ * some non-convex after sliver merging) at the surface. */
+static void make_sliced_sphere(pf_mesh *m)
+{
+    pf_error err = {0};
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.res = 3;
+    assert_int_equal(pf_mesh_slice(m, &s, &p, NULL, &err), PF_OK);
+    pf_surface_release(&s);
+}
+
 typedef void (*mesh_maker)(pf_mesh *);
 static void hex_mesh(pf_mesh *m) { make_hex_box(m, 2, 2, 1); }
-static const mesh_maker MESHES[] = {hex_mesh, make_tet_box, make_poly_box};
-static const char *const MESH_NAMES[] = {"hex", "tet", "poly"};
+static const mesh_maker MESHES[] = {hex_mesh, make_tet_box, make_poly_box, make_sliced_sphere};
+static const char *const MESH_NAMES[] = {"hex", "tet", "poly", "sliced sphere"};
+enum { N_MESHES = 4 };
 
 /* ---- helpers ------------------------------------------------------------------------------ */
 
@@ -186,7 +201,7 @@ static void rigid_motions_have_no_force(void **state)
     (void)state;
     size_t live = pf_alloc_live_bytes();
     pf_error err = {0};
-    for (int mesh_kind = 0; mesh_kind < 3; ++mesh_kind)
+    for (int mesh_kind = 0; mesh_kind < N_MESHES; ++mesh_kind)
         for (int degree = 1; degree <= 2; ++degree)
             for (int ip = 0; ip <= 1; ++ip) {
                 pf_mesh m = {0};
@@ -231,7 +246,7 @@ static void ip_patch_test(void **state)
     pf_error err = {0};
     const double affine[12] = {0.01, 0.002, -0.003, 0.004, -0.02, 0.001,
                                0.0, 0.005, 0.015,   0.1,   -0.05, 0.02};
-    for (int mesh_kind = 0; mesh_kind < 3; ++mesh_kind)
+    for (int mesh_kind = 0; mesh_kind < N_MESHES; ++mesh_kind)
         for (int degree = 1; degree <= 2; ++degree) {
             pf_mesh m = {0};
             MESHES[mesh_kind](&m);

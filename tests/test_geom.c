@@ -13,24 +13,12 @@
 #include <float.h>
 #include <math.h>
 
+#include "test_random.h"
 #include <pf/geom.h>
 
 #define PI 3.14159265358979323846
 
 /* ---- deterministic random numbers and matrix helpers ---------------------------------------- */
-
-typedef struct rng {
-    uint64_t s;
-} rng;
-
-/* xorshift64: uniform in [-1, 1). */
-static double uniform(rng *r)
-{
-    r->s ^= r->s << 13;
-    r->s ^= r->s >> 7;
-    r->s ^= r->s << 17;
-    return (double)(r->s >> 11) * (2.0 / 9007199254740992.0) - 1.0;
-}
 
 static pf_mat3 random_matrix(rng *r)
 {

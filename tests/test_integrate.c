@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "test_random.h"
 #include <pf/integrate.h>
 
 #define COUNT PF_MOMENT_MAX_COUNT
@@ -66,19 +67,6 @@ static real factorial(int n)
 }
 
 /* ---- deterministic random numbers, rotations ------------------------------------------------ */
-
-typedef struct rng {
-    uint64_t s;
-} rng;
-
-/* xorshift64: uniform in [-1, 1). */
-static double uniform(rng *r)
-{
-    r->s ^= r->s << 13;
-    r->s ^= r->s >> 7;
-    r->s ^= r->s << 17;
-    return (double)(r->s >> 11) * (2.0 / 9007199254740992.0) - 1.0;
-}
 
 static pf_mat3 random_rotation(rng *r)
 {

@@ -16,20 +16,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "test_random.h"
 #include <pf/solve.h>
-
-typedef struct rng {
-    uint64_t s;
-} rng;
-
-/* xorshift64: uniform in [-1, 1). */
-static double uniform(rng *r)
-{
-    r->s ^= r->s << 13;
-    r->s ^= r->s >> 7;
-    r->s ^= r->s << 17;
-    return (double)(r->s >> 11) * (2.0 / 9007199254740992.0) - 1.0;
-}
 
 static int32_t below(rng *r, int32_t n)
 {

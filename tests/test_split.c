@@ -25,6 +25,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "test_random.h"
 #include <pf/geom.h>
 #include <pf/mesh.h>
 #include <pf/split.h>
@@ -46,20 +47,7 @@
 
 /* ---- random numbers -------------------------------------------------------------------------- */
 
-typedef struct rng {
-    uint64_t s;
-} rng;
-
-/* xorshift64: uniform in [0, 1). */
-static double uniform01(rng *r)
-{
-    r->s ^= r->s << 13;
-    r->s ^= r->s >> 7;
-    r->s ^= r->s << 17;
-    return (double)(r->s >> 11) * (1.0 / 9007199254740992.0);
-}
-
-static double uniform(rng *r, double lo, double hi) { return lo + (hi - lo) * uniform01(r); }
+static double uniform_in(rng *r, double lo, double hi) { return lo + (hi - lo) * uniform01(r); }
 
 static int32_t rand_int(rng *r, int32_t n) { return (int32_t)(uniform01(r) * n); }
 
@@ -67,7 +55,7 @@ static pf_vec3 random_unit(rng *r)
 {
     pf_vec3 v;
     do
-        v = pf_v3(uniform(r, -1, 1), uniform(r, -1, 1), uniform(r, -1, 1));
+        v = pf_v3(uniform_in(r, -1, 1), uniform_in(r, -1, 1), uniform_in(r, -1, 1));
     while (pf_v3_norm(v) < 0.1 || pf_v3_norm(v) > 1);
     return pf_v3_normalize(v);
 }
@@ -318,7 +306,7 @@ static pf_mat3 random_rotation(rng *r)
 {
     double w, x, y, z, n;
     do {
-        w = uniform(r, -1, 1), x = uniform(r, -1, 1), y = uniform(r, -1, 1), z = uniform(r, -1, 1);
+        w = uniform_in(r, -1, 1), x = uniform_in(r, -1, 1), y = uniform_in(r, -1, 1), z = uniform_in(r, -1, 1);
         n = sqrt(w * w + x * x + y * y + z * z);
     } while (n < 0.1 || n > 1);
     w /= n, x /= n, y /= n, z /= n;
@@ -654,9 +642,9 @@ static void test_prisms_tilted(void **state)
         named_cell *c = &cells[i];
         pf_polyhedron p = view(&c->s);
         for (int trial = 0; trial < 300; ++trial) {
-            pf_vec3 nrm = pf_v3_normalize(pf_v3(uniform(&r, -0.3, 0.3), uniform(&r, -0.3, 0.3),
+            pf_vec3 nrm = pf_v3_normalize(pf_v3(uniform_in(&r, -0.3, 0.3), uniform_in(&r, -0.3, 0.3),
                                                 uniform01(&r) < 0.5 ? -1 : 1));
-            pf_vec3 at = pf_v3(0, 0, uniform(&r, 0.3, 0.7) * c->height);
+            pf_vec3 at = pf_v3(0, 0, uniform_in(&r, 0.3, 0.7) * c->height);
             pf_plane pl = pf_plane_from_point_normal(at, nrm);
             int crosses = 1;
             for (int32_t k = 0; k < c->s.nn; ++k) {
@@ -798,29 +786,29 @@ static void random_convex(shape *s, rng *r, int kind)
         pf_vec3 p[4];
         do
             for (int i = 0; i < 4; ++i)
-                p[i] = pf_v3(uniform(r, -1, 1), uniform(r, -1, 1), uniform(r, -1, 1));
+                p[i] = pf_v3(uniform_in(r, -1, 1), uniform_in(r, -1, 1), uniform_in(r, -1, 1));
         while (fabs(pf_v3_dot(pf_v3_sub(p[1], p[0]),
                               pf_v3_cross(pf_v3_sub(p[2], p[0]), pf_v3_sub(p[3], p[0])))) < 0.05);
         make_tet(s, p);
     } else if (kind == 1) { /* box */
         static named_cell c;
-        double a = uniform(r, 0.2, 2), b = uniform(r, 0.2, 2);
+        double a = uniform_in(r, 0.2, 2), b = uniform_in(r, 0.2, 2);
         double xy[] = {0, 0, a, 0, a, b, 0, b};
-        cell_single_prism(&c, "box", xy, 4, uniform(r, 0.2, 2));
+        cell_single_prism(&c, "box", xy, 4, uniform_in(r, 0.2, 2));
         *s = c.s;
     } else if (kind == 2) { /* triangular prism */
         static named_cell c;
         double xy[6];
         do
             for (int i = 0; i < 6; ++i)
-                xy[i] = uniform(r, -1, 1);
+                xy[i] = uniform_in(r, -1, 1);
         while ((xy[2] - xy[0]) * (xy[5] - xy[1]) - (xy[3] - xy[1]) * (xy[4] - xy[0]) < 0.1);
-        cell_single_prism(&c, "prism", xy, 3, uniform(r, 0.2, 2));
+        cell_single_prism(&c, "prism", xy, 3, uniform_in(r, 0.2, 2));
         *s = c.s;
     } else {
         random_cut_cube(s, r);
     }
-    transform(s, random_rotation(r), pf_v3(uniform(r, -5, 5), uniform(r, -5, 5), uniform(r, -5, 5)));
+    transform(s, random_rotation(r), pf_v3(uniform_in(r, -5, 5), uniform_in(r, -5, 5), uniform_in(r, -5, 5)));
 }
 
 static pf_plane plane_through(const shape *s, uint32_t a, uint32_t b, uint32_t c, int *ok)
@@ -916,7 +904,7 @@ static void test_random_nonconvex(void **state)
             static shape s;
             s = cells[i].s;
             if (rotated)
-                transform(&s, random_rotation(&r), pf_v3(uniform(&r, -3, 3), 0.5, -2));
+                transform(&s, random_rotation(&r), pf_v3(uniform_in(&r, -3, 3), 0.5, -2));
             pf_polyhedron p = view(&s);
             pf_vec3 lo, hi;
             pf_polyhedron_bounds(&p, &lo, &hi);
@@ -994,9 +982,9 @@ static void test_shared_edges_bit_identical(void **state)
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 2; ++j)
                 for (int k = 0; k < 2; ++k) {
-                    g[i][j][k][0] = i + (i == 1 ? 0 : uniform(&r, -0.1, 0.1)) + 1000.0;
-                    g[i][j][k][1] = j + uniform(&r, -0.1, 0.1) - 77.0;
-                    g[i][j][k][2] = k + uniform(&r, -0.1, 0.1);
+                    g[i][j][k][0] = i + (i == 1 ? 0 : uniform_in(&r, -0.1, 0.1)) + 1000.0;
+                    g[i][j][k][1] = j + uniform_in(&r, -0.1, 0.1) - 77.0;
+                    g[i][j][k][2] = k + uniform_in(&r, -0.1, 0.1);
                 }
         /* the shared face i = 1 stays planar: x = 1001 */
         shape cell[2];
@@ -1032,7 +1020,7 @@ static void test_shared_edges_bit_identical(void **state)
             }
         }
         pf_plane pl = pf_plane_from_point_normal(
-            pf_v3(1000.8 + uniform(&r, 0, 0.4), -76.5 + uniform(&r, -0.3, 0.3), 0.5),
+            pf_v3(1000.8 + uniform_in(&r, 0, 0.4), -76.5 + uniform_in(&r, -0.3, 0.3), 0.5),
             random_unit(&r));
         pf_split s[2];
         pf_error err = {0};

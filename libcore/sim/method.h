@@ -1,0 +1,62 @@
+/* The discretisations the simulator drives (private to libcore/sim).
+ *
+ * The driver (sim.c) owns the state vectors, the system matrix and its factorisation, time
+ * stepping, the penalty search, divergence checks and statistics; a method (sim_dg.c, sim_cg.c)
+ * owns what depends on the basis: unknowns, matrix pattern, stiffness (warped with its own
+ * rotations when corotation is on), mass, constant forces, contact, and the outputs. A method's
+ * unknowns are whatever it solves for (DG: polynomial coefficients; CG: free nodal components);
+ * the driver never looks inside them. */
+#ifndef PF_SIM_METHOD_H
+#define PF_SIM_METHOD_H
+
+#include <pf/sim.h>
+#include <pf/solve.h>
+
+typedef struct pf_method_ops {
+    /* Unknowns and the pattern of the system matrix. */
+    int64_t (*n_dofs)(const void *m);
+    pf_status (*pattern)(const void *m, pf_block_matrix *k, pf_error *err);
+    /* Stiffness at state u into k (zeroed first); its constant terms (prescribed displacements,
+     * the warping terms R K (I - R^T) X0) added to f. corotate: rotations from u. */
+    void (*stiffness)(void *m, const double *u, bool corotate, pf_block_matrix *k, double *f);
+    void (*add_mass)(const void *m, double alpha, pf_block_matrix *k);
+    /* y += alpha M x */
+    void (*mass_mul)(const void *m, double alpha, const double *x, double *y);
+    /* Loads and body forces, constant in time, added to f. */
+    void (*external_forces)(const void *m, double *f);
+    /* Penalty contact with the ground plane (stiffness k_c per node) for points whose position
+     * predicted by u + h v lies below it: adds to k and f, returns the number of contacts. */
+    int64_t (*ground_contact)(const void *m, const pf_plane *ground, double k_c, const double *u,
+                              const double *v, double h, pf_block_matrix *k, double *f);
+    /* The automatic ground stiffness: ten times an element's stiffness. */
+    double (*ground_stiffness)(const void *m);
+    /* DG only (NULL otherwise): the penalty factor, and the mass shift that lifts the rigid modes
+     * of a free body in the definiteness test of the penalty search. */
+    void (*set_penalty)(void *m, double eta);
+    double (*rigid_mode_shift)(const void *m);
+    /* The element unknown k belongs to, for messages. */
+    int32_t (*element_of_dof)(const void *m, int64_t k);
+    /* Outputs. */
+    void (*nodal_displacements)(const void *m, const double *u, double *out);
+    void (*von_mises)(const void *m, const double *u, double *out);
+    void (*momentum)(const void *m, const double *u, const double *v, double *kinetic,
+                     pf_vec3 *linear, pf_vec3 *angular);
+    /* u = A x + b exactly (tests); the same for a velocity. */
+    void (*affine)(const void *m, const double a[9], const double b[3], double *u);
+    /* Largest disagreement between elements at a node (0 for a conforming method). */
+    double (*max_node_jump)(const void *m, const double *u);
+    void (*destroy)(void *m);
+} pf_method_ops;
+
+/* Creates a method for the scene on the mesh: *ops and *ctx; fixed_faces and loaded_faces count
+ * the boundary faces the scene's regions selected. */
+typedef pf_status (*pf_method_create_fn)(const pf_scene *scene, const pf_mesh *mesh,
+                                         const pf_method_ops **ops, void **ctx,
+                                         int32_t *fixed_faces, int32_t *loaded_faces,
+                                         pf_error *err);
+
+pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
+                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces,
+                           pf_error *err);
+
+#endif

@@ -1,0 +1,354 @@
+/* The DG method for the simulator (Kaufmann et al. 2009): unknowns are the coefficients of every
+ * element's monomials (pf/fem.h). Fixed regions are weak Dirichlet conditions on their faces
+ * (sec. 4.2); rotations come from the linear part of each element's displacement (sec. 6.1).
+ *
+ * Ground contact is a penalty at the mesh nodes, applied per element with each element's own
+ * displacement at the node and weight 1 / (elements at the node), so the coupling stays inside
+ * elements (the matrix pattern never changes) and a node shared by k elements feels k_c in total;
+ * the force k_c (d - n . p) n is linear in u and treated implicitly (sec. 8). */
+#include "method.h"
+
+#include <math.h>
+#include <string.h>
+
+#include <pf/fem.h>
+
+typedef struct dg_method {
+    const pf_scene *scene;
+    const pf_mesh *mesh;
+    pf_dg dg;
+    pf_dg_terms terms;
+    int32_t *face_fixed;  /* [n mesh faces] fixed region index or -1 */
+    double *fixed_affine; /* [12 n_fixed] */
+    double *x0;           /* rest coefficients */
+    double *rot;          /* [9 n_elems] */
+} dg_method;
+
+static int64_t n_dofs(const void *m) { return ((const dg_method *)m)->dg.n_dofs; }
+
+static pf_status pattern(const void *m, pf_block_matrix *k, pf_error *err)
+{
+    return pf_dg_pattern(&((const dg_method *)m)->dg, k, err);
+}
+
+/* Element rotations from the linear part of each element's displacement (sec. 6.1). */
+static void update_rotations(dg_method *d, const double *u)
+{
+    for (int32_t e = 0; e < d->dg.n_elems; ++e) {
+        double g[9];
+        pf_dg_gradient(&d->dg, u, e, g);
+        pf_mat3 f;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                f.m[i][j] = (i == j) + g[3 * i + j];
+        pf_mat3 r = pf_mat3_polar_rotation(f);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                d->rot[9 * e + 3 * i + j] = r.m[i][j];
+    }
+}
+
+static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *k, double *f)
+{
+    dg_method *d = m;
+    if (corotate)
+        update_rotations(d, u);
+    pf_dg_assemble_stiffness(&d->dg, &d->terms, corotate ? d->rot : NULL, d->x0, k, f);
+}
+
+static void add_mass(const void *m, double alpha, pf_block_matrix *k)
+{
+    pf_dg_add_mass(&((const dg_method *)m)->dg, alpha, k);
+}
+
+static void mass_mul(const void *m, double alpha, const double *x, double *y)
+{
+    pf_dg_mass_mul(&((const dg_method *)m)->dg, alpha, x, y);
+}
+
+/* Tractions on the boundary faces the loads select, and gravity and body forces. */
+static void external_forces(const void *m, double *f)
+{
+    const dg_method *d = m;
+    const pf_scene *sc = d->scene;
+    for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
+        const pf_dg_face *face = &d->dg.faces[q];
+        for (int32_t k = 0; k < sc->n_loads; ++k)
+            if (pf_region_contains(&sc->loads[k].region, face->centroid))
+                pf_dg_add_traction(&d->dg, face->face, sc->loads[k].traction, f);
+    }
+    pf_vec3 body = pf_v3_add(pf_v3_scale(sc->gravity, sc->density), sc->body_force);
+    if (body.x != 0 || body.y != 0 || body.z != 0)
+        pf_dg_add_body_force(&d->dg, body, f);
+}
+
+static int64_t ground_contact(const void *m, const pf_plane *ground, double k_c, const double *u,
+                              const double *v, double h, pf_block_matrix *k, double *f)
+{
+    const dg_method *d = m;
+    const pf_dg *dg = &d->dg;
+    int nb = dg->nb, n = 3 * nb;
+    const double nn[3] = {ground->n.x, ground->n.y, ground->n.z};
+    double block[30 * 30];
+    int64_t contacts = 0;
+    for (int32_t i = 0; i < dg->n_nodes; ++i) {
+        int64_t begin = dg->node_offsets[i], end = dg->node_offsets[i + 1];
+        if (end == begin)
+            continue;
+        const double *xi = d->mesh->x + 3 * (size_t)i;
+        double w = k_c / (double)(end - begin);
+        for (int64_t q = begin; q < end; ++q) {
+            int32_t e = dg->node_elem[q];
+            const double *phi = dg->node_phi + (size_t)q * nb;
+            const double *ue = u + (size_t)e * n, *ve = v + (size_t)e * n;
+            double pred = 0, rest = 0; /* n . (x + u + h v) and n . x */
+            for (int c = 0; c < 3; ++c) {
+                double uc = 0, vc = 0;
+                for (int a = 0; a < nb; ++a) {
+                    uc += phi[a] * ue[3 * a + c];
+                    vc += phi[a] * ve[3 * a + c];
+                }
+                pred += nn[c] * (xi[c] + uc + h * vc);
+                rest += nn[c] * xi[c];
+            }
+            if (pred >= ground->d)
+                continue;
+            contacts++;
+            for (int a = 0; a < nb; ++a) {
+                for (int b = 0; b < nb; ++b)
+                    for (int r = 0; r < 3; ++r)
+                        for (int c = 0; c < 3; ++c)
+                            block[(3 * a + r) * n + 3 * b + c] = w * phi[a] * phi[b] * nn[r] * nn[c];
+                for (int r = 0; r < 3; ++r)
+                    f[(size_t)e * n + 3 * a + r] += w * (ground->d - rest) * nn[r] * phi[a];
+            }
+            pf_block_matrix_add(k, pf_block_matrix_slot(k, e, e), e, e, block, n);
+        }
+    }
+    return contacts;
+}
+
+/* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
+static double ground_stiffness(const void *m)
+{
+    const dg_method *d = m;
+    double h = 0;
+    for (int32_t e = 0; e < d->dg.n_elems; ++e)
+        h += d->dg.frame[e].scale;
+    h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
+    return 10 * (d->dg.lambda + 2 * d->dg.mu) * h;
+}
+
+static void set_penalty(void *m, double eta) { ((dg_method *)m)->terms.eta = eta; }
+
+/* 1e-6 of the stiffest element's K/M ratio (lambda + 2 mu) / (rho h^2): lifts the six rigid
+ * modes of a free body without hiding a real indefiniteness. */
+static double rigid_mode_shift(const void *m)
+{
+    const dg_method *d = m;
+    double h = INFINITY;
+    for (int32_t e = 0; e < d->dg.n_elems; ++e)
+        h = fmin(h, d->dg.frame[e].scale);
+    return 1e-6 * (d->dg.lambda + 2 * d->dg.mu) / (d->dg.density * h * h);
+}
+
+static int32_t element_of_dof(const void *m, int64_t k)
+{
+    return (int32_t)(k / (3 * ((const dg_method *)m)->dg.nb));
+}
+
+static void nodal_displacements(const void *m, const double *u, double *out)
+{
+    pf_dg_stitch(&((const dg_method *)m)->dg, u, out);
+}
+
+/* Von Mises stress of the corotated linear strain (sym(R^T F) - I) at each element's centre. */
+static void von_mises(const void *m, const double *u, double *out)
+{
+    const pf_dg *dg = &((const dg_method *)m)->dg;
+    double lambda = dg->lambda, mu = dg->mu;
+    for (int32_t e = 0; e < dg->n_elems; ++e) {
+        double g[9];
+        pf_dg_gradient(dg, u, e, g);
+        pf_mat3 f;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                f.m[i][j] = (i == j) + g[3 * i + j];
+        pf_mat3 rf = pf_m3_mul(pf_m3_transpose(pf_mat3_polar_rotation(f)), f);
+        double eps[3][3];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                eps[i][j] = 0.5 * (rf.m[i][j] + rf.m[j][i]) - (i == j);
+        double tr = eps[0][0] + eps[1][1] + eps[2][2];
+        double sigma[6] = {lambda * tr + 2 * mu * eps[0][0], lambda * tr + 2 * mu * eps[1][1],
+                           lambda * tr + 2 * mu * eps[2][2], 2 * mu * eps[0][1],
+                           2 * mu * eps[1][2],              2 * mu * eps[2][0]};
+        out[e] = pf_von_mises(sigma);
+    }
+}
+
+/* Kinetic energy 1/2 v^T M v; momentum int rho v = sum_b v_b int rho phi_b (phi_0 = 1); angular
+ * momentum int rho (x + u) x v with x + u = sum_a (x0_a + u_a) phi_a. */
+static void momentum(const void *m, const double *u, const double *v, double *kinetic,
+                     pf_vec3 *linear, pf_vec3 *angular)
+{
+    const dg_method *d = m;
+    const pf_dg *dg = &d->dg;
+    int nb = dg->nb, n = 3 * nb;
+    double ke = 0;
+    pf_vec3 p = {0, 0, 0}, l = {0, 0, 0};
+    for (int32_t e = 0; e < dg->n_elems; ++e) {
+        const double *me = dg->me + (size_t)e * nb * nb;
+        const double *ve = v + (size_t)e * n, *ue = u + (size_t)e * n;
+        const double *xe = d->x0 + (size_t)e * n;
+        for (int a = 0; a < nb; ++a)
+            for (int b = 0; b < nb; ++b) {
+                double mab = me[a * nb + b];
+                pf_vec3 va = {ve[3 * a], ve[3 * a + 1], ve[3 * a + 2]};
+                pf_vec3 vb = {ve[3 * b], ve[3 * b + 1], ve[3 * b + 2]};
+                pf_vec3 xa = {xe[3 * a] + ue[3 * a], xe[3 * a + 1] + ue[3 * a + 1],
+                              xe[3 * a + 2] + ue[3 * a + 2]};
+                ke += 0.5 * mab * pf_v3_dot(va, vb);
+                if (a == 0)
+                    p = pf_v3_add(p, pf_v3_scale(vb, mab));
+                l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+            }
+    }
+    *kinetic = ke;
+    *linear = p;
+    *angular = l;
+}
+
+static void affine(const void *m, const double a[9], const double b[3], double *u)
+{
+    pf_dg_affine_coefficients(&((const dg_method *)m)->dg, a, b, u);
+}
+
+static double max_node_jump(const void *m, const double *u)
+{
+    const pf_dg *dg = &((const dg_method *)m)->dg;
+    int nb = dg->nb, n = 3 * nb;
+    double *stitched = pf_alloc_array(3 * (size_t)dg->n_nodes, sizeof *stitched);
+    if (!stitched)
+        return NAN;
+    pf_dg_stitch(dg, u, stitched);
+    double largest = 0;
+    for (int32_t i = 0; i < dg->n_nodes; ++i)
+        for (int64_t q = dg->node_offsets[i]; q < dg->node_offsets[i + 1]; ++q) {
+            const double *ue = u + (size_t)dg->node_elem[q] * n;
+            const double *phi = dg->node_phi + (size_t)q * nb;
+            double d2 = 0;
+            for (int c = 0; c < 3; ++c) {
+                double value = 0;
+                for (int a = 0; a < nb; ++a)
+                    value += phi[a] * ue[3 * a + c];
+                double diff = value - stitched[3 * (size_t)i + c];
+                d2 += diff * diff;
+            }
+            largest = fmax(largest, sqrt(d2));
+        }
+    pf_free(stitched);
+    return largest;
+}
+
+static void destroy(void *m)
+{
+    dg_method *d = m;
+    if (!d)
+        return;
+    pf_dg_release(&d->dg);
+    pf_free(d->face_fixed);
+    pf_free(d->fixed_affine);
+    pf_free(d->x0);
+    pf_free(d->rot);
+    pf_free(d);
+}
+
+static const pf_method_ops DG_OPS = {
+    .n_dofs = n_dofs,
+    .pattern = pattern,
+    .stiffness = stiffness,
+    .add_mass = add_mass,
+    .mass_mul = mass_mul,
+    .external_forces = external_forces,
+    .ground_contact = ground_contact,
+    .ground_stiffness = ground_stiffness,
+    .set_penalty = set_penalty,
+    .rigid_mode_shift = rigid_mode_shift,
+    .element_of_dof = element_of_dof,
+    .nodal_displacements = nodal_displacements,
+    .von_mises = von_mises,
+    .momentum = momentum,
+    .affine = affine,
+    .max_node_jump = max_node_jump,
+    .destroy = destroy,
+};
+
+/* Boundary faces in a fixed region get weak Dirichlet to that region's displacement; counts the
+ * faces fixed and loaded. */
+static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loaded_faces,
+                              pf_error *err)
+{
+    const pf_scene *sc = d->scene;
+    int32_t nf = d->mesh->n_faces;
+    d->face_fixed = pf_alloc_array((size_t)nf, sizeof *d->face_fixed);
+    d->fixed_affine = pf_calloc(12 * (size_t)(sc->n_fixed > 0 ? sc->n_fixed : 1), sizeof(double));
+    PF_CHECK(d->face_fixed && d->fixed_affine, err, PF_ERR_NOMEM, "cannot allocate face flags");
+    for (int32_t f = 0; f < nf; ++f)
+        d->face_fixed[f] = -1;
+    for (int32_t k = 0; k < sc->n_fixed; ++k) {
+        d->fixed_affine[12 * k + 9] = sc->fixed[k].displacement.x;
+        d->fixed_affine[12 * k + 10] = sc->fixed[k].displacement.y;
+        d->fixed_affine[12 * k + 11] = sc->fixed[k].displacement.z;
+    }
+    *fixed_faces = *loaded_faces = 0;
+    for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
+        const pf_dg_face *face = &d->dg.faces[q];
+        for (int32_t k = 0; k < sc->n_fixed; ++k)
+            if (pf_region_contains(&sc->fixed[k].region, face->centroid)) {
+                d->face_fixed[face->face] = k;
+                ++*fixed_faces;
+                break;
+            }
+        for (int32_t k = 0; k < sc->n_loads; ++k)
+            if (pf_region_contains(&sc->loads[k].region, face->centroid)) {
+                ++*loaded_faces;
+                break;
+            }
+    }
+    d->terms.ip = sc->flux == PF_FLUX_IP;
+    d->terms.eta = sc->penalty > 0 ? sc->penalty : 1;
+    d->terms.face_fixed = d->face_fixed;
+    d->terms.fixed_disp = d->fixed_affine;
+    return PF_OK;
+}
+
+pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
+                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err)
+{
+    *ops = &DG_OPS;
+    *ctx = NULL;
+    dg_method *d = pf_calloc(1, sizeof *d);
+    PF_CHECK(d, err, PF_ERR_NOMEM, "cannot allocate the DG method");
+    d->scene = scene;
+    d->mesh = mesh;
+    pf_status st = pf_dg_create(&d->dg, mesh, scene->degree, scene->E, scene->nu, scene->density,
+                                err);
+    if (st >= 0) {
+        d->x0 = pf_alloc_array((size_t)(d->dg.n_dofs ? d->dg.n_dofs : 1), sizeof *d->x0);
+        d->rot = pf_alloc_array(9 * (size_t)(d->dg.n_elems ? d->dg.n_elems : 1), sizeof *d->rot);
+        st = d->x0 && d->rot ? PF_OK
+                             : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                            "cannot allocate the DG state");
+    }
+    if (st >= 0) {
+        pf_dg_rest_coefficients(&d->dg, d->x0);
+        st = select_faces(d, fixed_faces, loaded_faces, err);
+    }
+    if (st < 0) {
+        destroy(d);
+        return st;
+    }
+    *ctx = d;
+    return PF_OK;
+}

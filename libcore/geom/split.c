@@ -808,9 +808,10 @@ static void work_release(work *w)
     polys_release(&w->out);
 }
 
-static pf_status run(work *w, pf_split *out, pf_error *err)
+static pf_status run(work *w, bool assume_closed, pf_split *out, pf_error *err)
 {
-    PF_TRY(check_closed(w->p, err));
+    if (!assume_closed)
+        PF_TRY(check_closed(w->p, err));
     PF_TRY(classify(w, err));
     PF_TRY(make_new_nodes(w, out, err));
     PF_TRY(split_faces(w, err));
@@ -838,7 +839,7 @@ pf_status pf_poly_split(const pf_polyhedron *p, int32_t n_nodes, const pf_plane 
     work w = {.p = p, .n_in = n_nodes, .pl = *plane, .tol = prm.tol > 0 ? prm.tol : rel * diag};
     PF_CHECK(diag > 0 && isfinite(w.tol), err, PF_ERR_INVALID,
              "split: the polyhedron has no extent");
-    pf_status s = run(&w, out, err);
+    pf_status s = run(&w, prm.assume_closed, out, err);
     work_release(&w);
     if (s != PF_OK)
         pf_split_release(out);

@@ -26,6 +26,7 @@
 typedef struct piece {
     int32_t n_nodes;
     double *x;
+    double lo[3], hi[3]; /* bounding box of the nodes */
     int32_t n_faces;
     int64_t *face_offsets;
     uint32_t *face_nodes;
@@ -44,10 +45,19 @@ static pf_polyhedron piece_view(const piece *p)
     return (pf_polyhedron){p->x, p->n_faces, p->face_offsets, p->face_nodes};
 }
 
-static void piece_bounds(const piece *p, pf_vec3 *lo, pf_vec3 *hi)
+/* The bounding box, kept with the piece: every level of the cut asks for it. */
+static void update_bounds(piece *p)
 {
-    pf_polyhedron v = piece_view(p);
-    pf_polyhedron_bounds(&v, lo, hi);
+    for (int c = 0; c < 3; ++c)
+        p->lo[c] = p->hi[c] = p->n_nodes ? p->x[c] : 0;
+    for (int32_t i = 1; i < p->n_nodes; ++i)
+        for (int c = 0; c < 3; ++c) {
+            double v = p->x[3 * (size_t)i + c];
+            if (v < p->lo[c])
+                p->lo[c] = v;
+            if (v > p->hi[c])
+                p->hi[c] = v;
+        }
 }
 
 /* Piece k of a split, with only the nodes its faces use. */
@@ -81,6 +91,7 @@ static pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, pie
     }
     for (int64_t q = s->face_offsets[f0]; q < s->face_offsets[f1]; ++q)
         remap[s->face_nodes[q]] = -1;
+    update_bounds(out);
     return PF_OK;
 }
 
@@ -404,12 +415,9 @@ static pf_status slice_axis(slicer *sl, piece *p, int axis, int32_t lo, int32_t 
         return finish_piece(sl, p, axis, err);
     int32_t mid = lo + (hi - lo) / 2;
     double c = plane_coordinate(sl->grid, axis, mid);
-    pf_vec3 blo, bhi;
-    piece_bounds(p, &blo, &bhi);
-    const double a[3] = {blo.x, blo.y, blo.z}, b[3] = {bhi.x, bhi.y, bhi.z};
-    if (b[axis] <= c + sl->params.tol) /* wholly below (touching at most): no cut */
+    if (p->hi[axis] <= c + sl->params.tol) /* wholly below (touching at most): no cut */
         return slice_axis(sl, p, axis, lo, mid, err);
-    if (a[axis] >= c - sl->params.tol)
+    if (p->lo[axis] >= c - sl->params.tol)
         return slice_axis(sl, p, axis, mid, hi, err);
 
     pf_plane plane = {{axis == 0, axis == 1, axis == 2}, c};
@@ -639,6 +647,7 @@ static pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
     memcpy(p->face_nodes, s->tri, 3 * (size_t)s->n_tris * sizeof *p->face_nodes);
     for (int32_t t = 0; t <= s->n_tris; ++t)
         p->face_offsets[t] = 3 * (int64_t)t;
+    update_bounds(p);
     return PF_OK;
 }
 
@@ -665,6 +674,7 @@ pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *
 
     slicer sl = {.grid = &stats->grid};
     sl.params.tol = 1e-10 * pf_v3_norm(pf_v3_sub(ss.hi, ss.lo));
+    sl.params.assume_closed = true; /* the surface is checked above; pieces of splits are closed */
     piece whole;
     pf_mesh glued = {0};
     int32_t *parent = NULL;

@@ -14,6 +14,7 @@
 #ifndef PF_SPLIT_H
 #define PF_SPLIT_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include <pf/base.h>
@@ -31,6 +32,9 @@ typedef struct pf_split_params {
     /* Relative tolerance used when tol <= 0; <= 0: 1e-10 (far above the round-off of a signed
      * distance, ~1e-16 of the coordinates, far below any intended feature). */
     double rel_tol;
+    /* The caller guarantees a closed input (a piece of an earlier split, a surface already checked):
+     * skips the O(n log n) closedness check, which dominates repeated splits of large pieces. */
+    bool assume_closed;
 } pf_split_params;
 
 pf_split_params pf_split_params_default(void);

@@ -146,6 +146,54 @@ void pf_dg_mass_mul(const pf_dg *dg, double alpha, const double *x, double *y);
 void pf_dg_add_body_force(const pf_dg *dg, pf_vec3 b, double *f);
 void pf_dg_add_traction(const pf_dg *dg, int32_t face, pf_vec3 t, double *f);
 
+/* ==== polynomial data (manufactured solutions) ================================================
+ * Exact right-hand sides and errors for data that are polynomials of the global position (body
+ * forces, prescribed displacements, exact solutions of manufactured problems): every integral is
+ * a combination of element or face moments, so the results are exact up to rounding, like the
+ * element terms themselves. */
+
+/* Highest degree per component, and the coefficients that degree takes: products with a degree-2
+ * basis function (6) and squares of the error against a degree <= 2 field (8) stay within
+ * PF_MOMENT_MAX_DEGREE. */
+#define PF_POLY3_MAX_DEGREE 4
+#define PF_POLY3_MAX_COUNT 35
+
+/* A vector polynomial p(x) = sum_k c[i][k] m_k((x - frame.center) / frame.scale) per component i,
+ * m_k the monomials of pf/integrate.h in graded order; entries k >= pf_moment_count(degree) are
+ * ignored. degree in [0, PF_POLY3_MAX_DEGREE]. */
+typedef struct pf_poly3 {
+    pf_frame frame;
+    int32_t degree;
+    double c[3][PF_POLY3_MAX_COUNT];
+} pf_poly3;
+
+/* Value of p at the point x (model units). */
+pf_vec3 pf_poly3_eval(const pf_poly3 *p, pf_vec3 x);
+
+/* rhs [n_dofs] += int_K f . phi_a e_i for every element K, basis function a and component i:
+ * the load of the body force f (force per unit volume). m is the mesh dg was created from.
+ * PF_ERR_INVALID for a bad degree or frame (rhs untouched), or when an element's moments fail. */
+pf_status pf_dg_add_polynomial_body_force(const pf_dg *dg, const pf_mesh *m, const pf_poly3 *f,
+                                          double *rhs, pf_error *err);
+
+/* rhs [n_dofs] += the weak Dirichlet load of the prescribed displacement g on the boundary face
+ * mesh_face of m, the same terms pf_dg_assemble_stiffness adds for an affine g on a face marked
+ * in face_fixed: with n the outward normal and v = phi_a e_i of the face's element,
+ *   - int_f g . sigma(v) n                                   (terms->ip only)
+ *   + eta eta_f int_f (2 mu g . v + lambda (g . n)(v . n))    (eta = terms->eta, eta_f of eq. 20).
+ * The stiffness must carry the face's matrix terms: mark the face in face_fixed (with a zero
+ * displacement there, this adds the whole load). PF_ERR_INVALID for an interior or out-of-range
+ * face, a bad degree or frame. */
+pf_status pf_dg_add_polynomial_dirichlet(const pf_dg *dg, const pf_mesh *m,
+                                         const pf_dg_terms *terms, int32_t mesh_face,
+                                         const pf_poly3 *g, double *rhs, pf_error *err);
+
+/* *error = sqrt(sum_K int_K |u_h - u|^2), the L2 norm of the difference between the DG field of
+ * the coefficients u [n_dofs] and the exact field `exact` (model units of displacement times
+ * length^(3/2)). *norm (may be NULL) gets the L2 norm of exact alone, for relative errors.
+ * Errors as pf_dg_add_polynomial_body_force. */
+pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
+                         const pf_poly3 *exact, double *error, double *norm, pf_error *err);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,963 @@
+/* Nodal shape functions per element: closed forms (tet, parallelepiped hex) and harmonic
+ * coordinates by the method of fundamental solutions (harmonic paper sec. 4-5, eq. 11-14).
+ *
+ * Element data layouts (doubles at data + data_offsets[e]):
+ *   tet, hex:  x0[3], minv[9] (row-major inverse of the edge matrix [e1 e2 e3]); the reference
+ *              coordinates are l = minv (x - x0); node_slot is the corner (tet: 0..3, hex: bits
+ *              of (l0, l1, l2)).
+ *   harmonic:  c[3], h, nk, ng, kern[3 nk], coef[(nk + 4) ng] (row j over groups: kernels 1/r,
+ *              then y_x, y_y, y_z, 1), gpos[3 ng], q[4 ng], gcount[ng]; in scaled coordinates
+ *              y = (x - c) / h; node_slot is the merged group.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "basis_internal.h"
+
+enum { HDR = 6 };
+
+const char *pf_basis_kind_name(pf_basis_kind k)
+{
+    switch (k) {
+    case PF_BASIS_TET:
+        return "tet";
+    case PF_BASIS_HEX:
+        return "hex";
+    case PF_BASIS_HARMONIC:
+        return "harmonic";
+    default:
+        return "unknown";
+    }
+}
+
+pf_basis_params pf_basis_params_default(void)
+{
+    pf_basis_params p = {0};
+    p.xi = 0.1;
+    p.edge_samples = 3;
+    p.collocation_density = 3;
+    p.face_spacing = 1;
+    p.parallel_tol = 1e-9;
+    p.merge_tol = 1e-9;
+    p.rank_rcond = 1e-13;
+    return p;
+}
+
+static pf_basis_params fill_defaults(const pf_basis_params *in)
+{
+    pf_basis_params d = pf_basis_params_default(), p = in ? *in : d;
+    if (!(p.xi > 0))
+        p.xi = d.xi;
+    if (p.edge_samples <= 0)
+        p.edge_samples = d.edge_samples;
+    if (!(p.face_spacing > 0))
+        p.face_spacing = d.face_spacing;
+    if (!(p.collocation_density >= 1))
+        p.collocation_density = d.collocation_density;
+    if (!(p.parallel_tol > 0))
+        p.parallel_tol = d.parallel_tol;
+    if (!(p.merge_tol > 0))
+        p.merge_tol = d.merge_tol;
+    if (!(p.rank_rcond > 0))
+        p.rank_rcond = d.rank_rcond;
+    return p;
+}
+
+/* ---- evaluation --------------------------------------------------------------------------------
+ */
+
+static void eval_affine(const double *d, pf_basis_kind kind, double *v, double *gv /* [3*8] */,
+                        pf_vec3 x)
+{
+    double r[3] = {x.x - d[0], x.y - d[1], x.z - d[2]};
+    const double *mi = d + 3;
+    double l[3];
+    for (int i = 0; i < 3; ++i)
+        l[i] = mi[3 * i] * r[0] + mi[3 * i + 1] * r[1] + mi[3 * i + 2] * r[2];
+    if (kind == PF_BASIS_TET) {
+        v[0] = 1 - l[0] - l[1] - l[2];
+        for (int c = 0; c < 3; ++c) {
+            gv[c] = -(mi[c] + mi[3 + c] + mi[6 + c]);
+            for (int i = 0; i < 3; ++i)
+                gv[3 * (i + 1) + c] = mi[3 * i + c];
+        }
+        for (int i = 0; i < 3; ++i)
+            v[i + 1] = l[i];
+        return;
+    }
+    /* Trilinear: N_bits = prod_d (bit_d ? l_d : 1 - l_d); grad by the chain rule through minv. */
+    for (int bits = 0; bits < 8; ++bits) {
+        double f[3], df[3];
+        for (int i = 0; i < 3; ++i) {
+            int on = (bits >> i) & 1;
+            f[i] = on ? l[i] : 1 - l[i];
+            df[i] = on ? 1 : -1;
+        }
+        v[bits] = f[0] * f[1] * f[2];
+        double dl[3] = {df[0] * f[1] * f[2], f[0] * df[1] * f[2], f[0] * f[1] * df[2]};
+        for (int c = 0; c < 3; ++c)
+            gv[3 * bits + c] = dl[0] * mi[c] + dl[1] * mi[3 + c] + dl[2] * mi[6 + c];
+    }
+}
+
+/* Group values G[g] and scaled gradients dG[d ng + g] (d/dy) of a harmonic element, with the
+ * exactness projection applied (see pf/basis.h). */
+static void eval_harmonic(const double *d, pf_vec3 x, double *G, double *dG, bool want_grad)
+{
+    pf_vec3 c = pf_v3_load(d);
+    double h = d[3];
+    int32_t nk = (int32_t)d[4], ng = (int32_t)d[5];
+    const double *kern = d + HDR, *coef = kern + 3 * nk;
+    const double *gpos = coef + (size_t)(nk + 4) * ng, *q = gpos + 3 * ng;
+    double y[3] = {(x.x - c.x) / h, (x.y - c.y) / h, (x.z - c.z) / h};
+    for (int32_t g = 0; g < ng; ++g)
+        G[g] = 0;
+    if (want_grad)
+        for (int32_t g = 0; g < 3 * ng; ++g)
+            dG[g] = 0;
+    for (int32_t j = 0; j < nk; ++j) {
+        double r0 = y[0] - kern[3 * j], r1 = y[1] - kern[3 * j + 1], r2 = y[2] - kern[3 * j + 2];
+        double ir = 1 / sqrt(r0 * r0 + r1 * r1 + r2 * r2);
+        const double *row = coef + (size_t)j * ng;
+        for (int32_t g = 0; g < ng; ++g)
+            G[g] += ir * row[g];
+        if (want_grad) {
+            double ir3 = ir * ir * ir;
+            for (int32_t g = 0; g < ng; ++g) {
+                double w = ir3 * row[g];
+                dG[g] -= w * r0;
+                dG[ng + g] -= w * r1;
+                dG[2 * ng + g] -= w * r2;
+            }
+        }
+    }
+    const double *poly = coef + (size_t)nk * ng;
+    for (int32_t g = 0; g < ng; ++g)
+        G[g] += y[0] * poly[g] + y[1] * poly[ng + g] + y[2] * poly[2 * ng + g] + poly[3 * ng + g];
+    double t[4] = {1, y[0], y[1], y[2]};
+    apply_projection(3, ng, gpos, q, t, G);
+    if (!want_grad)
+        return;
+    for (int dd = 0; dd < 3; ++dd) {
+        double *D = dG + (size_t)dd * ng;
+        for (int32_t g = 0; g < ng; ++g)
+            D[g] += poly[(size_t)dd * ng + g];
+        double td[4] = {0, dd == 0, dd == 1, dd == 2};
+        apply_projection(3, ng, gpos, q, td, D);
+    }
+}
+
+void pf_basis_eval(const pf_basis *b, int32_t e, pf_vec3 x, double *n, double *grad)
+{
+    const double *d = b->data + b->data_offsets[e];
+    int64_t o = b->node_offsets[e];
+    int32_t k = (int32_t)(b->node_offsets[e + 1] - o);
+    const int32_t *slot = b->node_slot + o;
+    pf_basis_kind kind = (pf_basis_kind)b->kind[e];
+    if (kind != PF_BASIS_HARMONIC) {
+        double v[8], gv[24];
+        eval_affine(d, kind, v, gv, x);
+        for (int32_t i = 0; i < k; ++i) {
+            if (n)
+                n[i] = v[slot[i]];
+            if (grad)
+                for (int c = 0; c < 3; ++c)
+                    grad[3 * i + c] = gv[3 * slot[i] + c];
+        }
+        return;
+    }
+    double G[PF_BASIS_MAX_NODES], dG[3 * PF_BASIS_MAX_NODES];
+    eval_harmonic(d, x, G, dG, grad != NULL);
+    int32_t nk = (int32_t)d[4], ng = (int32_t)d[5];
+    const double *gcount = d + HDR + 3 * nk + (size_t)(nk + 4) * ng + 7 * (size_t)ng;
+    double ih = 1 / d[3];
+    for (int32_t i = 0; i < k; ++i) {
+        int32_t g = slot[i];
+        double share = 1 / gcount[g];
+        if (n)
+            n[i] = G[g] * share;
+        if (grad)
+            for (int c = 0; c < 3; ++c)
+                grad[3 * i + c] = dG[(size_t)c * ng + g] * share * ih;
+    }
+}
+
+/* ---- element context ---------------------------------------------------------------------------
+ */
+
+typedef struct edge3 {
+    int32_t a, b;   /* local nodes */
+    int32_t f1, f2; /* local faces */
+} edge3;
+
+typedef struct pt3 {
+    pf_vec3 x, nrm; /* position, outward direction for kernels */
+    int32_t a, b;   /* node a (a == b) or edge a-b at parameter t; face point when face >= 0 */
+    double t;
+    int32_t face; /* local face index, -1 for node / edge points */
+    double len;   /* local sample spacing: shortest edge at a node, the spacing along the edge
+                     or of the face's grid */
+} pt3;
+
+typedef struct elem_ctx {
+    const pf_mesh *m;
+    face_fn *faces; /* all mesh faces, frames made lazily */
+    int32_t e, nf, k, ng, ne;
+    int32_t *face_id;  /* [nf] */
+    int8_t *face_rev;  /* [nf] */
+    int64_t *floc_off; /* [nf + 1] into floc */
+    int32_t *floc;     /* local index of each face node */
+    int32_t nodes[PF_BASIS_MAX_NODES], slot[PF_BASIS_MAX_NODES];
+    pf_vec3 pos[PF_BASIS_MAX_NODES], nnrm[PF_BASIS_MAX_NODES];
+    double nlen[PF_BASIS_MAX_NODES]; /* shortest edge at each node */
+    double gcount[PF_BASIS_MAX_NODES];
+    int32_t grep[PF_BASIS_MAX_NODES]; /* representative node of each group */
+    edge3 *edges;
+    pf_vec3 c;
+    double h, diam, max_edge;
+} elem_ctx;
+
+static pf_vec3 face_out_normal(const elem_ctx *c, int32_t lf)
+{
+    pf_vec3 nn = c->faces[c->face_id[lf]].nrm;
+    return c->face_rev[lf] ? pf_v3_scale(nn, -1) : nn;
+}
+
+/* Ray parity against the element's faces (a fixed direction with no simple ratios, so a ray
+ * through an edge or a vertex has probability zero for the points we test). */
+static bool elem_contains(const elem_ctx *c, pf_vec3 q)
+{
+    const pf_vec3 dir = {0.5427189, 0.3169312, 0.7778174};
+    int cross = 0;
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        const face_fn *f = &c->faces[c->face_id[lf]];
+        double den = pf_v3_dot(dir, f->nrm);
+        if (fabs(den) < 1e-14)
+            continue;
+        double t = pf_v3_dot(pf_v3_sub(f->o, q), f->nrm) / den;
+        if (t <= 0)
+            continue;
+        double pu, pv;
+        face_coords(f, pf_v3_add(q, pf_v3_scale(dir, t)), &pu, &pv);
+        cross += polygon_contains(f->p2, f->n, pu, pv);
+    }
+    return cross & 1;
+}
+
+static double elem_boundary_distance(const elem_ctx *c, pf_vec3 q)
+{
+    double best = INFINITY;
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        const face_fn *f = &c->faces[c->face_id[lf]];
+        double dp = pf_v3_dot(pf_v3_sub(q, f->o), f->nrm);
+        double pu, pv;
+        face_coords(f, q, &pu, &pv);
+        double din = polygon_contains(f->p2, f->n, pu, pv)
+                         ? 0
+                         : polygon_boundary_distance(f->p2, f->n, pu, pv) * f->s;
+        best = fmin(best, hypot(dp, din));
+    }
+    return best;
+}
+
+static int32_t local_index(const elem_ctx *c, int32_t node)
+{
+    for (int32_t i = 0; i < c->k; ++i)
+        if (c->nodes[i] == node)
+            return i;
+    return -1;
+}
+
+/* Faces, distinct nodes, groups of coincident nodes, edges, frame of element e. */
+static pf_status elem_setup(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pf_error *err)
+{
+    const pf_mesh *m = c->m;
+    int32_t e = c->e;
+    int64_t f0 = m->elem_offsets[e], f1 = m->elem_offsets[e + 1];
+    c->nf = (int32_t)(f1 - f0);
+    PF_CHECK(c->nf >= 4, err, PF_ERR_INVALID, "element %d has %d faces", (int)e, (int)c->nf);
+    int64_t nfn = 0;
+    for (int64_t q = f0; q < f1; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        PF_CHECK(f >= 0 && f < m->n_faces, err, PF_ERR_INVALID, "element %d: face %d out of range",
+                 (int)e, (int)f);
+        nfn += m->face_offsets[f + 1] - m->face_offsets[f];
+    }
+    c->face_id = ws_get(w, WS_EFACE, (size_t)c->nf, sizeof *c->face_id);
+    c->floc_off = ws_get(w, WS_EFOFF, (size_t)c->nf + 1, sizeof *c->floc_off);
+    c->face_rev = ws_get(w, WS_EREV, (size_t)c->nf, sizeof *c->face_rev);
+    c->floc = ws_get(w, WS_ELOCAL, (size_t)nfn + 1, sizeof *c->floc);
+    c->edges = ws_get(w, WS_EDGES, (size_t)nfn + 1, sizeof *c->edges);
+    PF_CHECK(c->face_id && c->floc_off && c->face_rev && c->floc && c->edges, err, PF_ERR_NOMEM,
+             "element %d: no memory", (int)e);
+    c->k = 0;
+    c->floc_off[0] = 0;
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        uint32_t entry = m->elem_faces[f0 + lf];
+        int32_t f = PF_FACE_INDEX(entry);
+        c->face_id[lf] = f;
+        c->face_rev[lf] = (entry & PF_FACE_REVERSED) != 0;
+        if (c->faces[f].n == 0)
+            PF_TRY(face_init(&c->faces[f], m, f, err));
+        int64_t a = m->face_offsets[f], b = m->face_offsets[f + 1];
+        for (int64_t q = a; q < b; ++q) {
+            int32_t node = (int32_t)m->face_nodes[q];
+            int32_t li = local_index(c, node);
+            if (li < 0) {
+                PF_CHECK(c->k < PF_BASIS_MAX_NODES, err, PF_ERR_TOO_LARGE,
+                         "element %d has more than %d nodes", (int)e, PF_BASIS_MAX_NODES);
+                li = c->k++;
+                c->nodes[li] = node;
+                c->pos[li] = pf_v3_load(m->x + 3 * (size_t)node);
+            }
+            c->floc[c->floc_off[lf] + (q - a)] = li;
+        }
+        c->floc_off[lf + 1] = c->floc_off[lf] + (b - a);
+    }
+    PF_CHECK(c->k >= 4, err, PF_ERR_INVALID, "element %d has %d distinct nodes", (int)e, (int)c->k);
+    pf_vec3 ctr = pf_v3(0, 0, 0);
+    for (int32_t i = 0; i < c->k; ++i)
+        ctr = pf_v3_add(ctr, c->pos[i]);
+    c->c = pf_v3_scale(ctr, 1.0 / c->k);
+    c->h = 0;
+    c->diam = 0;
+    for (int32_t i = 0; i < c->k; ++i) {
+        c->h = fmax(c->h, pf_v3_dist(c->pos[i], c->c));
+        for (int32_t j = 0; j < i; ++j)
+            c->diam = fmax(c->diam, pf_v3_dist(c->pos[i], c->pos[j]));
+    }
+    /* Coincident nodes: one group (paper sec. 5). */
+    c->ng = 0;
+    for (int32_t i = 0; i < c->k; ++i) {
+        int32_t g = -1;
+        for (int32_t j = 0; j < i && g < 0; ++j)
+            if (pf_v3_dist(c->pos[i], c->pos[j]) <= p->merge_tol * c->diam)
+                g = c->slot[j];
+        if (g < 0) {
+            g = c->ng++;
+            c->gcount[g] = 0;
+            c->grep[g] = i;
+        }
+        c->slot[i] = g;
+        c->gcount[g] += 1;
+    }
+    /* Node normals: mean of the outward normals of the faces at the node. */
+    for (int32_t i = 0; i < c->k; ++i)
+        c->nnrm[i] = pf_v3(0, 0, 0);
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        pf_vec3 nn = face_out_normal(c, lf);
+        for (int64_t q = c->floc_off[lf]; q < c->floc_off[lf + 1]; ++q)
+            c->nnrm[c->floc[q]] = pf_v3_add(c->nnrm[c->floc[q]], nn);
+    }
+    /* Edges, each once with its two faces. */
+    c->ne = 0;
+    c->max_edge = 0;
+    for (int32_t i = 0; i < c->k; ++i)
+        c->nlen[i] = INFINITY;
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        int64_t a = c->floc_off[lf], n = c->floc_off[lf + 1] - a;
+        for (int64_t q = 0; q < n; ++q) {
+            int32_t u = c->floc[a + q], v = c->floc[a + (q + 1) % n];
+            if (c->slot[u] == c->slot[v])
+                continue;
+            int32_t lo = u < v ? u : v, hi = u < v ? v : u, found = -1;
+            for (int32_t s = 0; s < c->ne && found < 0; ++s)
+                if (c->edges[s].a == lo && c->edges[s].b == hi)
+                    found = s;
+            if (found >= 0) {
+                c->edges[found].f2 = lf;
+                continue;
+            }
+            c->edges[c->ne++] = (edge3){lo, hi, lf, lf};
+            double len = pf_v3_dist(c->pos[lo], c->pos[hi]);
+            c->max_edge = fmax(c->max_edge, len);
+            c->nlen[lo] = fmin(c->nlen[lo], len);
+            c->nlen[hi] = fmin(c->nlen[hi], len);
+        }
+    }
+    PF_CHECK(c->ne > 0 && c->h > 0, err, PF_ERR_INVALID, "element %d is degenerate", (int)e);
+    return PF_OK;
+}
+
+/* ---- closed forms
+ * -------------------------------------------------------------------------------- */
+
+static bool affine_inverse(pf_vec3 e1, pf_vec3 e2, pf_vec3 e3, double *minv)
+{
+    pf_mat3 a = {{{e1.x, e2.x, e3.x}, {e1.y, e2.y, e3.y}, {e1.z, e2.z, e3.z}}};
+    double det;
+    pf_mat3 inv = pf_m3_inverse(a, &det);
+    double scale = pf_v3_norm(e1) * pf_v3_norm(e2) * pf_v3_norm(e3);
+    if (!(fabs(det) > 1e-12 * scale))
+        return false;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            minv[3 * i + j] = inv.m[i][j];
+    return true;
+}
+
+/* Tet: barycentric coordinates with x0 = local node 0. */
+static bool closed_tet(const elem_ctx *c, double *d, int32_t *slot)
+{
+    if (c->k != 4 || c->nf != 4 || c->ng != 4)
+        return false;
+    pf_v3_store(c->pos[0], d);
+    if (!affine_inverse(pf_v3_sub(c->pos[1], c->pos[0]), pf_v3_sub(c->pos[2], c->pos[0]),
+                        pf_v3_sub(c->pos[3], c->pos[0]), d + 3))
+        return false;
+    for (int i = 0; i < 4; ++i)
+        slot[i] = i;
+    return true;
+}
+
+/* Parallelepiped: node 0 and its three edge neighbours span it; every node must sit at a corner
+ * x0 + sum_d bit_d e_d within parallel_tol * diameter, each corner taken once. */
+static bool closed_hex(const elem_ctx *c, double tol, double *d, int32_t *slot)
+{
+    if (c->k != 8 || c->nf != 6 || c->ng != 8 || c->ne != 12)
+        return false;
+    int32_t nb[3], nnb = 0;
+    for (int32_t s = 0; s < c->ne; ++s) {
+        if (c->edges[s].a == 0 || c->edges[s].b == 0) {
+            if (nnb == 3)
+                return false;
+            nb[nnb++] = c->edges[s].a == 0 ? c->edges[s].b : c->edges[s].a;
+        }
+    }
+    if (nnb != 3)
+        return false;
+    pf_vec3 e[3];
+    for (int i = 0; i < 3; ++i)
+        e[i] = pf_v3_sub(c->pos[nb[i]], c->pos[0]);
+    pf_v3_store(c->pos[0], d);
+    if (!affine_inverse(e[0], e[1], e[2], d + 3))
+        return false;
+    int used = 0;
+    for (int32_t i = 0; i < 8; ++i) {
+        pf_vec3 r = pf_v3_sub(c->pos[i], c->pos[0]);
+        int bits = 0;
+        pf_vec3 corner = c->pos[0];
+        for (int dd = 0; dd < 3; ++dd) {
+            double l = d[3 + 3 * dd] * r.x + d[4 + 3 * dd] * r.y + d[5 + 3 * dd] * r.z;
+            if (l > 0.5) {
+                bits |= 1 << dd;
+                corner = pf_v3_add(corner, e[dd]);
+            }
+        }
+        if (pf_v3_dist(corner, c->pos[i]) > tol * c->diam || (used >> bits) & 1)
+            return false;
+        used |= 1 << bits;
+        slot[i] = bits;
+    }
+    return true;
+}
+
+/* ---- boundary samples (paper sec. 5: nodes, points on edges, a uniform sampling of faces) -------
+ */
+
+typedef struct pt_list {
+    pt3 *p;
+    int32_t n, cap;
+} pt_list;
+
+static pf_status pts_push(pt_list *l, pt3 v, pf_error *err)
+{
+    if (l->n == l->cap) {
+        int32_t cap = l->cap ? 2 * l->cap : 256;
+        pt3 *np = pf_realloc_array(l->p, (size_t)cap, sizeof *np);
+        PF_CHECK(np, err, PF_ERR_NOMEM, "boundary samples: no memory for %d points", (int)cap);
+        l->p = np;
+        l->cap = cap;
+    }
+    l->p[l->n++] = v;
+    return PF_OK;
+}
+
+/* Nodes (one per group); on each edge of length L, n = max(edge_min, ceil(L / edge_spacing) - 1)
+ * points
+ * (edge_phase 0: t = j / (n + 1), j = 1..n; 0.5: t = (j + 0.5) / (n + 1), j = 0..n); and on each
+ * face the points of a square grid of the given spacing (offset by grid_phase cells) inside the
+ * face and at least margin from its boundary. One spacing for all edges and faces: the samples
+ * are uniform over the boundary (paper sec. 5), short edges do not crowd the system. */
+static pf_status elem_samples(const elem_ctx *c, double edge_spacing, int32_t edge_min,
+                              double edge_phase, double spacing, double grid_phase, double margin,
+                              pt_list *out, pf_error *err)
+{
+    out->n = 0;
+    for (int32_t g = 0; g < c->ng; ++g) {
+        int32_t i = c->grep[g];
+        pf_vec3 nn = c->nnrm[i];
+        double l = pf_v3_norm(nn);
+        PF_TRY(pts_push(out,
+                        (pt3){c->pos[i], l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0), i, i,
+                              0, -1, c->nlen[i]},
+                        err));
+    }
+    for (int32_t s = 0; s < c->ne; ++s) {
+        const edge3 *ed = &c->edges[s];
+        pf_vec3 nn = pf_v3_add(face_out_normal(c, ed->f1), face_out_normal(c, ed->f2));
+        double l = pf_v3_norm(nn);
+        nn = l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0);
+        double cnt = ceil(pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / edge_spacing - 1e-9) - 1;
+        int32_t n = cnt > edge_min ? (int32_t)cnt : edge_min; /* every edge's kink is sampled */
+        int32_t j0 = edge_phase > 0 ? 0 : 1, j1 = edge_phase > 0 ? n : n;
+        for (int32_t j = j0; j <= j1; ++j) {
+            double t = (j + edge_phase) / (n + 1);
+            pf_vec3 x =
+                pf_v3_add(c->pos[ed->a], pf_v3_scale(pf_v3_sub(c->pos[ed->b], c->pos[ed->a]), t));
+            PF_TRY(pts_push(out,
+                            (pt3){x, nn, ed->a, ed->b, t, -1,
+                                  pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / (n + 1)},
+                            err));
+        }
+    }
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        const face_fn *f = &c->faces[c->face_id[lf]];
+        /* Small faces get a grid of their own scale (about 2 points across) so that every face
+         * carries samples: the data has a kink at each of its edges. */
+        double own = fmin(1, f->diam / (2 * spacing));
+        double sp = own * spacing / f->s, mg = own * margin / f->s;
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int32_t a = 0; a < f->n; ++a)
+            for (int d = 0; d < 2; ++d) {
+                lo[d] = fmin(lo[d], f->p2[2 * a + d]);
+                hi[d] = fmax(hi[d], f->p2[2 * a + d]);
+            }
+        pf_vec3 nn = face_out_normal(c, lf);
+        for (double pu = lo[0] + grid_phase * sp; pu < hi[0]; pu += sp)
+            for (double pv = lo[1] + grid_phase * sp; pv < hi[1]; pv += sp) {
+                if (!polygon_contains(f->p2, f->n, pu, pv) ||
+                    polygon_boundary_distance(f->p2, f->n, pu, pv) < mg)
+                    continue;
+                pf_vec3 x = pf_v3_add(
+                    f->o, pf_v3_add(pf_v3_scale(f->u, pu * f->s), pf_v3_scale(f->v, pv * f->s)));
+                PF_TRY(pts_push(out, (pt3){x, nn, -1, -1, 0, lf, own * spacing}, err));
+            }
+    }
+    return PF_OK;
+}
+
+/* Boundary data b_g at a sample (paper sec. 4): delta at nodes, linear on edges, the face
+ * functions on faces; summed over merged groups. B is a row with stride ldb. */
+static void boundary_values(const elem_ctx *c, const pt3 *pt, double *faceval, double *B,
+                            size_t ldb)
+{
+    for (int32_t g = 0; g < c->ng; ++g)
+        B[(size_t)g * ldb] = 0;
+    if (pt->face < 0) {
+        B[(size_t)c->slot[pt->a] * ldb] += 1 - pt->t;
+        if (pt->b != pt->a)
+            B[(size_t)c->slot[pt->b] * ldb] += pt->t;
+        return;
+    }
+    const face_fn *f = &c->faces[c->face_id[pt->face]];
+    face_eval(f, pt->x, faceval);
+    const int32_t *loc = c->floc + c->floc_off[pt->face];
+    for (int32_t a = 0; a < f->n; ++a)
+        B[(size_t)c->slot[loc[a]] * ldb] += faceval[a];
+}
+
+/* ---- 3D MFS (paper eq. 11-14 with psi = 1/r)
+ * ----------------------------------------------------- */
+
+typedef struct mfs_out {
+    int32_t nk, m, moved, dropped;
+    bool svd;
+} mfs_out;
+
+static pf_status grow_data(double **data, int64_t *cap, int64_t need, pf_error *err)
+{
+    if (need <= *cap)
+        return PF_OK;
+    int64_t nc = *cap ? *cap : 1024;
+    while (nc < need)
+        nc *= 2;
+    double *nd = pf_realloc_array(*data, (size_t)nc, sizeof *nd);
+    PF_CHECK(nd, err, PF_ERR_NOMEM, "basis data: no memory for %lld doubles", (long long)nc);
+    *data = nd;
+    *cap = nc;
+    return PF_OK;
+}
+
+static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt_list *pts,
+                          double **data, int64_t *cap, int64_t at, mfs_out *st, pf_error *err)
+{
+    int32_t e = c->e;
+    memset(st, 0, sizeof *st);
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        face_fn *f = &c->faces[c->face_id[lf]];
+        if (f->kind == FACE_NONE)
+            PF_TRY(face_solve(f, c->m, c->face_id[lf], p, w, err));
+    }
+    double rho = p->collocation_density;
+    double spacing = c->max_edge / (p->edge_samples + 1), fsp = spacing * p->face_spacing;
+    /* Kernels (eq. 12): samples moved outward by xi * size, size the element's diameter, scaled
+     * down where the local sample spacing (short edges, small faces: the facets of a sliced
+     * surface) is finer than the element's: a kernel resolves boundary data on the scale of its
+     * distance. Kept only outside the element and at least 0.2 offsets clear of its boundary
+     * (non-convex cells), else moved back by halves, else dropped. */
+    PF_TRY(elem_samples(c, spacing, 1, 0, fsp, 0.5, 0.5 * fsp, pts, err));
+    int32_t ns = pts->n, ng = c->ng;
+    PF_TRY(grow_data(data, cap, at + HDR + 3 * (int64_t)ns, err));
+    double *kern = *data + at + HDR;
+    int32_t nk = 0;
+    for (int32_t s = 0; s < ns; ++s) {
+        const pt3 *pt = &pts->p[s];
+        double off = p->xi * c->diam * fmin(1, pt->len / fsp);
+        bool placed = false;
+        if (pf_v3_norm(pt->nrm) > 0)
+            for (double shrink = 1; shrink > 0.2 && !placed; shrink *= 0.5) {
+                pf_vec3 k = pf_v3_add(pt->x, pf_v3_scale(pt->nrm, shrink * off));
+                if (elem_contains(c, k) || elem_boundary_distance(c, k) < 0.2 * shrink * off)
+                    continue;
+                pf_vec3 y = pf_v3_scale(pf_v3_sub(k, c->c), 1 / c->h);
+                pf_v3_store(y, kern + 3 * nk);
+                ++nk;
+                placed = true;
+                st->moved += shrink < 1;
+            }
+        st->dropped += !placed;
+    }
+    st->nk = nk;
+
+    /* Collocation points, about rho times denser (eq. 13), and the system of eq. 14. */
+    double sc = fsp / sqrt(rho);
+    PF_TRY(elem_samples(c, spacing / rho, (int32_t)ceil(rho), 0, sc, 0.5, 0.5 * sc, pts, err));
+    int32_t m = pts->n, cols = nk + 4;
+    size_t ldb = (size_t)(m > cols ? m : cols);
+    st->m = m;
+    double *A = ws_get(w, WS_A, (size_t)m * cols, sizeof *A);
+    double *A0 = ws_get(w, WS_A0, (size_t)m * cols, sizeof *A0);
+    double *B = ws_get(w, WS_B, ldb * ng, sizeof *B);
+    double *B0 = ws_get(w, WS_B0, ldb * ng, sizeof *B0);
+    double *fv = ws_get(w, WS_FACEVAL, PF_BASIS_MAX_NODES, sizeof *fv);
+    PF_CHECK(A && A0 && B && B0 && fv, err, PF_ERR_NOMEM,
+             "element %d: no memory for a %d x %d "
+             "system",
+             (int)e, (int)m, (int)cols);
+    kern = *data + at + HDR;
+    for (int32_t r = 0; r < m; ++r) {
+        pf_vec3 y = pf_v3_scale(pf_v3_sub(pts->p[r].x, c->c), 1 / c->h);
+        for (int32_t j = 0; j < nk; ++j)
+            A[r + (size_t)j * m] = 1 / pf_v3_dist(y, pf_v3_load(kern + 3 * j));
+        A[r + (size_t)nk * m] = y.x;
+        A[r + (size_t)(nk + 1) * m] = y.y;
+        A[r + (size_t)(nk + 2) * m] = y.z;
+        A[r + (size_t)(nk + 3) * m] = 1;
+    }
+    memset(B, 0, ldb * ng * sizeof *B);
+    for (int32_t r = 0; r < m; ++r)
+        boundary_values(c, &pts->p[r], fv, B + r, ldb);
+    memcpy(A0, A, (size_t)m * cols * sizeof *A);
+    memcpy(B0, B, ldb * ng * sizeof *B);
+    pf_status s = lsq_solve(w, m, cols, ng, p->rank_rcond, &st->svd, err);
+    if (s < 0) {
+        pf_error_prefix(err, "element %d", (int)e);
+        return s;
+    }
+
+    /* Store: header, kernels (already in place), coefficients, groups, projection, counts. */
+    int64_t need = at + HDR + 3 * (int64_t)nk + (int64_t)cols * ng + 8 * (int64_t)ng;
+    PF_TRY(grow_data(data, cap, need, err));
+    double *d = *data + at;
+    pf_v3_store(c->c, d);
+    d[3] = c->h;
+    d[4] = nk;
+    d[5] = ng;
+    double *coef = d + HDR + 3 * nk;
+    for (int32_t j = 0; j < cols; ++j)
+        for (int32_t g = 0; g < ng; ++g) {
+            double v = B[j + (size_t)g * ldb];
+            PF_CHECK(isfinite(v), err, PF_ERR_NUMERIC, "element %d: non-finite MFS coefficient",
+                     (int)e);
+            coef[(size_t)j * ng + g] = v;
+        }
+    double *gpos = coef + (size_t)cols * ng, *q = gpos + 3 * ng, *gc = q + 4 * ng;
+    for (int32_t g = 0; g < ng; ++g) {
+        pf_v3_store(pf_v3_scale(pf_v3_sub(c->pos[c->grep[g]], c->c), 1 / c->h), gpos + 3 * g);
+        gc[g] = c->gcount[g];
+    }
+    PF_CHECK(exactness_projection(3, ng, gpos, q) == PF_OK, err, PF_ERR_INVALID,
+             "element %d: nodes are coplanar", (int)e);
+    return PF_OK;
+}
+
+/* ---- statistics
+ * ------------------------------------------------------------------------------------ */
+
+/* Accumulates partition-of-unity and linear-reproduction errors and the smallest value at x. */
+static void check_point(const pf_basis *b, int32_t e, const elem_ctx *c, pf_vec3 x,
+                        pf_basis_elem_stats *st)
+{
+    double n[PF_BASIS_MAX_NODES], g[3 * PF_BASIS_MAX_NODES];
+    pf_basis_eval(b, e, x, n, g);
+    double su = -1, sx[3] = {-x.x, -x.y, -x.z}, sg[3] = {0, 0, 0},
+           sxg[9] = {-1, 0, 0, 0, -1, 0, 0, 0, -1};
+    for (int32_t i = 0; i < c->k; ++i) {
+        su += n[i];
+        double xi[3] = {c->pos[i].x, c->pos[i].y, c->pos[i].z};
+        for (int a = 0; a < 3; ++a) {
+            sx[a] += xi[a] * n[i];
+            sg[a] += g[3 * i + a];
+            for (int bb = 0; bb < 3; ++bb)
+                sxg[3 * a + bb] += xi[a] * g[3 * i + bb];
+        }
+        st->min_value = fmin(st->min_value, n[i]);
+    }
+    double lin = sqrt(sx[0] * sx[0] + sx[1] * sx[1] + sx[2] * sx[2]) / c->diam;
+    for (int a = 0; a < 9; ++a)
+        lin = fmax(lin, fabs(sxg[a]));
+    double uni = fabs(su);
+    for (int a = 0; a < 3; ++a)
+        uni = fmax(uni, fabs(sg[a]) * c->diam);
+    st->linear_error = fmax(st->linear_error, lin);
+    st->unity_error = fmax(st->unity_error, uni);
+}
+
+static pf_status elem_stats(const pf_basis *b, elem_ctx *c, const pf_basis_params *p, pt_list *pts,
+                            pf_basis_elem_stats *st, pf_error *err)
+{
+    int32_t e = c->e;
+    st->min_value = INFINITY;
+    st->linear_error = st->unity_error = 0;
+    for (int32_t i = 0; i < c->k; ++i)
+        check_point(b, e, c, c->pos[i], st);
+    if (b->kind[e] != PF_BASIS_HARMONIC) {
+        /* Convex: the centroid, the midpoints of node pairs and the centroid-node midpoints. */
+        check_point(b, e, c, c->c, st);
+        for (int32_t i = 0; i < c->k; ++i) {
+            check_point(b, e, c, pf_v3_scale(pf_v3_add(c->pos[i], c->c), 0.5), st);
+            for (int32_t j = 0; j < i; ++j)
+                check_point(b, e, c, pf_v3_scale(pf_v3_add(c->pos[i], c->pos[j]), 0.5), st);
+        }
+        st->boundary_error = 0;
+        return PF_OK;
+    }
+    /* Boundary error: the L2 norm over the faces (eq. 13's integral), by a uniform grid of
+     * points shifted by half a cell against the collocation grid and twice as fine, so that
+     * every point carries the same area. Edge points (half-way between collocation points) only
+     * enter the unity / linear checks. */
+    double spacing = c->max_edge / (p->edge_samples + 1) * p->face_spacing;
+    double sc = 0.5 * spacing / sqrt(p->collocation_density);
+    PF_TRY(elem_samples(c, c->max_edge / (p->edge_samples + 1) / p->collocation_density,
+                        (int32_t)ceil(p->collocation_density), 0.5, sc, 0, 0, pts, err));
+    double fv[PF_BASIS_MAX_NODES], bv[PF_BASIS_MAX_NODES], n[PF_BASIS_MAX_NODES];
+    double num = 0, den = 0;
+    for (int32_t r = 0; r < pts->n; ++r) {
+        const pt3 *pt = &pts->p[r];
+        check_point(b, e, c, pt->x, st);
+        if (pt->face < 0)
+            continue;
+        boundary_values(c, pt, fv, bv, 1);
+        pf_basis_eval(b, e, pt->x, n, NULL);
+        for (int32_t i = 0; i < c->k; ++i) {
+            double bi = bv[c->slot[i]] / c->gcount[c->slot[i]];
+            num += (n[i] - bi) * (n[i] - bi);
+            den += bi * bi;
+        }
+    }
+    st->boundary_error = den > 0 ? sqrt(num / den) : 0;
+    /* Interior: a 5 x 5 x 5 grid over the bounding box, points inside only. */
+    pf_vec3 lo = c->pos[0], hi = c->pos[0];
+    for (int32_t i = 1; i < c->k; ++i) {
+        lo = pf_v3_min(lo, c->pos[i]);
+        hi = pf_v3_max(hi, c->pos[i]);
+    }
+    for (int i = 0; i < 5; ++i)
+        for (int j = 0; j < 5; ++j)
+            for (int l = 0; l < 5; ++l) {
+                pf_vec3 x = pf_v3(lo.x + (i + 0.5) / 5 * (hi.x - lo.x),
+                                  lo.y + (j + 0.5) / 5 * (hi.y - lo.y),
+                                  lo.z + (l + 0.5) / 5 * (hi.z - lo.z));
+                if (elem_contains(c, x))
+                    check_point(b, e, c, x, st);
+            }
+    return PF_OK;
+}
+
+/* ---- create / release --------------------------------------------------------------------------
+ */
+
+void pf_basis_release(pf_basis *b)
+{
+    pf_free(b->node_offsets);
+    pf_free(b->nodes);
+    pf_free(b->node_slot);
+    pf_free(b->kind);
+    pf_free(b->data_offsets);
+    pf_free(b->data);
+    pf_free(b->stats);
+    memset(b, 0, sizeof *b);
+}
+
+typedef struct create_state {
+    face_fn *faces;
+    basis_ws ws;
+    pt_list pts;
+    elem_ctx *ctx;
+    int64_t data_cap, nodes_cap;
+} create_state;
+
+static pf_status grow_nodes(pf_basis *b, int64_t *cap, int64_t need, pf_error *err)
+{
+    if (need <= *cap)
+        return PF_OK;
+    int64_t nc = *cap ? *cap : 1024;
+    while (nc < need)
+        nc *= 2;
+    int32_t *n1 = pf_realloc_array(b->nodes, (size_t)nc, sizeof *n1);
+    if (n1)
+        b->nodes = n1;
+    int32_t *n2 = n1 ? pf_realloc_array(b->node_slot, (size_t)nc, sizeof *n2) : NULL;
+    if (n2)
+        b->node_slot = n2;
+    PF_CHECK(n1 && n2, err, PF_ERR_NOMEM, "basis: no memory for %lld node entries", (long long)nc);
+    *cap = nc;
+    return PF_OK;
+}
+
+static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int32_t e,
+                            const pf_basis_params *p, pf_error *err)
+{
+    double t0 = pf_time_seconds();
+    elem_ctx *c = cs->ctx;
+    c->m = m;
+    c->faces = cs->faces;
+    c->e = e;
+    PF_TRY(elem_setup(c, p, &cs->ws, err));
+    int64_t at = b->data_offsets[e];
+    PF_TRY(grow_data(&b->data, &cs->data_cap, at + 12, err));
+    int64_t no = b->node_offsets[e];
+    PF_TRY(grow_nodes(b, &cs->nodes_cap, no + c->k, err));
+    pf_basis_elem_stats *st = &b->stats[e];
+    memset(st, 0, sizeof *st);
+    st->n_nodes = c->k;
+    st->n_faces = c->nf;
+    st->n_merged = c->k - c->ng;
+    pf_elem_kind mk = pf_mesh_classify_elem(m, e);
+    int32_t *slot = b->node_slot + no;
+    pf_basis_kind kind = PF_BASIS_HARMONIC;
+    if (!p->force_mfs && mk == PF_ELEM_TET && closed_tet(c, b->data + at, slot))
+        kind = PF_BASIS_TET;
+    else if (!p->force_mfs && mk == PF_ELEM_HEX &&
+             closed_hex(c, p->parallel_tol, b->data + at, slot))
+        kind = PF_BASIS_HEX;
+    int64_t end = at + 12;
+    if (kind == PF_BASIS_HARMONIC) {
+        mfs_out mo;
+        PF_TRY(elem_mfs(c, p, &cs->ws, &cs->pts, &b->data, &cs->data_cap, at, &mo, err));
+        st->n_kernels = mo.nk;
+        st->n_collocation = mo.m;
+        st->n_kernels_moved = mo.moved;
+        st->n_kernels_dropped = mo.dropped;
+        st->used_svd = mo.svd;
+        end = at + HDR + 3 * (int64_t)mo.nk + (int64_t)(mo.nk + 4) * c->ng + 8 * (int64_t)c->ng;
+        for (int32_t i = 0; i < c->k; ++i)
+            slot[i] = c->slot[i];
+    }
+    for (int32_t i = 0; i < c->k; ++i)
+        b->nodes[no + i] = c->nodes[i];
+    b->node_offsets[e + 1] = no + c->k;
+    b->data_offsets[e + 1] = end;
+    b->kind[e] = (uint8_t)kind;
+    st->setup_ms = 1e3 * (pf_time_seconds() - t0);
+    return elem_stats(b, c, p, &cs->pts, st, err);
+}
+
+pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,
+                          pf_error *err)
+{
+    memset(b, 0, sizeof *b);
+    double t0 = pf_time_seconds();
+    pf_basis_params p = fill_defaults(params);
+    PF_CHECK(m && m->n_elems >= 0 && (m->n_elems == 0 || (m->elem_offsets && m->face_offsets)), err,
+             PF_ERR_INVALID, "basis: empty or malformed mesh");
+    int32_t ne = m->n_elems;
+    b->n_elems = ne;
+    create_state cs = {0};
+    pf_status s = PF_OK;
+    if (!PF_ALLOC_N(b->node_offsets, ne + 1) || !PF_ALLOC_N(b->data_offsets, ne + 1) ||
+        !PF_ALLOC_N(b->kind, ne) || !PF_ALLOC_N(b->stats, ne) ||
+        !PF_ALLOC_N(cs.faces, m->n_faces) || !PF_ALLOC_N(cs.ctx, 1)) {
+        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "basis: no memory for %d elements",
+                         (int)ne);
+        goto done;
+    }
+    memset(cs.faces, 0, (size_t)m->n_faces * sizeof *cs.faces);
+    b->node_offsets[0] = 0;
+    b->data_offsets[0] = 0;
+    for (int32_t e = 0; e < ne && s >= 0; ++e)
+        s = build_elem(b, &cs, m, e, &p, err);
+    for (int32_t f = 0; f < m->n_faces; ++f) {
+        b->n_face_mfs += cs.faces[f].kind == FACE_MFS;
+        b->n_face_closed += cs.faces[f].kind == FACE_LINEAR || cs.faces[f].kind == FACE_BILINEAR;
+    }
+done:
+    if (cs.faces)
+        for (int32_t f = 0; f < m->n_faces; ++f)
+            face_release(&cs.faces[f]);
+    pf_free(cs.faces);
+    pf_free(cs.ctx);
+    pf_free(cs.pts.p);
+    ws_release(&cs.ws);
+    if (s < 0) {
+        pf_basis_release(b);
+        return s;
+    }
+    b->setup_seconds = pf_time_seconds() - t0;
+    return PF_OK;
+}
+
+/* ---- summary
+ * ------------------------------------------------------------------------------------- */
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int32_t n)
+{
+    if (n == 0)
+        return 0;
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+pf_status pf_basis_summarize(const pf_basis *b, pf_basis_summary *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->n_elems = b->n_elems;
+    out->min_value = INFINITY;
+    double *be = NULL, *ms = NULL;
+    if (!PF_ALLOC_N(be, b->n_elems) || !PF_ALLOC_N(ms, b->n_elems)) {
+        pf_free(be);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "basis summary: no memory");
+    }
+    int32_t nh = 0;
+    for (int32_t e = 0; e < b->n_elems; ++e) {
+        const pf_basis_elem_stats *st = &b->stats[e];
+        out->n_by_kind[b->kind[e]]++;
+        out->max_linear_error = fmax(out->max_linear_error, st->linear_error);
+        out->max_unity_error = fmax(out->max_unity_error, st->unity_error);
+        out->min_value = fmin(out->min_value, st->min_value);
+        out->n_kernels += st->n_kernels;
+        out->n_collocation += st->n_collocation;
+        if (b->kind[e] == PF_BASIS_HARMONIC) {
+            out->max_boundary_error = fmax(out->max_boundary_error, st->boundary_error);
+            out->max_setup_ms = fmax(out->max_setup_ms, st->setup_ms);
+            be[nh] = st->boundary_error;
+            ms[nh] = st->setup_ms;
+            ++nh;
+        }
+    }
+    if (b->n_elems == 0)
+        out->min_value = 0;
+    out->median_boundary_error = median(be, nh);
+    out->median_setup_ms = median(ms, nh);
+    pf_free(be);
+    pf_free(ms);
+    return PF_OK;
+}

@@ -1,0 +1,105 @@
+/* Internal to libcore/basis: face functions, least squares, the exactness projection. */
+#ifndef PF_BASIS_INTERNAL_H
+#define PF_BASIS_INTERNAL_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include <pf/basis.h>
+
+/* Growable scratch reused from element to element (setup allocates only when an element is
+ * larger than every earlier one). */
+enum {
+    WS_A,
+    WS_A0,
+    WS_B,
+    WS_B0,
+    WS_WORK,
+    WS_IWORK,
+    WS_SING,
+    WS_KERN,
+    WS_FACEVAL,
+    WS_EFACE,
+    WS_EFOFF,
+    WS_EREV,
+    WS_ELOCAL,
+    WS_EDGES,
+    WS_PTS,
+    WS_COUNT
+};
+typedef struct basis_ws {
+    void *buf[WS_COUNT];
+    size_t cap[WS_COUNT]; /* bytes */
+} basis_ws;
+
+/* count * size bytes of buffer `which`, its earlier contents lost; NULL on overflow / no memory. */
+void *ws_get(basis_ws *w, int which, size_t count, size_t size);
+void ws_release(basis_ws *w);
+
+typedef enum face_kind { FACE_NONE = 0, FACE_LINEAR, FACE_BILINEAR, FACE_MFS } face_kind;
+
+/* A mesh face in its own frame, with its 2D harmonic coordinates once solved. Points of the face
+ * map to scaled 2D coordinates p = ((x - o).u, (x - o).v) / s; nrm = u x v is the normal of the
+ * face as stored (counter-clockwise about nrm). */
+typedef struct face_fn {
+    int32_t n;             /* nodes */
+    const uint32_t *nodes; /* [n] borrowed from the mesh */
+    pf_vec3 o, u, v, nrm;
+    double s;    /* largest node distance from o (model units) */
+    double diam; /* largest node-to-node distance (model units) */
+    double *p2;  /* [2 n] scaled 2D node coordinates */
+    face_kind kind;
+    /* closed forms: node a0 (2D) and the inverse of the 2x2 edge matrix; corner bits */
+    double a0[2], minv[4];
+    int32_t bits[4];
+    /* MFS (FACE_MFS): merged groups, kernels, coefficients, exactness projection */
+    int32_t n_groups;
+    int32_t *slot;  /* [n] group of each node */
+    double *gcount; /* [n_groups] nodes per group */
+    double *gpos;   /* [2 n_groups] scaled group positions */
+    double *q;      /* [3 n_groups] projection (P^T P)^-1 P^T, stored per group */
+    int32_t nk;
+    double *kern; /* [2 nk] scaled kernel centres */
+    double *coef; /* [(nk + 3) n_groups], row j over groups */
+    double setup_ms;
+} face_fn;
+
+/* Frame and 2D coordinates of face f of m (no solve). PF_ERR_INVALID for a degenerate face. */
+pf_status face_init(face_fn *f, const pf_mesh *m, int32_t face, pf_error *err);
+/* Solves the face's functions (closed form or 2D MFS). */
+pf_status face_solve(face_fn *f, const pf_mesh *m, int32_t face, const pf_basis_params *p,
+                     basis_ws *w, pf_error *err);
+void face_release(face_fn *f);
+
+/* Scaled 2D coordinates of a model point on (or projected onto) the face. */
+static inline void face_coords(const face_fn *f, pf_vec3 x, double *pu, double *pv)
+{
+    pf_vec3 d = pf_v3_sub(x, f->o);
+    *pu = pf_v3_dot(d, f->u) / f->s;
+    *pv = pf_v3_dot(d, f->v) / f->s;
+}
+
+/* vals[a] = value of the face function of node a (face order) at the model point x. */
+void face_eval(const face_fn *f, pf_vec3 x, double *vals);
+
+/* Crossing-number point-in-polygon test, polygon p[2 n]. */
+bool polygon_contains(const double *p, int32_t n, double x, double y);
+/* Distance from (x, y) to the polygon's boundary. */
+double polygon_boundary_distance(const double *p, int32_t n, double x, double y);
+
+/* Least squares min |A X - B| for g right-hand sides: A m x cols, B m x g (column-major, leading
+ * dimension ldb >= max(m, cols)), both overwritten; X in B's first cols rows. QR (dgels), SVD
+ * (dgelsd) when the QR factor's reciprocal condition is below rcond. A0 / B0 are untouched
+ * copies used for the SVD retry. */
+pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond, bool *used_svd,
+                    pf_error *err);
+
+/* q[(dim+1) g + c] = ((P^T P)^-1 P^T)[c][g] for P with rows (1, pos_g), g < ng. PF_ERR_NUMERIC
+ * when the positions do not span dim dimensions. */
+pf_status exactness_projection(int dim, int32_t ng, const double *pos, double *q);
+
+/* G (ng values) <- G + (t - G P) Q: the smallest change making sum_g G_g (1, pos_g) = t. */
+void apply_projection(int dim, int32_t ng, const double *pos, const double *q, const double *t,
+                      double *G);
+
+#endif

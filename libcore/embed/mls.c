@@ -1,0 +1,214 @@
+/* MLS embedding (DG paper sec. 7, eq. 31-32): per surface vertex, the weights of the affine
+ * moving-least-squares fit to the nodes in its support. */
+#include "embed_internal.h"
+
+#include <string.h>
+
+pf_status pf_embed_mls_radii(const pf_mesh *m, const pf_embed_params *params, double *radius,
+                             pf_error *err)
+{
+    pf_embed_params p;
+    PF_TRY(embed_resolve_params(params, &p, err));
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        radius[i] = 0;
+    double longest = 0;
+    /* every edge of every face: the node spacing is the longest edge at the node (one ring) */
+    for (int32_t f = 0; f < m->n_faces; ++f) {
+        int64_t o = m->face_offsets[f], n = m->face_offsets[f + 1] - o;
+        for (int64_t k = 0; k < n; ++k) {
+            uint32_t a = m->face_nodes[o + k], b = m->face_nodes[o + (k + 1) % n];
+            double len = pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)a),
+                                    pf_v3_load(m->x + 3 * (size_t)b));
+            radius[a] = fmax(radius[a], len);
+            radius[b] = fmax(radius[b], len);
+            longest = fmax(longest, len);
+        }
+    }
+    PF_CHECK(longest > 0, err, PF_ERR_INVALID, "the mesh has no edge of positive length");
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        radius[i] = p.support * (radius[i] > 0 ? radius[i] : longest);
+    return PF_OK;
+}
+
+/* The kernel at q^2 = (|x - x_i| / R_i)^2 < 1: the Gaussian exp(-s q^2) minus its first-order
+ * expansion in q^2 about q = 1, so value and slope vanish at the radius (C1 truncation), divided
+ * by its value at 0. */
+static double kernel(double q2, double s)
+{
+    double es = exp(-s);
+    return (exp(-s * q2) - es * (1 + s * (1 - q2))) / (1 - es * (1 + s));
+}
+
+typedef struct support {
+    int32_t n, cap;
+    uint32_t *col; /* [cap] node */
+    double *d;     /* [3 cap] (x_i - x) / rho */
+    double *theta; /* [cap] */
+    double *val;   /* [cap] */
+} support;
+
+static void support_release(support *s)
+{
+    pf_free(s->col);
+    pf_free(s->d);
+    pf_free(s->theta);
+    pf_free(s->val);
+    memset(s, 0, sizeof *s);
+}
+
+static pf_status support_push(support *s, uint32_t node, pf_vec3 d, double theta, pf_error *err)
+{
+    if (s->n == s->cap) {
+        int32_t cap = s->cap ? 2 * s->cap : 128;
+        uint32_t *c = pf_realloc_array(s->col, (size_t)cap, sizeof *c);
+        if (c)
+            s->col = c;
+        double *dd = c ? pf_realloc_array(s->d, 3 * (size_t)cap, sizeof *dd) : NULL;
+        if (dd)
+            s->d = dd;
+        double *t = dd ? pf_realloc_array(s->theta, (size_t)cap, sizeof *t) : NULL;
+        if (t)
+            s->theta = t;
+        double *v = t ? pf_realloc_array(s->val, (size_t)cap, sizeof *v) : NULL;
+        if (v)
+            s->val = v;
+        PF_CHECK(v, err, PF_ERR_NOMEM, "out of memory for an MLS support of %d nodes", (int)cap);
+        s->cap = cap;
+    }
+    s->col[s->n] = node;
+    pf_v3_store(d, s->d + 3 * (size_t)s->n);
+    s->theta[s->n] = theta;
+    s->n++;
+    return PF_OK;
+}
+
+typedef struct mls_context {
+    const pf_mesh *m;
+    const pf_embed_params *p;
+    const double *radius; /* [n_nodes] */
+    double r_max;
+    bucket_grid supports; /* nodes by their support boxes */
+    bucket_grid points;   /* nodes by position, for grown supports */
+    support s;
+} mls_context;
+
+static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale, double rho,
+                          pf_error *err)
+{
+    pf_vec3 xi = pf_v3_load(c->m->x + 3 * (size_t)node);
+    pf_vec3 d = pf_v3_sub(xi, x);
+    double r = scale * c->radius[node];
+    double q2 = pf_v3_dot(d, d) / (r * r);
+    if (q2 >= 1)
+        return PF_OK;
+    return support_push(&c->s, (uint32_t)node, pf_v3_scale(d, 1.0 / rho),
+                        kernel(q2, c->p->sharpness), err);
+}
+
+/* The nodes whose (scaled) support holds x: at scale 1 the candidates of x's cell of the support
+ * grid; grown, every cell of the point grid within scale * r_max. */
+static pf_status gather(mls_context *c, pf_vec3 x, double scale, pf_error *err)
+{
+    c->s.n = 0;
+    double rho = scale * c->r_max;
+    int32_t cell[3];
+    if (scale == 1) {
+        const bucket_grid *g = &c->supports;
+        bucket_grid_cell(g, x, cell);
+        int64_t k = bucket_grid_index(g, cell[0], cell[1], cell[2]);
+        for (int64_t q = g->offsets[k]; q < g->offsets[k + 1]; ++q)
+            PF_TRY(consider(c, g->items[q], x, scale, rho, err));
+        return PF_OK;
+    }
+    const bucket_grid *g = &c->points;
+    int32_t lo[3], hi[3];
+    bucket_grid_cell(g, pf_v3_sub(x, pf_v3(rho, rho, rho)), lo);
+    bucket_grid_cell(g, pf_v3_add(x, pf_v3(rho, rho, rho)), hi);
+    for (int32_t k = lo[2]; k <= hi[2]; ++k)
+        for (int32_t j = lo[1]; j <= hi[1]; ++j)
+            for (int32_t i = lo[0]; i <= hi[0]; ++i) {
+                int64_t cl = bucket_grid_index(g, i, j, k);
+                for (int64_t q = g->offsets[cl]; q < g->offsets[cl + 1]; ++q)
+                    PF_TRY(consider(c, g->items[q], x, scale, rho, err));
+            }
+    return PF_OK;
+}
+
+static pf_status build_grids(mls_context *c, pf_error *err)
+{
+    const pf_mesh *m = c->m;
+    double *box = NULL;
+    PF_CHECK(PF_ALLOC_N(box, 6 * (size_t)m->n_nodes), err, PF_ERR_NOMEM,
+             "out of memory for %d node boxes", (int)m->n_nodes);
+    double mean = 0;
+    for (int32_t i = 0; i < m->n_nodes; ++i) {
+        double r = c->radius[i];
+        mean += r;
+        c->r_max = fmax(c->r_max, r);
+        for (int a = 0; a < 3; ++a) {
+            box[6 * (size_t)i + a] = m->x[3 * (size_t)i + a] - r;
+            box[6 * (size_t)i + 3 + a] = m->x[3 * (size_t)i + a] + r;
+        }
+    }
+    mean /= m->n_nodes;
+    pf_status st = bucket_grid_build(&c->supports, box, m->n_nodes, mean, err);
+    for (int32_t i = 0; i < m->n_nodes && st >= 0; ++i)
+        for (int a = 0; a < 3; ++a)
+            box[6 * (size_t)i + a] = box[6 * (size_t)i + 3 + a] = m->x[3 * (size_t)i + a];
+    if (st >= 0)
+        st = bucket_grid_build(&c->points, box, m->n_nodes, mean, err);
+    pf_free(box);
+    return st;
+}
+
+/* One vertex: grow the supports until the fit is well conditioned. */
+static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b,
+                            pf_embed_stats *stats, pf_error *err)
+{
+    double scale = 1;
+    for (int32_t step = 0;; ++step) {
+        PF_TRY(gather(c, x, scale, err));
+        if (affine_fit_weights(c->s.d, c->s.theta, c->s.n, c->p->min_spread, c->s.val))
+            break;
+        PF_CHECK(step < c->p->max_growth, err, PF_ERR_NUMERIC,
+                 "surface vertex %d: the MLS support holds %d nodes, too few or too flat for an "
+                 "affine fit even at %g times the radius",
+                 (int)v, (int)c->s.n, scale);
+        scale *= c->p->growth;
+    }
+    if (scale > 1)
+        stats->n_grown++;
+    return row_builder_add(b, v, c->s.col, c->s.val, c->s.n, err);
+}
+
+pf_status embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
+                    locator *L, row_builder *b, pf_embed_stats *stats, pf_error *err)
+{
+    mls_context c;
+    memset(&c, 0, sizeof c);
+    c.m = m;
+    c.p = p;
+    double *radius = NULL;
+    PF_CHECK(PF_ALLOC_N(radius, (size_t)m->n_nodes), err, PF_ERR_NOMEM,
+             "out of memory for %d radii", (int)m->n_nodes);
+    c.radius = radius;
+    pf_status st = pf_embed_mls_radii(m, p, radius, err);
+    if (st >= 0)
+        st = build_grids(&c, err);
+    for (int32_t v = 0; v < s->n_verts && st >= 0; ++v) {
+        pf_vec3 x = pf_v3_load(s->x + 3 * (size_t)v);
+        double dist;
+        int32_t e = locator_find(L, x, &dist);
+        stats->n_by_kind[L->geo.kind[e]]++;
+        if (dist > L->tol) {
+            stats->n_outside++;
+            stats->max_outside = fmax(stats->max_outside, dist);
+        }
+        st = vertex_row(&c, v, x, b, stats, err);
+    }
+    support_release(&c.s);
+    bucket_grid_release(&c.supports);
+    bucket_grid_release(&c.points);
+    pf_free(radius);
+    return st;
+}

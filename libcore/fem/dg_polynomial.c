@@ -1,0 +1,230 @@
+/* Polynomial data for the DG discretisation: body forces, weak Dirichlet loads and L2 errors of
+ * fields that are polynomials of the position (manufactured solutions, DG paper sec. 9 style
+ * accuracy studies). The data polynomial is rewritten in the frame of the element it meets
+ * (pf_poly_monomial_in_frame), where the basis functions are plain monomials; then every
+ * integral is a sum of element or face moments in that frame, exact like the element terms.
+ * Degrees: data <= 4, basis <= 2, so products stay within PF_MOMENT_MAX_DEGREE = 8. */
+#include <pf/fem.h>
+
+#include <math.h>
+#include <string.h>
+
+/* Exponents of the monomials up to PF_MOMENT_MAX_DEGREE, filled once per call (no global). */
+typedef struct exponent_table {
+    int e[PF_MOMENT_MAX_COUNT][3];
+} exponent_table;
+
+static void fill_exponents(exponent_table *t)
+{
+    for (int k = 0; k < PF_MOMENT_MAX_COUNT; ++k)
+        pf_moment_exponents(k, &t->e[k][0], &t->e[k][1], &t->e[k][2]);
+}
+
+/* Index of the product of monomials k and l (exponents added). */
+static int product_of(const exponent_table *t, int k, int l)
+{
+    return pf_moment_index(t->e[k][0] + t->e[l][0], t->e[k][1] + t->e[l][1],
+                           t->e[k][2] + t->e[l][2]);
+}
+
+/* int c(xhat) m_l(xhat) from moments m (degree >= deg c + deg m_l), c of degree `degree`. */
+static double integrate_times_monomial(const exponent_table *t, const double *c, int degree, int l,
+                                       const double *m)
+{
+    double s = 0;
+    for (int k = 0; k < pf_moment_count(degree); ++k)
+        if (c[k] != 0)
+            s += c[k] * m[product_of(t, k, l)];
+    return s;
+}
+
+static pf_status check_poly(const pf_poly3 *p, pf_error *err)
+{
+    PF_CHECK(p->degree >= 0 && p->degree <= PF_POLY3_MAX_DEGREE, err, PF_ERR_INVALID,
+             "polynomial degree %d outside [0, %d]", (int)p->degree, PF_POLY3_MAX_DEGREE);
+    PF_CHECK(isfinite(p->frame.scale) && p->frame.scale > 0, err, PF_ERR_INVALID,
+             "polynomial frame scale %g is not finite and positive", p->frame.scale);
+    return PF_OK;
+}
+
+/* The components of p written in frame `to`: out[i] has pf_moment_count(p->degree) entries. */
+static void poly3_in_frame(const pf_poly3 *p, const pf_frame *to,
+                           double out[3][PF_POLY3_MAX_COUNT])
+{
+    int n = pf_moment_count(p->degree);
+    memset(out, 0, 3 * sizeof out[0]);
+    for (int k = 0; k < n; ++k) {
+        if (p->c[0][k] == 0 && p->c[1][k] == 0 && p->c[2][k] == 0)
+            continue;
+        double mono[PF_POLY3_MAX_COUNT]; /* monomial k of p's frame, in frame `to` */
+        pf_poly_monomial_in_frame(k, &p->frame, to, mono);
+        int a, b, c;
+        pf_moment_exponents(k, &a, &b, &c);
+        for (int q = 0; q < pf_moment_count(a + b + c); ++q)
+            for (int i = 0; i < 3; ++i)
+                out[i][q] += p->c[i][k] * mono[q];
+    }
+}
+
+pf_vec3 pf_poly3_eval(const pf_poly3 *p, pf_vec3 x)
+{
+    double v[PF_POLY3_MAX_COUNT];
+    pf_vec3 local = pf_v3_scale(pf_v3_sub(x, p->frame.center), 1 / p->frame.scale);
+    pf_moment_monomials(local, p->degree, v);
+    double r[3] = {0, 0, 0};
+    for (int k = 0; k < pf_moment_count(p->degree); ++k)
+        for (int i = 0; i < 3; ++i)
+            r[i] += p->c[i][k] * v[k];
+    return (pf_vec3){r[0], r[1], r[2]};
+}
+
+/* Moments of element e of m up to `degree`, in dg's frame of e. */
+static pf_status element_moments(const pf_dg *dg, const pf_mesh *m, int32_t e, int degree,
+                                 pf_arena *arena, double *mom, pf_error *err)
+{
+    size_t mark = pf_arena_mark(arena);
+    pf_polyhedron p;
+    pf_status s = pf_mesh_elem_polyhedron(m, e, arena, &p, err);
+    if (s >= 0)
+        s = pf_polyhedron_moments(&p, &dg->frame[e], degree, mom, err);
+    pf_arena_reset(arena, mark);
+    if (s < 0)
+        pf_error_prefix(err, "element %d", (int)e);
+    return s;
+}
+
+static pf_status check_mesh(const pf_dg *dg, const pf_mesh *m, pf_error *err)
+{
+    PF_CHECK(m->n_elems == dg->n_elems && m->n_faces == dg->n_faces, err, PF_ERR_INVALID,
+             "mesh of %d elements and %d faces is not the DG's (%d, %d)", (int)m->n_elems,
+             (int)m->n_faces, (int)dg->n_elems, (int)dg->n_faces);
+    return PF_OK;
+}
+
+pf_status pf_dg_add_polynomial_body_force(const pf_dg *dg, const pf_mesh *m, const pf_poly3 *f,
+                                          double *rhs, pf_error *err)
+{
+    PF_TRY(check_poly(f, err));
+    PF_TRY(check_mesh(dg, m, err));
+    exponent_table t;
+    fill_exponents(&t);
+    pf_arena arena;
+    PF_TRY(pf_arena_init(&arena, (size_t)1 << 20, err));
+    int nb = dg->nb;
+    pf_status s = PF_OK;
+    for (int32_t e = 0; e < dg->n_elems; ++e) {
+        double mom[PF_MOMENT_MAX_COUNT];
+        s = element_moments(dg, m, e, f->degree + dg->degree, &arena, mom, err);
+        if (s < 0)
+            break;
+        double local[3][PF_POLY3_MAX_COUNT];
+        poly3_in_frame(f, &dg->frame[e], local);
+        /* int_K f_i phi_a: phi_a is monomial a of the element frame */
+        for (int a = 0; a < nb; ++a)
+            for (int i = 0; i < 3; ++i)
+                rhs[3 * ((size_t)e * nb + a) + i] +=
+                    integrate_times_monomial(&t, local[i], f->degree, a, mom);
+    }
+    pf_arena_release(&arena);
+    return s;
+}
+
+/* Weak Dirichlet load (pf/fem.h), with v = phi_b e_k and sigma(v) n =
+ * lambda d_k phi_b n + mu (e_k (grad phi_b . n) + grad phi_b n_k):
+ *   -int g . sigma(v) n = -(lambda sum_i n_i D_ik + mu (sum_j n_j D_kj + n_k sum_j D_jj)),
+ *     D_ij = int g_i d_j phi_b                     (the consistency term of eq. 24, u = g outside)
+ *   eta eta_f (2 mu P_k + lambda n_k (n . P)),   P_i = int g_i phi_b   (eq. 26). */
+pf_status pf_dg_add_polynomial_dirichlet(const pf_dg *dg, const pf_mesh *m,
+                                         const pf_dg_terms *terms, int32_t mesh_face,
+                                         const pf_poly3 *g, double *rhs, pf_error *err)
+{
+    PF_TRY(check_poly(g, err));
+    PF_TRY(check_mesh(dg, m, err));
+    PF_CHECK(mesh_face >= 0 && mesh_face < dg->n_faces, err, PF_ERR_INVALID,
+             "face %d out of range [0, %d)", (int)mesh_face, (int)dg->n_faces);
+    const pf_dg_face *fc = &dg->faces[dg->face_slot[mesh_face]];
+    PF_CHECK(fc->elem[1] < 0, err, PF_ERR_INVALID, "face %d is not on the boundary",
+             (int)mesh_face);
+    int32_t e = fc->elem[0];
+    const pf_frame *fr = &dg->frame[e];
+    int nb = dg->nb;
+    const uint32_t *idx = m->face_nodes + m->face_offsets[mesh_face];
+    int64_t count = m->face_offsets[mesh_face + 1] - m->face_offsets[mesh_face];
+    double mom[PF_MOMENT_MAX_COUNT];
+    pf_status s = pf_polygon_moments(m->x, idx, count, fr, g->degree + dg->degree, mom, err);
+    if (s < 0) {
+        pf_error_prefix(err, "face %d", (int)mesh_face);
+        return s;
+    }
+    exponent_table t;
+    fill_exponents(&t);
+    double local[3][PF_POLY3_MAX_COUNT];
+    poly3_in_frame(g, fr, local);
+    const double n[3] = {fc->normal.x, fc->normal.y, fc->normal.z};
+    double penalty = terms->eta * fc->eta_geometry;
+    double *fe = rhs + 3 * (size_t)e * nb;
+    for (int b = 0; b < nb; ++b) {
+        double p[3];
+        for (int i = 0; i < 3; ++i)
+            p[i] = integrate_times_monomial(&t, local[i], g->degree, b, mom);
+        double np = n[0] * p[0] + n[1] * p[1] + n[2] * p[2];
+        double d[3][3] = {{0}}; /* d_j phi_b = e_b[j] / h m_(b lowered in j) */
+        for (int j = 0; j < 3; ++j) {
+            if (t.e[b][j] == 0)
+                continue;
+            int low[3] = {t.e[b][0], t.e[b][1], t.e[b][2]};
+            low[j]--;
+            int l = pf_moment_index(low[0], low[1], low[2]);
+            for (int i = 0; i < 3; ++i)
+                d[i][j] = t.e[b][j] / fr->scale * integrate_times_monomial(&t, local[i], g->degree,
+                                                                          l, mom);
+        }
+        double trace = d[0][0] + d[1][1] + d[2][2];
+        for (int k = 0; k < 3; ++k) {
+            double load = penalty * (2 * dg->mu * p[k] + dg->lambda * n[k] * np);
+            if (terms->ip)
+                load -= dg->lambda * (n[0] * d[0][k] + n[1] * d[1][k] + n[2] * d[2][k]) +
+                        dg->mu * (n[0] * d[k][0] + n[1] * d[k][1] + n[2] * d[k][2] + n[k] * trace);
+            fe[3 * b + k] += load;
+        }
+    }
+    return PF_OK;
+}
+
+pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
+                         const pf_poly3 *exact, double *error, double *norm, pf_error *err)
+{
+    PF_TRY(check_poly(exact, err));
+    PF_TRY(check_mesh(dg, m, err));
+    pf_arena arena;
+    PF_TRY(pf_arena_init(&arena, (size_t)1 << 20, err));
+    int nb = dg->nb;
+    int degree = exact->degree > dg->degree ? exact->degree : dg->degree;
+    double sum_error = 0, sum_norm = 0;
+    pf_status s = PF_OK;
+    for (int32_t e = 0; e < dg->n_elems; ++e) {
+        double mom[PF_MOMENT_MAX_COUNT];
+        s = element_moments(dg, m, e, 2 * degree, &arena, mom, err);
+        if (s < 0)
+            break;
+        double local[3][PF_POLY3_MAX_COUNT], diff[PF_POLY3_MAX_COUNT];
+        poly3_in_frame(exact, &dg->frame[e], local);
+        const double *ue = u + 3 * (size_t)e * nb;
+        for (int i = 0; i < 3; ++i) {
+            /* u_h - u in the element frame, then int (u_h - u)^2 from the moments of degree 2d */
+            for (int k = 0; k < pf_moment_count(degree); ++k)
+                diff[k] = (k < nb ? ue[3 * k + i] : 0) -
+                          (k < pf_moment_count(exact->degree) ? local[i][k] : 0);
+            sum_error += fmax(0, pf_poly_integrate_product(diff, degree, diff, degree, mom));
+            sum_norm += fmax(0, pf_poly_integrate_product(local[i], exact->degree, local[i],
+                                                          exact->degree, mom));
+        }
+    }
+    pf_arena_release(&arena);
+    if (s < 0)
+        return s;
+    *error = sqrt(sum_error);
+    if (norm)
+        *norm = sqrt(sum_norm);
+    return PF_OK;
+}

@@ -1,0 +1,111 @@
+/* pf/embed.h: embedding weights of a fine triangle surface in a simulation mesh (the WGHT chunk).
+ *
+ * A row of the weight matrix (pf_weights, pf/mesh.h) maps the stitched nodal displacements of the
+ * mesh (one 3-vector per node, DG paper eq. 30) to the displacement of one surface vertex, so a
+ * frame of the embedded surface costs one sparse mat-vec (DG paper eq. 32). Two methods:
+ *
+ * - PF_EMBED_MLS (DG paper sec. 7): moving least squares with the linear basis (1, x, y, z) and a
+ *   truncated Gaussian weight per node. The support radius of node i is R_i = support * h_i, h_i
+ *   the node's spacing: the longest mesh edge at the node (its one-ring, as the paper suggests).
+ *   A radius attached to the node, not to the evaluation point, keeps every weight as smooth as the
+ *   kernel (a radius measured from the point, e.g. its k-th nearest node, jumps where the k-th
+ *   neighbour changes). The kernel, with q = |x - x_i| / R_i,
+ *       theta(q) = exp(-s q^2) - exp(-s) (1 + s (1 - q^2))   for q < 1, 0 beyond,
+ *   is the Gaussian minus its first-order Taylor expansion in q^2 at the radius: it vanishes with
+ *   its derivative at q = 1, so the truncation leaves the weights C1 (a plainly cut Gaussian jumps
+ *   there); it is positive and decreasing on [0, 1). The weights reproduce every affine field
+ *   exactly and use no node farther than its support radius. Where the support holds too few or
+ *   nearly coplanar nodes (the weighted covariance of the support is rank-deficient), every radius
+ *   is multiplied by `growth` for that vertex until it is well conditioned; such vertices are
+ *   counted (there the weights are continuous only where the growth factor is the same).
+ * - PF_EMBED_BARY: each vertex is located in its element (a uniform grid over element bounding
+ *   boxes, then the winding number over the element's triangulated faces) and weighted with the
+ *   element's shape functions: barycentric for tets, trilinear for hexes (the trilinear map
+ *   inverted by Newton's method), 3D mean value coordinates (Floater et al. 2005, Ju et al. 2005)
+ *   over the element's triangulated faces for general polyhedra. Harmonic coordinates are the CG
+ *   method's shape functions and will replace mean value coordinates there. Continuous (C0) across
+ *   faces, partition of unity, affine reproduction.
+ *
+ * Vertices outside every element (a surface poking out of a voxel mesh) are attached to the
+ * nearest element (bary: its shape functions extrapolated, still reproducing affine fields) or keep
+ * their MLS weights (the affine fit extrapolates smoothly); both methods count them. A vertex
+ * within 1e-9 of the mesh's bounding-box diagonal of an element is inside it.
+ */
+#ifndef PF_EMBED_H
+#define PF_EMBED_H
+
+#include <stdint.h>
+
+#include <pf/base.h>
+#include <pf/geom.h>
+#include <pf/mesh.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum pf_embed_method {
+    PF_EMBED_MLS = 0,  /* moving least squares, C1 (the default) */
+    PF_EMBED_BARY = 1, /* element shape functions, C0 */
+} pf_embed_method;
+
+const char *pf_embed_method_name(pf_embed_method m); /* "mls", "bary" */
+
+/* Zero values mean "default". */
+typedef struct pf_embed_params {
+    pf_embed_method method;
+    double support;   /* MLS: support radius over node spacing; default 2. Inside a cube cell the
+                         support then reaches the eight corners and the next shell of nodes, about
+                         30 nodes on a regular grid */
+    double sharpness; /* MLS: s of the kernel; default 3 (theta(1/2) ~ 0.43 theta(0)) */
+    double min_spread;/* MLS: smallest over largest eigenvalue of the weighted node covariance that
+                         counts as well conditioned; default 1e-3 */
+    double growth;    /* MLS: radius factor per growth step; default 1.5 */
+    int32_t max_growth; /* MLS: growth steps before giving up (PF_ERR_NUMERIC); default 20 */
+} pf_embed_params;
+
+pf_embed_params pf_embed_params_default(void);
+
+typedef struct pf_embed_stats {
+    int32_t n_verts;
+    int32_t n_outside;       /* vertices outside every element (attached to the nearest) */
+    double max_outside;      /* largest distance of such a vertex from its element, model units */
+    int32_t n_grown;         /* MLS: vertices whose support had to grow */
+    int32_t n_by_kind[PF_ELEM_KIND_COUNT]; /* vertices per kind of their element */
+    int32_t n_fallback;      /* bary: outside vertices weighted by the affine least-squares fit of
+                                their element's nodes (Newton or mean value coordinates failed) */
+    int64_t nnz;
+    double mean_row;         /* mean non-zeros per row */
+    double seconds;          /* wall clock of pf_embed_compute */
+} pf_embed_stats;
+
+/* Computes the weights of the vertices of s in m (validated; derived arrays not needed) into w
+ * (zeroed or released; zero again after a failure): w->rows = s->n_verts, w->cols = m->n_nodes,
+ * w->surface_id = s->id, w->mesh_id = m->id, columns sorted within each row. params NULL: the
+ * defaults; stats may be NULL. Statuses: PF_ERR_INVALID for an empty mesh, non-finite
+ * coordinates or bad parameters; PF_ERR_NUMERIC when an MLS support stays degenerate after
+ * max_growth steps; PF_ERR_NOMEM. Cost about linear in vertices plus elements. */
+pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed_params *params,
+                           pf_weights *w, pf_embed_stats *stats, pf_error *err);
+
+/* The MLS support radius of every node (radius[n_nodes], model units) before any growth:
+ * support * the longest edge at the node. Nodes on no edge get the mesh's longest edge. */
+pf_status pf_embed_mls_radii(const pf_mesh *m, const pf_embed_params *params, double *radius,
+                             pf_error *err);
+
+/* 3D mean value coordinates of p with respect to the closed triangle mesh tri[3 nt] over the
+ * nodes x (indices into x), for a point inside, on or outside it (Ju et al. 2005): w[k] for the
+ * k-th of the distinct nodes listed in nodes[n] (every triangle corner must be one of them).
+ * Reproduces affine functions; on the boundary, linear on the triangle holding p. Returns
+ * PF_ERR_NUMERIC when the weights do not sum to a usable total (outside points far from the
+ * mesh), PF_ERR_INVALID when a corner is not in nodes. Within 1e-8 of the element's size from a
+ * triangle the weights are that triangle's linear functions (the formula loses digits there);
+ * a final least-change correction makes sum w = 1 and sum w_k x_k = p exact to round-off. */
+pf_status pf_embed_mean_value(const double *x, const uint32_t *tri, int32_t nt,
+                              const uint32_t *nodes, int32_t n, pf_vec3 p, double *w,
+                              pf_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

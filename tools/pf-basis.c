@@ -64,7 +64,8 @@ static pf_status report_mesh(tool *t, const pf_chunk *c, pf_error *err)
     pf_basis b;
     pf_status s = pf_basis_create(&b, &m, &t->params, err);
     if (s < 0) {
-        pf_error_prefix(err, "MESH at byte %llu", (unsigned long long)c->offset);
+        pf_error_prefix(err, "%s%schunk MESH at byte %llu", c->source ? c->source : "",
+                        c->source ? ": " : "", (unsigned long long)c->offset);
         pf_mesh_release(&m);
         return s;
     }

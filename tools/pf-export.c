@@ -168,7 +168,8 @@ static void exporter_release(exporter *x)
     pf_free(x->path);
 }
 
-/* Chunk-level errors name the chunk and offset; the input's name goes in front. */
+/* Errors of work on a decoded chunk (not the decoders, whose messages name the input already)
+ * get the input's name in front. */
 static pf_status named(const exporter *x, pf_status s, pf_error *err)
 {
     if (s < 0)
@@ -357,7 +358,7 @@ static pf_status take_mesh(exporter *x, const pf_chunk *c, pf_error *err)
     PF_TRY(flush_pending(x, err));
     pf_mesh_release(&x->mesh);
     x->have_mesh = x->have_boundary = x->have_weights = false; /* they refer to the old mesh */
-    PF_TRY(named(x, pf_stream_decode_mesh(c, &x->mesh, err), err));
+    PF_TRY(pf_stream_decode_mesh(c, &x->mesh, err));
     x->have_mesh = true;
     return PF_OK;
 }
@@ -367,7 +368,7 @@ static pf_status take_surface(exporter *x, const pf_chunk *c, pf_error *err)
     pf_surface_release(&x->surface);
     PF_FREE(x->surface_x);
     x->have_surface = x->have_weights = false;
-    PF_TRY(named(x, pf_stream_decode_surface(c, &x->surface, err), err));
+    PF_TRY(pf_stream_decode_surface(c, &x->surface, err));
     x->surface_x = pf_alloc_array(3 * (size_t)x->surface.n_verts + 1, sizeof *x->surface_x);
     PF_CHECK(x->surface_x, err, PF_ERR_NOMEM, "out of memory for a surface of %d vertices",
              (int)x->surface.n_verts);
@@ -379,7 +380,7 @@ static pf_status take_weights(exporter *x, const pf_chunk *c, pf_error *err)
 {
     pf_weights_release(&x->weights);
     x->have_weights = false;
-    PF_TRY(named(x, pf_stream_decode_weights(c, &x->weights, err), err));
+    PF_TRY(pf_stream_decode_weights(c, &x->weights, err));
     const pf_weights *w = &x->weights;
     PF_CHECK(x->have_surface && w->surface_id == x->surface.id &&
                  w->rows == x->surface.n_verts,
@@ -402,7 +403,7 @@ static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
 {
     PF_TRY(flush_pending(x, err));
     pf_frame_data f = {0};
-    PF_TRY(named(x, pf_stream_decode_frame(c, &f, err), err));
+    PF_TRY(pf_stream_decode_frame(c, &f, err));
     pf_status s = PF_OK;
     if (!x->have_mesh || f.mesh_id != x->mesh.id || f.n_nodes != x->mesh.n_nodes)
         s = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,
@@ -427,7 +428,7 @@ static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
 static pf_status take_stress(exporter *x, const pf_chunk *c, pf_error *err)
 {
     pf_stress_data st = {0};
-    PF_TRY(named(x, pf_stream_decode_stress(c, &st, err), err));
+    PF_TRY(pf_stream_decode_stress(c, &st, err));
     pf_status s = PF_OK;
     if (!x->have_mesh || st.mesh_id != x->mesh.id || st.n_elems != x->mesh.n_elems) {
         s = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,

@@ -77,7 +77,7 @@ pf_status pf_stream_check_version(const pf_chunk *c, pf_error *err)
     const tag_entry *t = find_tag(c->tag);
     if (!t || c->version == t->version)
         return PF_OK;
-    return pf_stream_chunk_error(err, PF_ERR_UNSUPPORTED, __FILE__, __LINE__, c->tag, c->offset,
+    return pf_stream_chunk_error(err, PF_ERR_UNSUPPORTED, __FILE__, __LINE__, c,
                                  "version %u not supported (this pf reads %u)", c->version,
                                  t->version);
 }
@@ -97,15 +97,16 @@ uint32_t pf_stream_crc32(const unsigned char *p, uint64_t n)
 }
 
 pf_status pf_stream_chunk_error(pf_error *err, pf_status code, const char *src_file, int src_line,
-                                const char *tag, uint64_t offset, const char *fmt, ...)
+                                const pf_chunk *c, const char *fmt, ...)
 {
     char detail[PF_ERROR_MSG_MAX];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(detail, sizeof detail, fmt, ap);
     va_end(ap);
-    return pf_error_set(err, code, src_file, src_line, "chunk %s at byte %llu: %s", tag,
-                        (unsigned long long)offset, detail);
+    return pf_error_set(err, code, src_file, src_line, "%s%schunk %s at byte %llu: %s",
+                        c->source ? c->source : "", c->source ? ": " : "", c->tag,
+                        (unsigned long long)c->offset, detail);
 }
 
 static bool tag_is_printable(const unsigned char *tag)
@@ -330,6 +331,7 @@ static pf_status read_header(pf_stream_reader *r, pf_chunk *c, bool *end, pf_err
 {
     chunk_header h;
     c->offset = r->pos;
+    c->source = r->name;
     size_t got = read_bytes(r, &h, sizeof h);
     if (got == 0)
         return end_of_input(r, end, err);

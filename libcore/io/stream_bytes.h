@@ -50,11 +50,12 @@ static inline void le_put_f64(unsigned char *p, double v)
 /* zlib's CRC-32 (polynomial 0xedb88320, reflected) of n bytes, in pieces that fit zlib's uInt. */
 uint32_t pf_stream_crc32(const unsigned char *p, uint64_t n);
 
-/* Writes "chunk TAG at byte N: " followed by the message into err; returns code. */
+/* Writes "SOURCE: chunk TAG at byte N: " (no "SOURCE: " when c->source is NULL) followed by the
+ * message into err; returns code. */
 pf_status pf_stream_chunk_error(pf_error *err, pf_status code, const char *src_file, int src_line,
-                                const char *tag, uint64_t offset, const char *fmt, ...)
+                                const pf_chunk *c, const char *fmt, ...)
 #if defined(__GNUC__)
-    __attribute__((format(printf, 7, 8)))
+    __attribute__((format(printf, 6, 7)))
 #endif
     ;
 

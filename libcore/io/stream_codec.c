@@ -38,7 +38,7 @@ _Static_assert(sizeof(strs_head) == 20, "STRS header is 20 bytes");
 _Static_assert(sizeof(end_body) == 16, "END_ payload is 16 bytes");
 
 #define CHUNK_FAIL(c, err, code, ...)                                                              \
-    pf_stream_chunk_error((err), (code), __FILE__, __LINE__, (c)->tag, (c)->offset, __VA_ARGS__)
+    pf_stream_chunk_error((err), (code), __FILE__, __LINE__, (c), __VA_ARGS__)
 #define CHUNK_CHECK(cond, c, err, code, ...)                                                       \
     do {                                                                                           \
         if (!(cond))                                                                               \
@@ -55,8 +55,7 @@ typedef struct cursor {
 
 static pf_status begin(const pf_chunk *c, const char *tag, cursor *k, pf_error *err)
 {
-    PF_CHECK(strcmp(c->tag, tag) == 0, err, PF_ERR_INVALID,
-             "chunk %s at byte %llu is not a %s chunk", c->tag, (unsigned long long)c->offset, tag);
+    CHUNK_CHECK(strcmp(c->tag, tag) == 0, c, err, PF_ERR_INVALID, "not a %s chunk", tag);
     PF_TRY(pf_stream_check_version(c, err));
     CHUNK_CHECK(c->size == 0 || c->payload, c, err, PF_ERR_INVALID, "no payload bytes");
     k->c = c;

@@ -17,7 +17,8 @@
 extern "C" {
 #endif
 
-/* ==== pf stream ================================================================================ */
+/* ==== pf stream ================================================================================
+ */
 
 /* A pf stream is a signature followed by chunks (docs/stream-format.md):
  *
@@ -44,6 +45,8 @@ typedef struct pf_chunk {
     uint64_t offset;        /* byte offset of the chunk header from the start of the stream */
     unsigned char *payload; /* [size] bytes, owned by the reader, valid until its next read */
     uint32_t crc;           /* CRC-32 of the payload (already checked by the reader) */
+    const char *source;     /* the stream's name for messages (borrowed from the reader, valid
+                               while it lives); NULL for a chunk made by hand: no name */
 } pf_chunk;
 
 /* ---- the chunk table ----------------------------------------------------------------------------
@@ -200,7 +203,6 @@ pf_status pf_stream_write_weights(pf_stream_writer *w, const pf_weights *wt, pf_
 pf_status pf_stream_write_frame(pf_stream_writer *w, const pf_frame_data *f, pf_error *err);
 pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, pf_error *err);
 
-
 /* ==== importers and exporters ==================================================================
  * Importers name the file and the line (text formats) or the reason assimp gives in every error,
  * refuse non-finite coordinates and out-of-range indices before building anything, and leave their
@@ -233,10 +235,10 @@ pf_status pf_import_volume(const char *path, pf_mesh *m, pf_error *err);
 
 /* A triangle surface from any format assimp reads (OBJ, PLY, STL, glTF, DAE, FBX, ...): all meshes
  * of the scene, in world coordinates (node transforms applied), polygons triangulated, identical
- * vertex positions joined (so a surface whose file splits vertices by normal or UV is still closed),
- * degenerate triangles dropped, and so are vertices no triangle uses. s->id = 1. PF_ERR_IO when
- * the file cannot be opened; PF_ERR_FORMAT with assimp's reason when assimp cannot read it or it
- * holds no triangles; PF_ERR_FORMAT for non-finite coordinates. Prints nothing. s is zeroed
+ * vertex positions joined (so a surface whose file splits vertices by normal or UV is still
+ * closed), degenerate triangles dropped, and so are vertices no triangle uses. s->id = 1. PF_ERR_IO
+ * when the file cannot be opened; PF_ERR_FORMAT with assimp's reason when assimp cannot read it or
+ * it holds no triangles; PF_ERR_FORMAT for non-finite coordinates. Prints nothing. s is zeroed
  * after a failure. */
 pf_status pf_import_surface(const char *path, pf_surface *s, pf_error *err);
 
@@ -263,7 +265,6 @@ pf_status pf_export_pvd(const char *path, const char *const *files, const double
  * (for PLY also one beyond float32's range); PF_ERR_IO as above. */
 pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err);
 pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, pf_error *err);
-
 
 /* ==== PNG ======================================================================================
  * 8-bit RGB and RGBA images as PNG files. The writer is deterministic: no time stamp (tIME) or text

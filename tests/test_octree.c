@@ -481,6 +481,27 @@ static void harmonic_basis_on_octree_cells(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* The T-junction count is not vacuous: a cube of edge 2 next to a cube of edge 1, glued without
+ * splitting the large face, has the small cube's corners (2,1,0), (2,0,1) inside edges of the
+ * large cube's faces, and (2,1,1) inside no edge (it lies inside the large face). */
+static void t_junction_check_finds_hanging_nodes(void **state)
+{
+    (void)state;
+    int64_t live = pf_alloc_live_bytes();
+    static const double x[16 * 3] = {0, 0, 0, 2, 0, 0, 2, 2, 0, 0, 2, 0, 0, 0, 2, 2, 0, 2,
+                                     2, 2, 2, 0, 2, 2, 2, 0, 0, 3, 0, 0, 3, 1, 0, 2, 1, 0,
+                                     2, 0, 1, 3, 0, 1, 3, 1, 1, 2, 1, 1};
+    static const uint32_t hexes[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+    pf_error err = {0};
+    pf_mesh m = {0};
+    assert_int_equal(pf_mesh_from_hexes(&m, x, 16, hexes, 2, &err), PF_OK);
+    /* (2,1,0) inside the large cube's bottom edge (2,0,0)-(2,2,0): on two faces of it; (2,0,1)
+     * likewise inside (2,0,0)-(2,0,2) */
+    assert_int_equal(count_t_junctions(&m, 1), 4);
+    pf_mesh_release(&m);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 static void refuses_bad_input(void **state)
 {
     (void)state;
@@ -519,6 +540,7 @@ int main(void)
         cmocka_unit_test(slices_sphere_and_torus),
         cmocka_unit_test(counts_grow_as_the_area),
         cmocka_unit_test(harmonic_basis_on_octree_cells),
+        cmocka_unit_test(t_junction_check_finds_hanging_nodes),
         cmocka_unit_test(refuses_bad_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

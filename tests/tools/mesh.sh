@@ -33,6 +33,11 @@ count() { "$bin/pf-octree" --depth "$1" --quiet "$tmp/sphere.pfs" | "$bin/pf-inf
 n5=$(count 5) n6=$(count 6)
 check "octree elements $n5 -> $n6 grow like the area" \
   awk -v a="$n5" -v b="$n6" 'BEGIN { r = b / a; exit !(r > 3.5 && r < 4.7) }'
+# The unit cube fills its bounding cube, its faces on the root's planes: every cell is whole.
+"$bin/pf-octree" --depth 3 --slice --quiet "$data/cube.obj" | "$bin/pf-info" --json - >"$tmp/ocube.json"
+check "sliced octree of the cube: 8 cells of depth 2 and 448 of depth 3, volume 1" \
+  grep -q '"elements":456,.*"volume":1,' "$tmp/ocube.json"
+check "the cube's octree mesh is valid" grep -q '"valid":true' "$tmp/ocube.json"
 expect 0 "winding-number test" "$bin/pf-octree" --depth 3 "$data/open_box.obj"
 expect 1 "closed" "$bin/pf-octree" --slice "$data/open_box.obj"
 expect 2 "" "$bin/pf-octree" --depth 0 "$data/cube.obj"

@@ -259,7 +259,8 @@ typedef struct pf_octree_stats {
     double h;                /* finest cell edge, size / 2^depth */
     int32_t leaves;          /* octree leaves, inside or not */
     int32_t surface_leaves;  /* leaves the surface comes near (all at full depth) */
-    int32_t cells_by_depth[PF_OCTREE_MAX_DEPTH + 1]; /* elements that are whole cells, per depth */
+    int32_t cells_by_depth[PF_OCTREE_MAX_DEPTH + 1]; /* whole-cell elements per depth (before
+                                                        sliver merging) */
     int32_t split_faces;     /* cell faces split into several neighbour faces */
     pf_inside_method method; /* centre test without slice (rays: closed, winding: open) */
     int64_t splits;          /* plane splits (slice) */

@@ -4,7 +4,8 @@
  *
  * CSV on stdout: shape,triangles,slice,depth,leaves,surface_leaves,elements,growth,hexes,
  * polyhedra,split_faces,seconds,elements_per_second (growth: elements / elements one level up;
- * seconds: the best of three runs). --quick: depths 4 and 5 only. */
+ * seconds: the best of three runs). Two comment lines first, the second the machine's load
+ * average (Linux; -1 elsewhere). --quick: depths 4 and 5 only. */
 #include <stdio.h>
 #include <string.h>
 
@@ -43,7 +44,16 @@ static int run(const char *shape, const pf_surface *s, bool slice, int32_t depth
 int main(int argc, char **argv)
 {
     bool quick = argc > 1 && strcmp(argv[1], "--quick") == 0;
-    printf("# pf_mesh_octree, min depth 2, one thread; best of 3 runs\n");
+    printf("# pf_mesh_octree, min depth 2, one thread; best of 3 runs (wall clock)\n");
+    /* wall-clock times on a shared machine depend on its load: record it beside them */
+    FILE *load = fopen("/proc/loadavg", "r");
+    double l1 = -1;
+    if (load) {
+        if (fscanf(load, "%lf", &l1) != 1)
+            l1 = -1;
+        fclose(load);
+    }
+    printf("# load average at start: %.2f\n", l1);
     printf("shape,triangles,slice,depth,leaves,surface_leaves,elements,growth,hexes,polyhedra,"
            "split_faces,seconds,elements_per_second\n");
     int failed = 0;

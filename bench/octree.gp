@@ -17,7 +17,7 @@ set ylabel 'elements'
 set grid
 set title 'pf\_mesh\_octree, min depth 2: elements grow with the area (4x per level)'
 # columns 1 (shape) and 3 (slice) select a series; others become undefined points
-plot for [s in "sphere torus"] for [c=0:1] csv skip 2 \
+plot for [s in "sphere torus"] for [c=0:1] csv skip 3 \
        using 4:(strcol(1) eq s && $3 == c ? $7 : 1/0) with linespoints \
        title s.(c ? ' sliced' : ' cells'), \
      1168 * 4**(x - 4) with lines dashtype 2 title '4x per level', \

@@ -11,8 +11,7 @@
 
 #include <pf/mesh.h>
 
-static int run(const char *shape, const pf_surface *s, bool slice, int32_t depth,
-               int32_t *prev)
+static int run(const char *shape, const pf_surface *s, bool slice, int32_t depth, int32_t *prev)
 {
     pf_octree_params p = pf_octree_params_default();
     p.depth = depth;

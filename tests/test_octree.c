@@ -143,18 +143,18 @@ static uint64_t cube_key(int level, int32_t i, int32_t j, int32_t k)
     return (uint64_t)level << 48 | (uint64_t)i << 32 | (uint64_t)j << 16 | (uint64_t)k;
 }
 
-static void oracle_cell(oracle *or, const int32_t c[3], int level)
+static void oracle_cell(oracle * or, const int32_t c[3], int level)
 {
     int32_t sz = or->n >> level;
-    pf_vec3 centre = pf_v3(or->o[0] + (c[0] + 0.5 * sz) * or->h, or->o[1] + (c[1] + 0.5 * sz) * or->h,
-                           or->o[2] + (c[2] + 0.5 * sz) * or->h);
+    pf_vec3 centre =
+        pf_v3(or->o[0] + (c[0] + 0.5 * sz) * or->h, or->o[1] + (c[1] + 0.5 * sz) * or->h,
+              or->o[2] + (c[2] + 0.5 * sz) * or->h);
     bool near = false;
     for (int32_t t = 0; t < or->s->n_tris && !near; ++t) {
         const uint32_t *v = or->s->tri + 3 * (size_t)t;
-        near = triangle_overlaps_box(pf_v3_load(or->s->x + 3 * (size_t)v[0]),
-                                     pf_v3_load(or->s->x + 3 * (size_t)v[1]),
-                                     pf_v3_load(or->s->x + 3 * (size_t)v[2]), centre,
-                                     0.5 * sz * or->h + or->margin);
+        near = triangle_overlaps_box(
+            pf_v3_load(or->s->x + 3 * (size_t)v[0]), pf_v3_load(or->s->x + 3 * (size_t)v[1]),
+            pf_v3_load(or->s->x + 3 * (size_t)v[2]), centre, 0.5 * sz * or->h + or->margin);
     }
     if (level < or->p.depth && (near || level < or->p.min_depth)) {
         for (int q = 0; q < 8; ++q) {
@@ -168,7 +168,7 @@ static void oracle_cell(oracle *or, const int32_t c[3], int level)
         return;
     if (or->n_inside == or->cap) {
         or->cap = or->cap ? 2 * or->cap : 1024;
-        or->inside = realloc(or->inside, (size_t)or->cap * sizeof *or->inside);
+        or->inside = realloc(or->inside, (size_t) or->cap * sizeof * or->inside);
         assert_non_null(or->inside);
     }
     or->inside[or->n_inside++] = cube_key(level, c[0], c[1], c[2]);
@@ -180,13 +180,13 @@ static int compare_u64(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static bool oracle_has(const oracle *or, uint64_t key)
+static bool oracle_has(const oracle * or, uint64_t key)
 {
-    return bsearch(&key, or->inside, (size_t)or->n_inside, sizeof key, compare_u64) != NULL;
+    return bsearch(&key, or->inside, (size_t) or->n_inside, sizeof key, compare_u64) != NULL;
 }
 
 /* Is the point inside an inside leaf of the oracle? */
-static bool oracle_covers(const oracle *or, pf_vec3 x)
+static bool oracle_covers(const oracle * or, pf_vec3 x)
 {
     int32_t c[3];
     for (int a = 0; a < 3; ++a) {
@@ -250,13 +250,14 @@ static int32_t check_cells(const char *name, const pf_surface *s, pf_octree_para
     or.margin *= pf_v3_norm(pf_v3_sub(ss.hi, ss.lo));
     or.o[0] = st.origin.x, or.o[1] = st.origin.y, or.o[2] = st.origin.z;
     static const int32_t root[3] = {0, 0, 0};
-    oracle_cell(&or, root, 0);
-    qsort(or.inside, (size_t)or.n_inside, sizeof *or.inside, compare_u64);
+    oracle_cell(& or, root, 0);
+    qsort(or.inside, (size_t) or.n_inside, sizeof * or.inside, compare_u64);
     assert_int_equal(m.n_elems, or.n_inside);
     int32_t more_nodes = 0;
     for (int32_t e = 0; e < m.n_elems; ++e) {
         /* the element's cube from its bounding box */
-        pf_vec3 lo = pf_v3(INFINITY, INFINITY, INFINITY), hi = pf_v3(-INFINITY, -INFINITY, -INFINITY);
+        pf_vec3 lo = pf_v3(INFINITY, INFINITY, INFINITY),
+                hi = pf_v3(-INFINITY, -INFINITY, -INFINITY);
         int32_t nodes = 0;
         for (int64_t k = m.elem_offsets[e]; k < m.elem_offsets[e + 1]; ++k) {
             int32_t f = PF_FACE_INDEX(m.elem_faces[k]);
@@ -269,12 +270,14 @@ static int32_t check_cells(const char *name, const pf_surface *s, pf_octree_para
         double edge = hi.x - lo.x;
         double units = edge / st.h;
         int level = p.depth - (int)lround(log2(units));
-        int32_t c[3] = {(int32_t)lround((lo.x - or.o[0]) / st.h), (int32_t)lround((lo.y - or.o[1]) / st.h),
+        int32_t c[3] = {(int32_t)lround((lo.x - or.o[0]) / st.h),
+                        (int32_t)lround((lo.y - or.o[1]) / st.h),
                         (int32_t)lround((lo.z - or.o[2]) / st.h)};
-        if (!oracle_has(&or, cube_key(level, c[0], c[1], c[2])))
+        if (!oracle_has(& or, cube_key(level, c[0], c[1], c[2])))
             fail_msg("%s: element %d (cube at %d %d %d, depth %d) is no inside leaf", name, (int)e,
                      (int)c[0], (int)c[1], (int)c[2], level);
-        assert_true(fabs(pf_mesh_elem_volume(&m, e) - edge * edge * edge) <= 1e-12 * edge * edge * edge);
+        assert_true(fabs(pf_mesh_elem_volume(&m, e) - edge * edge * edge) <=
+                    1e-12 * edge * edge * edge);
         /* nodes counted once per face use: 8 corners used by 3 faces each = 24 for a plain hex */
         more_nodes += nodes > 24;
     }
@@ -288,11 +291,11 @@ static int32_t check_cells(const char *name, const pf_surface *s, pf_octree_para
             n = pf_v3_scale(n, -1);
         pf_vec3 out = pf_v3_add(c, pf_v3_scale(n, 0.25 * st.h));
         pf_vec3 in = pf_v3_sub(c, pf_v3_scale(n, 0.25 * st.h));
-        assert_true(oracle_covers(&or, in));
-        if ((a >= 0) != (b >= 0) && oracle_covers(&or, out))
+        assert_true(oracle_covers(& or, in));
+        if ((a >= 0) != (b >= 0) && oracle_covers(& or, out))
             fail_msg("%s: boundary face %d has an inside leaf beyond it", name, (int)f);
         if (a >= 0 && b >= 0)
-            assert_true(oracle_covers(&or, out));
+            assert_true(oracle_covers(& or, out));
     }
     printf("%-14s depth %d/%d: %6d elements, %d with split faces, %d leaves, %d near the surface, "
            "%.3f s\n",
@@ -488,9 +491,9 @@ static void t_junction_check_finds_hanging_nodes(void **state)
 {
     (void)state;
     int64_t live = pf_alloc_live_bytes();
-    static const double x[16 * 3] = {0, 0, 0, 2, 0, 0, 2, 2, 0, 0, 2, 0, 0, 0, 2, 2, 0, 2,
-                                     2, 2, 2, 0, 2, 2, 2, 0, 0, 3, 0, 0, 3, 1, 0, 2, 1, 0,
-                                     2, 0, 1, 3, 0, 1, 3, 1, 1, 2, 1, 1};
+    static const double x[16 * 3] = {0, 0, 0, 2, 0, 0, 2, 2, 0, 0, 2, 0, 0, 0, 2, 2,
+                                     0, 2, 2, 2, 2, 0, 2, 2, 2, 0, 0, 3, 0, 0, 3, 1,
+                                     0, 2, 1, 0, 2, 0, 1, 3, 0, 1, 3, 1, 1, 2, 1, 1};
     static const uint32_t hexes[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
     pf_error err = {0};
     pf_mesh m = {0};

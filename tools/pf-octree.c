@@ -22,7 +22,8 @@ static const char USAGE[] =
     "                  bounding cube's side, pf-slice's default grid)\n"
     "  --min-depth d   depth of the coarsest cells, 0..D (default 2)\n"
     "  --slice         cut the cells at the surface exactly, as pf-slice does (one element per\n"
-    "                  connected piece of the solid in a cell): the mesh's boundary is the surface.\n"
+    "                  connected piece of the solid in a cell): the mesh's boundary is the "
+    "surface.\n"
     "                  Needs a closed, manifold surface\n"
     "  --merge F       with --slice: merge pieces below F times a finest cell's volume into the\n"
     "                  neighbour they share the most face area with (default 0.05; 0: never)\n"
@@ -32,7 +33,8 @@ static const char USAGE[] =
     "surface by signed ray crossings (Embree) along rows of cell centres in x, y and z, inside\n"
     "where at least two of the three directions say so; for an open surface (holes) by the\n"
     "generalised winding number (>= 1/2), slower but robust to holes. With --slice the cut itself\n"
-    "decides: a cell the surface stays away from is inside when the cut solid fills it. The report\n"
+    "decides: a cell the surface stays away from is inside when the cut solid fills it. The "
+    "report\n"
     "says which was used.\n"
     "\n"
     "Exit 0 ok; 1 bad input (an open surface with --slice says what is wrong); 2 bad usage.\n";
@@ -55,18 +57,22 @@ int main(int argc, char **argv)
             p.depth = (int32_t)pf_cli_parse_long(&cli, "depth", value, 1, PF_OCTREE_MAX_DEPTH);
             break;
         case OPT_MIN_DEPTH:
-            p.min_depth = (int32_t)pf_cli_parse_long(&cli, "min-depth", value, 0,
-                                                     PF_OCTREE_MAX_DEPTH);
+            p.min_depth =
+                (int32_t)pf_cli_parse_long(&cli, "min-depth", value, 0, PF_OCTREE_MAX_DEPTH);
             min_given = true;
             break;
-        case OPT_SLICE: p.slice = true; break;
+        case OPT_SLICE:
+            p.slice = true;
+            break;
         case OPT_MERGE:
             p.merge = pf_cli_parse_double(&cli, "merge", value);
             if (!(p.merge >= 0 && p.merge < 1))
                 pf_cli_usage_error(&cli, "--merge must be in [0, 1)");
             merge_given = true;
             break;
-        case OPT_QUIET: quiet = true; break;
+        case OPT_QUIET:
+            quiet = true;
+            break;
         default:
             if (path)
                 pf_cli_usage_error(&cli, "one input only (got '%s' and '%s')", path, value);

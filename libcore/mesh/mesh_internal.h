@@ -33,7 +33,7 @@ typedef struct glue {
     /* nodes */
     int32_t n_nodes, cap_nodes;
     double *x;
-    int64_t node_slots; /* power of two */
+    int64_t node_slots;  /* power of two */
     int32_t *node_table; /* -1 empty */
     /* faces: CSR, and a hash of their sorted node lists */
     int32_t n_faces, cap_faces;

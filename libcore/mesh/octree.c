@@ -38,10 +38,10 @@ pf_octree_params pf_octree_params_default(void)
 /* ---- the tree ------------------------------------------------------------------------------ */
 
 typedef struct leaf {
-    int32_t c[3];    /* lowest corner, lattice units */
-    int8_t level;    /* depth */
-    uint8_t crossing; /* the surface comes near (then level == depth) */
-    uint8_t inside;   /* a whole-cell element */
+    int32_t c[3];                  /* lowest corner, lattice units */
+    int8_t level;                  /* depth */
+    uint8_t crossing;              /* the surface comes near (then level == depth) */
+    uint8_t inside;                /* a whole-cell element */
     int32_t first_piece, n_pieces; /* slice: pieces of a crossing leaf in octree.pieces */
 } leaf;
 
@@ -74,9 +74,15 @@ typedef struct octree {
     int64_t splits;
 } octree;
 
-static double coord(const octree *oc, int a, int64_t i) { return oc->o[a] + (double)i * oc->h; }
+static double coord(const octree *oc, int a, int64_t i)
+{
+    return oc->o[a] + (double)i * oc->h;
+}
 
-static int32_t cell_size(const octree *oc, int level) { return oc->n >> level; }
+static int32_t cell_size(const octree *oc, int level)
+{
+    return oc->n >> level;
+}
 
 static uint64_t leaf_key(int level, int32_t i, int32_t j, int32_t k)
 {
@@ -142,8 +148,11 @@ static pf_status add_leaf(octree *oc, const int32_t c[3], int level, bool crossi
         }
     }
     leaf *l = &oc->leaves[oc->n_leaves];
-    *l = (leaf){.c = {c[0], c[1], c[2]}, .level = (int8_t)level, .crossing = crossing,
-                .inside = inside > 0, .first_piece = oc->n_pieces};
+    *l = (leaf){.c = {c[0], c[1], c[2]},
+                .level = (int8_t)level,
+                .crossing = crossing,
+                .inside = inside > 0,
+                .first_piece = oc->n_pieces};
     map_put(oc, leaf_key(level, c[0], c[1], c[2]), oc->n_leaves);
     oc->n_leaves++;
     return PF_OK;
@@ -349,8 +358,8 @@ static pf_status build(octree *oc, const int32_t c[3], int level, int64_t b, int
         PF_TRY(add_leaf(oc, c, level, crossing, inside, err));
         if (crossing && pieces) {
             PF_TRY(keep_pieces(oc, pieces, err));
-            oc->leaves[oc->n_leaves - 1].n_pieces = oc->n_pieces -
-                                                    oc->leaves[oc->n_leaves - 1].first_piece;
+            oc->leaves[oc->n_leaves - 1].n_pieces =
+                oc->n_pieces - oc->leaves[oc->n_leaves - 1].first_piece;
         }
         return PF_OK;
     }
@@ -487,7 +496,8 @@ static void classify_by_winding(octree *oc)
     }
 }
 
-/* ---- face tiling ------------------------------------------------------------------------------ */
+/* ---- face tiling ------------------------------------------------------------------------------
+ */
 
 /* A whole-cell element: a leaf that is inside and, with slice, away from the surface. */
 static bool is_cube(const octree *oc, const leaf *l)
@@ -497,8 +507,8 @@ static bool is_cube(const octree *oc, const leaf *l)
 
 /* Leaves of the subtree of the subdivided cell (c, level) touching its face on side (axis, low
  * when toward_low) appended to out. */
-static pf_status descend(const octree *oc, const int32_t c[3], int level, int axis,
-                         bool toward_low, pf_buffer *out, pf_error *err)
+static pf_status descend(const octree *oc, const int32_t c[3], int level, int axis, bool toward_low,
+                         pf_buffer *out, pf_error *err)
 {
     PF_CHECK(level < oc->p.depth, err, PF_ERR_NUMERIC, "octree: a cell below the full depth");
     int32_t half = cell_size(oc, level) / 2;
@@ -532,8 +542,8 @@ static pf_status face_tiles(const octree *oc, int32_t li, int axis, int dir, pf_
         int32_t found = map_get(oc, leaf_key(level, nb[0] & m, nb[1] & m, nb[2] & m));
         if (found >= 0) {
             /* a neighbour as large or larger: l's own square, or the cut leaf's polygons */
-            int32_t tile = level == l->level && oc->p.slice && oc->leaves[found].crossing ? found
-                                                                                          : li;
+            int32_t tile =
+                level == l->level && oc->p.slice && oc->leaves[found].crossing ? found : li;
             return pf_buffer_append(out, &tile, sizeof tile, err);
         }
     }
@@ -583,8 +593,7 @@ static int64_t lattice_index(const octree *oc, int a, double v)
     return r >= 0 && r <= oc->n && coord(oc, a, (int64_t)r) == v ? (int64_t)r : -1;
 }
 
-static pf_status add_point_lines(const octree *oc, const double *x, pf_buffer *lines,
-                                 pf_error *err)
+static pf_status add_point_lines(const octree *oc, const double *x, pf_buffer *lines, pf_error *err)
 {
     int64_t idx[3];
     for (int a = 0; a < 3; ++a)
@@ -663,7 +672,9 @@ static pf_status builder_end_face(builder *b, pf_error *err)
 
 static piece builder_piece(const builder *b)
 {
-    return (piece){.n_nodes = b->n_nodes, .x = (double *)b->x.data, .n_faces = b->n_faces,
+    return (piece){.n_nodes = b->n_nodes,
+                   .x = (double *)b->x.data,
+                   .n_faces = b->n_faces,
                    .face_offsets = (int64_t *)b->face_offsets.data,
                    .face_nodes = (uint32_t *)b->face_nodes.data};
 }
@@ -808,8 +819,8 @@ static pf_status emit(octree *oc, glue *g, pf_octree_stats *stats, pf_error *err
                         if (st < 0)
                             break;
                     }
-                    if (!point_set_insert(seen, seen_slots, leaf_key(0, (int32_t)p[0],
-                                                                     (int32_t)p[1], (int32_t)p[2])))
+                    if (!point_set_insert(seen, seen_slots,
+                                          leaf_key(0, (int32_t)p[0], (int32_t)p[1], (int32_t)p[2])))
                         continue;
                     ++n_seen;
                     double x[3] = {coord(oc, 0, p[0]), coord(oc, 1, p[1]), coord(oc, 2, p[2])};
@@ -894,8 +905,7 @@ pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params
     PF_CHECK(p.depth >= 1 && p.depth <= PF_OCTREE_MAX_DEPTH, err, PF_ERR_INVALID,
              "octree depth must be in 1 .. %d, got %d", PF_OCTREE_MAX_DEPTH, (int)p.depth);
     PF_CHECK(p.min_depth >= 0 && p.min_depth <= p.depth, err, PF_ERR_INVALID,
-             "octree min depth must be in 0 .. depth (%d), got %d", (int)p.depth,
-             (int)p.min_depth);
+             "octree min depth must be in 0 .. depth (%d), got %d", (int)p.depth, (int)p.min_depth);
     PF_CHECK(p.merge >= 0 && p.merge < 1, err, PF_ERR_INVALID,
              "merge fraction must be in [0, 1), got %g", p.merge);
     pf_surface_stats ss;
@@ -975,8 +985,8 @@ pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params
         st = parent ? PF_OK
                     : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory merging");
         if (st >= 0)
-            st = merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, parent, &stats->merged,
-                               &stats->isolated_slivers, err);
+            st = merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, parent,
+                               &stats->merged, &stats->isolated_slivers, err);
         if (st >= 0)
             st = rebuild_merged(&glued, parent, m, err);
         pf_free(parent);

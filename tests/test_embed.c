@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "test_random.h"
+#include <pf/basis.h>
 #include <pf/embed.h>
 #include <pf/mesh.h>
 
@@ -25,9 +26,9 @@
 static void make_box(pf_mesh *m, int nx, int ny, int nz, double h)
 {
     pf_error err = {0};
-    assert_int_equal(pf_mesh_make_box(m, pf_v3(0, 0, 0), pf_v3(nx * h, ny * h, nz * h), nx, ny, nz,
-                                      &err),
-                     PF_OK);
+    assert_int_equal(
+        pf_mesh_make_box(m, pf_v3(0, 0, 0), pf_v3(nx * h, ny * h, nz * h), nx, ny, nz, &err),
+        PF_OK);
     assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
 }
 
@@ -91,8 +92,8 @@ static void random_points(pf_surface *s, int n, pf_vec3 lo, pf_vec3 hi, rng *r)
 
 /* Largest |displaced - (x + a + G x)| over the vertices for the nodal field u = a + G x_node,
  * relative to the model size; and the largest |row sum - 1|. */
-static double affine_error(const pf_weights *w, const pf_mesh *m, const pf_surface *s,
-                           pf_mat3 g, pf_vec3 a, double *unity)
+static double affine_error(const pf_weights *w, const pf_mesh *m, const pf_surface *s, pf_mat3 g,
+                           pf_vec3 a, double *unity)
 {
     double *u = malloc(sizeof(double) * 3 * (size_t)m->n_nodes);
     double *out = malloc(sizeof(double) * 3 * (size_t)s->n_verts + 1);
@@ -137,12 +138,12 @@ static pf_mat3 rotation_minus_identity(pf_vec3 k, double t)
     return pf_m3_add(r, pf_m3_scale(pf_m3_identity(), -1));
 }
 
-/* Weights for both methods; rigid and random affine fields reproduced to 1e-10, rows sum to 1,
- * rows sorted and in range. */
+/* Weights for every method (mls, bary, harmonic); rigid and random affine fields reproduced to
+ * 1e-10, rows sum to 1, rows sorted and in range. */
 static void check_affine(const pf_mesh *m, const pf_surface *s, pf_embed_stats *out_stats)
 {
     rng r = {0x9e3779b97f4a7c15ull};
-    for (int method = 0; method < 2; ++method) {
+    for (int method = 0; method < 3; ++method) {
         pf_embed_params p = pf_embed_params_default();
         p.method = (pf_embed_method)method;
         pf_weights w = {0};
@@ -174,7 +175,8 @@ static void check_affine(const pf_mesh *m, const pf_surface *s, pf_embed_stats *
     }
 }
 
-/* ---- tests ------------------------------------------------------------------------------------ */
+/* ---- tests ------------------------------------------------------------------------------------
+ */
 
 static void mean_value_coordinates_match_closed_forms(void **state)
 {
@@ -241,7 +243,7 @@ static void affine_fields_move_embedded_points_exactly(void **state)
     rng r = {77};
     pf_mesh m = {0};
     pf_surface s = {0};
-    pf_embed_stats st[2];
+    pf_embed_stats st[3];
 
     make_box(&m, 4, 3, 2, 0.5); /* hexes */
     random_points(&s, 500, pf_v3(0, 0, 0), pf_v3(2, 1.5, 1), &r);
@@ -274,11 +276,77 @@ static void affine_fields_move_embedded_points_exactly(void **state)
     check_affine(&m, &sphere, st);
     assert_true(st[1].n_by_kind[PF_ELEM_POLY] > sphere.n_verts / 2);
     assert_int_equal(st[0].n_outside + st[1].n_outside, 0);
-    assert_int_equal(st[1].n_fallback, 0);
+    assert_int_equal(st[1].n_fallback + st[2].n_fallback, 0);
+    assert_true(st[2].n_harmonic > 0 && st[2].n_harmonic < m.n_elems);
     pf_surface_release(&s);
     assert_int_equal(pf_surface_make_sphere(&s, 0.97, 30, 60, &err), PF_OK);
     check_affine(&m, &s, st);
-    assert_int_equal(st[1].n_fallback, 0);
+    assert_int_equal(st[1].n_fallback + st[2].n_fallback, 0);
+    pf_surface_release(&s);
+    pf_surface_release(&sphere);
+    pf_mesh_release(&m);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
+/* Harmonic weights are the CG method's shape functions: those of a basis built on the whole mesh
+ * at the same point. The sub-mesh of the elements holding vertices shares their faces, and face
+ * and element functions depend only on their own geometry, so the two agree to round-off (1e-12
+ * of the weights, which are O(1)). */
+static void harmonic_weights_are_the_cg_shape_functions(void **state)
+{
+    (void)state;
+    int64_t live = pf_alloc_live_bytes();
+    pf_error err = {0};
+    pf_surface sphere = {0}, s = {0};
+    pf_mesh m = {0};
+    assert_int_equal(pf_surface_make_sphere(&sphere, 1, 10, 20, &err), PF_OK);
+    pf_slice_params sp = pf_slice_params_default();
+    sp.grid.res = 4;
+    assert_int_equal(pf_mesh_slice(&m, &sphere, &sp, NULL, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(&m, &err), PF_OK);
+    assert_int_equal(pf_surface_make_sphere(&s, 0.9, 8, 16, &err), PF_OK);
+    pf_embed_params p = pf_embed_params_default();
+    p.method = PF_EMBED_HARMONIC;
+    pf_weights w = {0};
+    pf_embed_stats st;
+    assert_int_equal(pf_embed_compute(&m, &s, &p, &w, &st, &err), PF_OK);
+    assert_true(st.n_harmonic > 0);
+    pf_basis b;
+    assert_int_equal(pf_basis_create(&b, &m, NULL, &err), PF_OK);
+    double *n = malloc(sizeof(double) * PF_BASIS_MAX_NODES);
+    int32_t checked = 0;
+    for (int32_t v = 0; v < s.n_verts; ++v) {
+        pf_vec3 x = pf_v3_load(s.x + 3 * (size_t)v);
+        /* the element whose functions the row holds: the one whose node set is the row's */
+        int64_t a = w.row_offsets[v], len = w.row_offsets[v + 1] - a;
+        for (int32_t e = 0; e < m.n_elems; ++e) {
+            const int32_t *nodes;
+            int32_t k = pf_basis_elem_nodes(&b, e, &nodes);
+            if (pf_basis_elem_kind(&b, e) != PF_BASIS_HARMONIC || k != len)
+                continue;
+            bool same = true;
+            for (int32_t i = 0; i < k && same; ++i) {
+                bool found = false;
+                for (int64_t j = a; j < a + len; ++j)
+                    found = found || w.col[j] == (uint32_t)nodes[i];
+                same = found;
+            }
+            if (!same)
+                continue;
+            pf_basis_eval(&b, e, x, n, NULL);
+            for (int32_t i = 0; i < k; ++i)
+                for (int64_t j = a; j < a + len; ++j)
+                    if (w.col[j] == (uint32_t)nodes[i])
+                        assert_true(fabs(w.val[j] - n[i]) < 1e-12);
+            ++checked;
+            break;
+        }
+    }
+    /* most vertices of the inner sphere lie in the polyhedra of the sliced layer */
+    assert_true(checked > s.n_verts / 2);
+    free(n);
+    pf_basis_release(&b);
+    pf_weights_release(&w);
     pf_surface_release(&s);
     pf_surface_release(&sphere);
     pf_mesh_release(&m);
@@ -413,13 +481,13 @@ static void counts_vertices_outside_a_voxel_mesh(void **state)
             assert_int_equal(pf_mesh_elem_polyhedron(&m, e, &a, &ph, &err), PF_OK);
             pf_polyhedron_bounds(&ph, &lo, &hi);
             pf_arena_release(&a);
-            in = x.x >= lo.x - tol && x.x <= hi.x + tol && x.y >= lo.y - tol &&
-                 x.y <= hi.y + tol && x.z >= lo.z - tol && x.z <= hi.z + tol;
+            in = x.x >= lo.x - tol && x.x <= hi.x + tol && x.y >= lo.y - tol && x.y <= hi.y + tol &&
+                 x.z >= lo.z - tol && x.z <= hi.z + tol;
         }
         outside += !in;
     }
     assert_true(outside > 0);
-    pf_embed_stats st[2];
+    pf_embed_stats st[3];
     check_affine(&m, &s, st);
     assert_int_equal(st[0].n_outside, outside);
     assert_int_equal(st[1].n_outside, outside);
@@ -458,6 +526,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(mean_value_coordinates_match_closed_forms),
         cmocka_unit_test(affine_fields_move_embedded_points_exactly),
+        cmocka_unit_test(harmonic_weights_are_the_cg_shape_functions),
         cmocka_unit_test(mls_is_smooth_where_barycentric_is_not),
         cmocka_unit_test(mls_uses_nodes_within_their_support_only),
         cmocka_unit_test(counts_vertices_outside_a_voxel_mesh),

@@ -89,6 +89,51 @@ static void test_inside_out_cells_are_reoriented(void **state)
     teardown_check();
 }
 
+/* A sub-mesh of chosen elements keeps the node numbering and shares its shared faces: the
+ * checkerboard of a 3 x 3 x 3 box (14 of 27 cubes, touching only along edges) has no shared face;
+ * a slab of 9 cubes shares the 12 faces between them. Volumes are those of the chosen cubes
+ * (exact: unit cubes at integer coordinates). */
+static void test_select_elements(void **state)
+{
+    (void)state;
+    pf_mesh m = {0}, sub = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(3, 3, 3), 3, 3, 3, &err), PF_OK);
+    uint8_t keep[27];
+    int32_t map[27];
+    for (int pass = 0; pass < 2; ++pass) {
+        int32_t n_keep = 0;
+        for (int32_t e = 0; e < 27; ++e) {
+            /* the lowest corner's integer coordinates tell where the cube is */
+            pf_vec3 lo = pf_v3(INFINITY, INFINITY, INFINITY);
+            for (int64_t k = m.elem_offsets[e]; k < m.elem_offsets[e + 1]; ++k) {
+                int32_t f = PF_FACE_INDEX(m.elem_faces[k]);
+                for (int64_t j = m.face_offsets[f]; j < m.face_offsets[f + 1]; ++j) {
+                    lo = pf_v3_min(lo, pf_v3_load(m.x + 3 * (size_t)m.face_nodes[j]));
+                }
+            }
+            int ix = (int)lo.x, iy = (int)lo.y, iz = (int)lo.z;
+            keep[e] = pass == 0 ? (ix + iy + iz) % 2 == 0 : iz == 1;
+            n_keep += keep[e];
+        }
+        assert_int_equal(n_keep, pass == 0 ? 14 : 9);
+        assert_int_equal(pf_mesh_select_elements(&sub, &m, keep, map, &err), PF_OK);
+        assert_int_equal(sub.n_nodes, m.n_nodes);
+        assert_int_equal(sub.n_elems, n_keep);
+        assert_int_equal(sub.n_faces, pass == 0 ? 14 * 6 : 9 * 6 - 12);
+        assert_memory_equal(sub.x, m.x, 3 * (size_t)m.n_nodes * sizeof *m.x);
+        assert_int_equal(pf_mesh_validate(&sub, NULL, &err), PF_OK);
+        for (int32_t d = 0; d < sub.n_elems; ++d) {
+            assert_true(keep[map[d]]);
+            assert_true(d == 0 || map[d] > map[d - 1]);
+            assert_true(pf_mesh_elem_volume(&sub, d) == 1.0);
+        }
+        pf_mesh_release(&sub);
+    }
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
 static void test_builder_rejects_bad_cells(void **state)
 {
     (void)state;
@@ -622,6 +667,7 @@ int main(void)
         cmocka_unit_test(test_voxelize_grid_aligned_cube),
         cmocka_unit_test(test_voxelize_matches_winding_number),
         cmocka_unit_test(test_voxelize_overlap_covers_surface),
+        cmocka_unit_test(test_select_elements),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -7,25 +7,30 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-embed [--method mls|bary] [--surface FILE] [--quiet] [FILE | -]\n"
+    "Usage: pf-embed [--method mls|bary|harmonic] [--surface FILE] [--quiet] [FILE | -]\n"
     "\n"
-    "Reads a pf stream with a MESH and the SURF the mesher passed on, and writes the stream on with\n"
+    "Reads a pf stream with a MESH and the SURF the mesher passed on, and writes the stream on "
+    "with\n"
     "a WGHT chunk (the sparse map from the mesh's nodal displacements to the surface's vertices)\n"
-    "right after the MESH / SURF it belongs to. Every other chunk is passed on; earlier WGHT chunks\n"
+    "right after the MESH / SURF it belongs to. Every other chunk is passed on; earlier WGHT "
+    "chunks\n"
     "are replaced.\n"
     "\n"
     "  FILE            the input stream (default: stdin)\n"
-    "  --method mls    (default) moving least squares, linear basis, C1-truncated Gaussian weights\n"
+    "  --method mls    (default) moving least squares, linear basis, C1-truncated Gaussian "
+    "weights\n"
     "                  whose radius is twice the longest mesh edge at each node (grown where the\n"
     "                  support is too small or flat for an affine fit): smooth across elements\n"
     "  --method bary   the element's shape functions: linear on tets, trilinear on hexes, mean\n"
-    "                  value coordinates on other polyhedra (harmonic coordinates, the CG\n"
-    "                  method's shape functions, will replace them): continuous, not smooth\n"
+    "                  value coordinates on other polyhedra: continuous, not smooth\n"
+    "  --method harmonic  as bary, but other polyhedra use the CG method's harmonic shape\n"
+    "                  functions (MFS, as pf-basis reports them), so the surface moves exactly\n"
+    "                  with a CG simulation; continuous to their boundary error only\n"
     "  --surface FILE  embed this surface (any format assimp reads, or a stream's first SURF)\n"
     "                  instead of the stream's; it is written to the stream as its SURF\n"
     "  --quiet         no summary on stderr\n"
     "\n"
-    "Both methods reproduce affine displacements exactly. Surface vertices outside every element\n"
+    "Every method reproduces affine displacements exactly. Surface vertices outside every element\n"
     "are attached to the nearest one and counted in a warning.\n";
 
 enum { OPT_METHOD = 1, OPT_SURFACE, OPT_QUIET };
@@ -59,11 +64,17 @@ static void parse_arguments(run *r, int argc, char **argv)
                 r->params.method = PF_EMBED_MLS;
             else if (strcmp(value, "bary") == 0)
                 r->params.method = PF_EMBED_BARY;
+            else if (strcmp(value, "harmonic") == 0)
+                r->params.method = PF_EMBED_HARMONIC;
             else
-                pf_cli_usage_error(&r->cli, "--method is mls or bary, not '%s'", value);
+                pf_cli_usage_error(&r->cli, "--method is mls, bary or harmonic, not '%s'", value);
             break;
-        case OPT_SURFACE: r->surface_path = value; break;
-        case OPT_QUIET: r->quiet = true; break;
+        case OPT_SURFACE:
+            r->surface_path = value;
+            break;
+        case OPT_QUIET:
+            r->quiet = true;
+            break;
         default:
             if (r->input)
                 pf_cli_usage_error(&r->cli, "one input only (got '%s' and '%s')", r->input, value);
@@ -130,6 +141,9 @@ static void report(const run *r, const pf_embed_stats *st)
     else
         fprintf(stderr, "; in tets %d, hexes %d, polyhedra %d", (int)st->n_by_kind[PF_ELEM_TET],
                 (int)st->n_by_kind[PF_ELEM_HEX], (int)st->n_by_kind[PF_ELEM_POLY]);
+    if (r->params.method == PF_EMBED_HARMONIC)
+        fprintf(stderr, "; harmonic functions of %d polyhedra in %.3f s", (int)st->n_harmonic,
+                st->basis_seconds);
     fprintf(stderr, "; %.3f s\n", st->seconds);
 }
 
@@ -213,8 +227,8 @@ int main(int argc, char **argv)
     if (st >= 0)
         st = copy_and_embed(&r, in, &err);
     if (st >= 0 && !r.have_mesh)
-        st = pf_error_set(&err, PF_ERR_INVALID, __FILE__, __LINE__,
-                          "%s: no MESH chunk to embed in", r.in_name);
+        st = pf_error_set(&err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: no MESH chunk to embed in",
+                          r.in_name);
     if (st >= 0 && !r.have_surface)
         st = pf_error_set(&err, PF_ERR_INVALID, __FILE__, __LINE__,
                           "%s: no SURF chunk to embed (give one with --surface)", r.in_name);

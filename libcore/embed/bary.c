@@ -1,9 +1,11 @@
 /* Barycentric embedding: each vertex weighted by the shape functions of its element (linear on
- * tets, trilinear on hexes, mean value coordinates on other polyhedra). */
+ * tets, trilinear on hexes, mean value coordinates or the CG method's harmonic functions on other
+ * polyhedra). */
 #include "embed_internal.h"
 
-#include <string.h>
+#include <pf/basis.h>
 
+#include <string.h>
 
 /* ---- 3D mean value coordinates ---------------------------------------------------------------
  * Floater, Kos, Reimers 2005 and Ju, Schaefer, Warren 2005: w_k is the integral over the unit
@@ -34,8 +36,9 @@ static void triangle_weights(pf_vec3 p, const pf_vec3 c[3], double wt[3])
     pf_vec3 n = pf_v3_cross(pf_v3_sub(c[1], c[0]), pf_v3_sub(c[2], c[0]));
     double nn = pf_v3_dot(n, n);
     for (int i = 0; i < 3; ++i)
-        wt[i] = pf_v3_dot(n, pf_v3_cross(pf_v3_sub(c[(i + 1) % 3], p),
-                                         pf_v3_sub(c[(i + 2) % 3], p))) / nn;
+        wt[i] =
+            pf_v3_dot(n, pf_v3_cross(pf_v3_sub(c[(i + 1) % 3], p), pf_v3_sub(c[(i + 2) % 3], p))) /
+            nn;
 }
 
 /* Solves the symmetric positive 4 x 4 system a y = b by Gaussian elimination with pivoting. */
@@ -94,8 +97,7 @@ static void restore_affine(const double *x, const uint32_t *nodes, int32_t n, pf
 }
 
 pf_status pf_embed_mean_value(const double *x, const uint32_t *tri, int32_t nt,
-                              const uint32_t *nodes, int32_t n, pf_vec3 p, double *w,
-                              pf_error *err)
+                              const uint32_t *nodes, int32_t n, pf_vec3 p, double *w, pf_error *err)
 {
     double size = 0;
     for (int32_t k = 0; k < n; ++k) {
@@ -135,8 +137,8 @@ pf_status pf_embed_mean_value(const double *x, const uint32_t *tri, int32_t nt,
             double beta = 2 * asin(fmin(1.0, pf_v3_dist(a, b) / 2));
             m = pf_v3_add(m, pf_v3_scale(pf_v3_normalize(pf_v3_cross(a, b)), beta / 2));
         }
-        pf_mat3 um = {{{u[0].x, u[1].x, u[2].x}, {u[0].y, u[1].y, u[2].y},
-                       {u[0].z, u[1].z, u[2].z}}};
+        pf_mat3 um = {
+            {{u[0].x, u[1].x, u[2].x}, {u[0].y, u[1].y, u[2].y}, {u[0].z, u[1].z, u[2].z}}};
         double det;
         pf_mat3 inv = pf_m3_inverse(um, &det);
         if (fabs(det) <= 1e-14) /* p in the plane, outside the triangle: it spans no solid angle */
@@ -289,8 +291,8 @@ static int hex_weights(const double *x, const uint32_t corner[8], pf_vec3 p, dou
 
 /* The affine least-squares fit to the element's nodes (equal weights): the fallback where the
  * element's own functions cannot be evaluated (far outside a distorted hex or polyhedron). */
-static int affine_fallback(const double *x, const uint32_t *nodes, int32_t n, pf_vec3 p,
-                           double *d, double *ones, double *w)
+static int affine_fallback(const double *x, const uint32_t *nodes, int32_t n, pf_vec3 p, double *d,
+                           double *ones, double *w)
 {
     double size = 0;
     for (int32_t k = 0; k < n; ++k)
@@ -303,37 +305,152 @@ static int affine_fallback(const double *x, const uint32_t *nodes, int32_t n, pf
     return affine_fit_weights(d, ones, n, 1e-12, w);
 }
 
-pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, row_builder *b,
-                     pf_embed_stats *stats, pf_error *err)
+/* Which shape functions weight a vertex in element e: the closed forms where the element is a tet
+ * or a hex with identifiable corners (corner[8] then holds them), else the general ones. */
+typedef enum elem_form { FORM_TET, FORM_HEX, FORM_GENERAL } elem_form;
+
+static elem_form form_of(const pf_mesh *m, const locator *L, int32_t e, uint32_t corner[8])
+{
+    int64_t n = L->geo.node_offsets[e + 1] - L->geo.node_offsets[e];
+    pf_elem_kind kind = (pf_elem_kind)L->geo.kind[e];
+    if (kind == PF_ELEM_TET && n == 4)
+        return FORM_TET;
+    if (kind == PF_ELEM_HEX && hex_corners(m, e, corner))
+        return FORM_HEX;
+    return FORM_GENERAL;
+}
+
+/* The harmonic functions of the general polyhedra that hold a vertex, on a sub-mesh of them
+ * (the same nodes, so their node indices are the mesh's). */
+typedef struct harmonic_set {
+    pf_basis basis;
+    int32_t *sub_of; /* [n_elems]: the element's index in basis, -1 when it has no functions */
+} harmonic_set;
+
+static void harmonic_release(harmonic_set *h)
+{
+    pf_basis_release(&h->basis);
+    PF_FREE(h->sub_of);
+}
+
+static pf_status harmonic_build(const pf_mesh *m, const locator *L, const int32_t *elem_of,
+                                int32_t n_verts, harmonic_set *h, pf_embed_stats *stats,
+                                pf_error *err)
+{
+    double t0 = pf_time_seconds();
+    memset(h, 0, sizeof *h);
+    uint8_t *keep = NULL;
+    int32_t *map = NULL;
+    pf_mesh sub = {0};
+    pf_status st = PF_OK;
+    if (!PF_ALLOC_N(keep, m->n_elems) || !PF_ALLOC_N(map, m->n_elems) ||
+        !PF_ALLOC_N(h->sub_of, m->n_elems))
+        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for weights");
+    if (st >= 0) {
+        memset(keep, 0, (size_t)m->n_elems);
+        uint32_t corner[8];
+        for (int32_t v = 0; v < n_verts; ++v)
+            keep[elem_of[v]] = 1;
+        for (int32_t e = 0; e < m->n_elems; ++e) {
+            keep[e] = keep[e] && form_of(m, L, e, corner) == FORM_GENERAL;
+            h->sub_of[e] = -1;
+        }
+        st = pf_mesh_select_elements(&sub, m, keep, map, err);
+    }
+    if (st >= 0) {
+        st = pf_basis_create(&h->basis, &sub, NULL, err);
+        if (st < 0)
+            pf_error_prefix(err,
+                            "harmonic weights of the %d polyhedra holding surface vertices "
+                            "(numbered among them)",
+                            (int)sub.n_elems);
+    }
+    if (st >= 0) {
+        for (int32_t k = 0; k < sub.n_elems; ++k)
+            h->sub_of[map[k]] = k;
+        stats->n_harmonic = sub.n_elems;
+    }
+    pf_mesh_release(&sub);
+    pf_free(keep);
+    pf_free(map);
+    if (st < 0)
+        harmonic_release(h);
+    stats->basis_seconds = pf_time_seconds() - t0;
+    return st;
+}
+
+/* Harmonic functions are meaningful inside the element and, extended, a little outside: the
+ * kernels sit xi = 0.1 element diameters out, so up to half of that a vertex still gets them. */
+#define HARMONIC_REACH 0.05
+
+static int harmonic_weights(const harmonic_set *h, const locator *L, int32_t e, pf_vec3 p,
+                            double dist, uint32_t *col, double *w, int32_t *n)
+{
+    const double *box = L->geo.box + 6 * (size_t)e;
+    double diameter = pf_v3_dist(pf_v3_load(box), pf_v3_load(box + 3));
+    int32_t k = h->sub_of[e];
+    if (k < 0 || dist > HARMONIC_REACH * diameter)
+        return 0;
+    const int32_t *nodes;
+    *n = pf_basis_elem_nodes(&h->basis, k, &nodes);
+    for (int32_t i = 0; i < *n; ++i)
+        col[i] = (uint32_t)nodes[i];
+    pf_basis_eval(&h->basis, k, p, w, NULL);
+    for (int32_t i = 0; i < *n; ++i)
+        if (!isfinite(w[i]))
+            return 0;
+    return 1;
+}
+
+static void locate_all(locator *L, const pf_surface *s, int32_t *elem_of, double *dist)
+{
+    for (int32_t v = 0; v < s->n_verts; ++v)
+        elem_of[v] = locator_find(L, pf_v3_load(s->x + 3 * (size_t)v), &dist[v]);
+}
+
+pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
+                     row_builder *b, pf_embed_stats *stats, pf_error *err)
 {
     int32_t cap = L->geo.max_nodes > 8 ? L->geo.max_nodes : 8;
     uint32_t *col = NULL;
-    double *val = NULL, *d = NULL, *ones = NULL;
+    double *val = NULL, *d = NULL, *ones = NULL, *dist = NULL;
+    int32_t *elem_of = NULL;
+    harmonic_set h = {0};
     pf_status st = PF_OK;
     if (!PF_ALLOC_N(col, (size_t)cap) || !PF_ALLOC_N(val, (size_t)cap) ||
-        !PF_ALLOC_N(d, 3 * (size_t)cap) || !PF_ALLOC_N(ones, (size_t)cap))
+        !PF_ALLOC_N(d, 3 * (size_t)cap) || !PF_ALLOC_N(ones, (size_t)cap) ||
+        !PF_ALLOC_N(elem_of, s->n_verts) || !PF_ALLOC_N(dist, s->n_verts))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for weights");
+    if (st >= 0)
+        locate_all(L, s, elem_of, dist);
+    if (st >= 0 && harmonic)
+        st = harmonic_build(m, L, elem_of, s->n_verts, &h, stats, err);
     for (int32_t v = 0; v < s->n_verts && st >= 0; ++v) {
         pf_vec3 p = pf_v3_load(s->x + 3 * (size_t)v);
-        double dist;
-        int32_t e = locator_find(L, p, &dist);
-        if (dist > L->tol) {
+        int32_t e = elem_of[v];
+        if (dist[v] > L->tol) {
             stats->n_outside++;
-            stats->max_outside = fmax(stats->max_outside, dist);
+            stats->max_outside = fmax(stats->max_outside, dist[v]);
         }
         const uint32_t *nodes = L->geo.nodes + L->geo.node_offsets[e];
         int32_t n = (int32_t)(L->geo.node_offsets[e + 1] - L->geo.node_offsets[e]);
-        pf_elem_kind kind = (pf_elem_kind)L->geo.kind[e];
-        stats->n_by_kind[kind]++;
+        stats->n_by_kind[L->geo.kind[e]]++;
         int ok = 0;
-        if (kind == PF_ELEM_TET && n == 4) {
+        elem_form form = form_of(m, L, e, col);
+        if (form == FORM_TET) {
             memcpy(col, nodes, 4 * sizeof *col);
             ok = tet_weights(m->x, nodes, p, val);
-        } else if (kind == PF_ELEM_HEX && hex_corners(m, e, col)) {
+        } else if (form == FORM_HEX) {
             n = 8;
             ok = hex_weights(m->x, col, p, val);
             if (!ok)
                 memcpy(col, nodes, (size_t)n * sizeof *col);
+        } else if (harmonic) {
+            ok = harmonic_weights(&h, L, e, p, dist[v], col, val, &n);
+            if (!ok) {
+                n = (int32_t)(L->geo.node_offsets[e + 1] - L->geo.node_offsets[e]);
+                memcpy(col, nodes, (size_t)n * sizeof *col);
+            }
         } else {
             memcpy(col, nodes, (size_t)n * sizeof *col);
             int64_t t0 = L->geo.tri_offsets[e];
@@ -348,14 +465,16 @@ pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, row_buil
         }
         if (!ok)
             st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
-                              "surface vertex %d: no usable weights in element %d", (int)v,
-                              (int)e);
+                              "surface vertex %d: no usable weights in element %d", (int)v, (int)e);
         else
             st = row_builder_add(b, v, col, val, n, err);
     }
+    harmonic_release(&h);
     pf_free(col);
     pf_free(val);
     pf_free(d);
     pf_free(ones);
+    pf_free(elem_of);
+    pf_free(dist);
     return st;
 }

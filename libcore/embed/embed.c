@@ -7,7 +7,7 @@
 
 const char *pf_embed_method_name(pf_embed_method m)
 {
-    return m == PF_EMBED_BARY ? "bary" : "mls";
+    return m == PF_EMBED_HARMONIC ? "harmonic" : m == PF_EMBED_BARY ? "bary" : "mls";
 }
 
 pf_embed_params pf_embed_params_default(void)
@@ -34,7 +34,9 @@ pf_status embed_resolve_params(const pf_embed_params *in, pf_embed_params *out, 
         out->growth = d.growth;
     if (out->max_growth == 0)
         out->max_growth = d.max_growth;
-    PF_CHECK(out->method == PF_EMBED_MLS || out->method == PF_EMBED_BARY, err, PF_ERR_INVALID,
+    PF_CHECK(out->method == PF_EMBED_MLS || out->method == PF_EMBED_BARY ||
+                 out->method == PF_EMBED_HARMONIC,
+             err, PF_ERR_INVALID,
              "unknown embedding method %d", (int)out->method);
     PF_CHECK(out->support > 0 && isfinite(out->support) && out->sharpness > 0 &&
                  isfinite(out->sharpness) && out->min_spread > 0 && out->min_spread < 1 &&
@@ -200,7 +202,8 @@ pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed
     if (st >= 0) {
         st_out->n_verts = s->n_verts;
         st = p.method == PF_EMBED_MLS ? embed_mls(m, s, &p, &L, &b, st_out, err)
-                                      : embed_bary(m, s, &L, &b, st_out, err);
+                                      : embed_bary(m, s, &L, p.method == PF_EMBED_HARMONIC, &b,
+                                                   st_out, err);
     }
     locator_release(&L);
     if (st < 0) {

@@ -89,7 +89,9 @@ void row_builder_finish(row_builder *b);
 /* The two methods, filling b for every vertex and the method's statistics. */
 pf_status embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
                     locator *L, row_builder *b, pf_embed_stats *stats, pf_error *err);
-pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, row_builder *b,
-                     pf_embed_stats *stats, pf_error *err);
+/* harmonic: general polyhedra weighted by their harmonic (CG) functions, not mean value
+ * coordinates. */
+pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
+                     row_builder *b, pf_embed_stats *stats, pf_error *err);
 
 #endif

@@ -1,4 +1,4 @@
-# pf-embed: WGHT through the pipe, both methods, the outside warning, --surface, bad input.
+# pf-embed: WGHT through the pipe, every method, the outside warning, --surface, bad input.
 . "$(dirname "$0")/lib.sh"
 
 "$bin/pf-shape" sphere --res 16 >"$tmp/sphere.pfs" || { echo "FAIL: pf-shape sphere"; exit 1; }
@@ -17,6 +17,9 @@ expect 0 "hexes" "$bin/pf-embed" --method bary "$tmp/vox.pfs"
 expect 0 "" "$bin/pf-embed" --method bary --quiet "$tmp/slice.pfs"
 check "quiet and nothing outside: empty stderr" test ! -s "$tmp/err"
 check "bary on the sliced sphere: polyhedra" bash -c "'$bin/pf-embed' --method bary '$tmp/slice.pfs' 2>&1 >/dev/null | grep -vq 'polyhedra 0'"
+# harmonic: the CG shape functions of the polyhedra holding vertices, and a WGHT in the stream
+expect 0 "harmonic functions of" "$bin/pf-embed" --method harmonic "$tmp/slice.pfs"
+check "harmonic: one WGHT" test "$("$bin/pf-info" --json "$tmp/out" | grep -c '"chunk":"WGHT"')" = 1
 
 # --surface replaces the stream's surface; a mesh without a surface needs it.
 "$bin/pf-shape" box --size 1,1,1 --cells 2,2,2 >"$tmp/box.pfs"
@@ -28,6 +31,6 @@ check "one SURF and one WGHT" test "$(grep -c '"chunk":"SURF"\|"chunk":"WGHT"' "
 # Bad input and usage.
 expect 1 "no MESH" "$bin/pf-embed" "$tmp/sphere.pfs"
 expect 1 "empty input" "$bin/pf-embed" /dev/null
-expect 2 "" "$bin/pf-embed" --method harmonic "$tmp/vox.pfs"
+expect 2 "mls, bary or harmonic" "$bin/pf-embed" --method mvc "$tmp/vox.pfs"
 expect 2 "" "$bin/pf-embed" "$tmp/vox.pfs" "$tmp/vox.pfs"
 finish

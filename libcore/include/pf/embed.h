@@ -22,9 +22,14 @@
  *   boxes, then the winding number over the element's triangulated faces) and weighted with the
  *   element's shape functions: barycentric for tets, trilinear for hexes (the trilinear map
  *   inverted by Newton's method), 3D mean value coordinates (Floater et al. 2005, Ju et al. 2005)
- *   over the element's triangulated faces for general polyhedra. Harmonic coordinates are the CG
- *   method's shape functions and will replace mean value coordinates there. Continuous (C0) across
- *   faces, partition of unity, affine reproduction.
+ *   over the element's triangulated faces for general polyhedra. Continuous (C0) across faces
+ *   exactly, partition of unity, affine reproduction.
+ * - PF_EMBED_HARMONIC: as PF_EMBED_BARY, but general polyhedra use the CG method's harmonic shape
+ *   functions (pf/basis.h, MFS with the default pf_basis_params), built only for the elements that
+ *   hold a vertex. The embedded surface then moves exactly with the CG method's displacement field.
+ *   Partition of unity and affine reproduction stay exact; continuity across faces holds only to
+ *   the functions' boundary error (pf-basis reports it: ~1 % on cube-like cells, more on cells of a
+ *   finely faceted sliced surface), so bary is the better choice for a DG simulation.
  *
  * Vertices outside every element (a surface poking out of a voxel mesh) are attached to the
  * nearest element (bary: its shape functions extrapolated, still reproducing affine fields) or keep
@@ -47,9 +52,10 @@ extern "C" {
 typedef enum pf_embed_method {
     PF_EMBED_MLS = 0,  /* moving least squares, C1 (the default) */
     PF_EMBED_BARY = 1, /* element shape functions, C0 */
+    PF_EMBED_HARMONIC = 2, /* element shape functions, harmonic (CG) on general polyhedra */
 } pf_embed_method;
 
-const char *pf_embed_method_name(pf_embed_method m); /* "mls", "bary" */
+const char *pf_embed_method_name(pf_embed_method m); /* "mls", "bary", "harmonic" */
 
 /* Zero values mean "default". */
 typedef struct pf_embed_params {
@@ -72,8 +78,12 @@ typedef struct pf_embed_stats {
     double max_outside;      /* largest distance of such a vertex from its element, model units */
     int32_t n_grown;         /* MLS: vertices whose support had to grow */
     int32_t n_by_kind[PF_ELEM_KIND_COUNT]; /* vertices per kind of their element */
-    int32_t n_fallback;      /* bary: outside vertices weighted by the affine least-squares fit of
-                                their element's nodes (Newton or mean value coordinates failed) */
+    int32_t n_fallback;      /* bary, harmonic: outside vertices weighted by the affine
+                                least-squares fit of their element's nodes (Newton or mean value
+                                coordinates failed; harmonic: farther outside than half the MFS
+                                kernel offset) */
+    int32_t n_harmonic;      /* harmonic: elements whose harmonic functions were built */
+    double basis_seconds;    /* harmonic: wall clock of building them */
     int64_t nnz;
     double mean_row;         /* mean non-zeros per row */
     double seconds;          /* wall clock of pf_embed_compute */
@@ -84,7 +94,7 @@ typedef struct pf_embed_stats {
  * w->surface_id = s->id, w->mesh_id = m->id, columns sorted within each row. params NULL: the
  * defaults; stats may be NULL. Statuses: PF_ERR_INVALID for an empty mesh, non-finite
  * coordinates or bad parameters; PF_ERR_NUMERIC when an MLS support stays degenerate after
- * max_growth steps; PF_ERR_NOMEM. Cost about linear in vertices plus elements. */
+ * max_growth steps; harmonic: the statuses of pf_basis_create, naming the element; PF_ERR_NOMEM. Cost about linear in vertices plus elements. */
 pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed_params *params,
                            pf_weights *w, pf_embed_stats *stats, pf_error *err);
 

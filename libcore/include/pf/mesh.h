@@ -99,6 +99,14 @@ pf_mesh_validate_params pf_mesh_validate_params_default(void);
  * params may be NULL for the defaults. Does not modify m (derived arrays are not needed). */
 pf_status pf_mesh_validate(const pf_mesh *m, const pf_mesh_validate_params *params, pf_error *err);
 
+/* The elements e of src with keep[e] != 0 as a mesh of their own, in dst (zeroed or released):
+ * every node of src, at the same index (so node data stays valid), the faces the kept elements use
+ * (in the order of src, each once, shared faces still shared) and the kept elements in the order of
+ * src. elem_map[n_elems of dst], when not NULL and of src->n_elems entries, receives the src index
+ * of every dst element. dst->id = src->id. Derived arrays are not computed. PF_ERR_NOMEM. */
+pf_status pf_mesh_select_elements(pf_mesh *dst, const pf_mesh *src, const uint8_t *keep,
+                                  int32_t *elem_map, pf_error *err);
+
 /* ---- builders from cell lists ------------------------------------------------------------------
  * Faces shared by two cells are created once. Node numbering of cells follows Gmsh/VTK:
  * tet (0,1,2,3) with node 3 on the positive side of (0,1,2); hex with bottom 0-1-2-3 and top 4-5-6-7

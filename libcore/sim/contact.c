@@ -41,16 +41,26 @@ struct pf_contact {
     int32_t *order;       /* [np] points along the Morton curve */
     int32_t n_shapes;
     shape *shapes;
-    pf_vec3 *shift;       /* [n_shapes] each shape's translation in the current step */
+    pf_vec3 *shift;       /* [n_shapes] each shape's translation at the end of the step */
+    pf_vec3 *velocity;    /* [n_shapes] and its velocity over the step */
     int32_t *triple_block; /* [n_triples] the matrix block of each triple (from the pattern) */
     /* per-step scratch, allocated once */
     double *pred;         /* [3 n_triples] u + h v */
     double *node_u;       /* [3 n_nodes] S (u + h v) */
     double *pos;          /* [3 np] predicted positions */
-    double *beta;         /* [n_triples] a point's combination, zero between points */
-    int32_t *mark;        /* [n_triples] 1 while a triple is in the current combination */
-    int64_t *touched;     /* [max_row] triples of the current combination */
-    int64_t max_row;
+    int64_t max_row;      /* the longest combination of triples of one point */
+    /* The node-level penalty C = sum_p k (w_p w_p^T) (x) n n^T over the contacts, one 3 x 3 block
+     * per pair of nodes i <= j sharing a point row (np_offsets [n_nodes + 1], np_col, c_val
+     * [9 pairs]), the pairs touched this step listed in used; and the node-level force. The
+     * penalty on the unknowns is then S^T C S and S^T F (S the nodal map). */
+    int64_t *np_offsets;
+    int32_t *np_col;
+    double *c_val;
+    uint8_t *c_used;
+    int64_t *used;
+    int64_t n_used;
+    double *node_f;       /* [3 n_nodes] */
+    double damping_beta;  /* Rayleigh beta: damps contact relative to the obstacle's motion */
     pf_contact_stats stats;
 };
 
@@ -64,7 +74,8 @@ static pf_status make_shapes(pf_contact *c, const pf_contact_setup *s, pf_error 
     const pf_scene *sc = s->scene;
     c->shapes = pf_calloc((size_t)sc->n_obstacles + 1, sizeof *c->shapes);
     c->shift = pf_calloc((size_t)sc->n_obstacles + 1, sizeof *c->shift);
-    PF_CHECK(c->shapes && c->shift, err, PF_ERR_NOMEM, "cannot allocate %d obstacles", (int)sc->n_obstacles);
+    c->velocity = pf_calloc((size_t)sc->n_obstacles + 1, sizeof *c->velocity);
+    PF_CHECK(c->shapes && c->shift && c->velocity, err, PF_ERR_NOMEM, "cannot allocate %d obstacles", (int)sc->n_obstacles);
     /* the automatic stiffness spreads the nodal total over the points */
     double points_per_node = 1;
     if (s->weights) {
@@ -276,6 +287,76 @@ static int64_t longest_row(const pf_contact *c)
     return longest;
 }
 
+static int compare_i32(const void *pa, const void *pb)
+{
+    int32_t a = *(const int32_t *)pa, b = *(const int32_t *)pb;
+    return (a > b) - (a < b);
+}
+
+/* The pairs of nodes i <= j that share a point's row: node -> points, then per node i the
+ * nodes j >= i of its points' rows, each once (stamp), sorted for the binary search. */
+static pf_status node_pairs(pf_contact *c, pf_error *err)
+{
+    int32_t nn = c->mesh->n_nodes;
+    int64_t nnz = c->row_offsets[c->np];
+    int64_t *inv_offsets = pf_calloc((size_t)nn + 2, sizeof *inv_offsets);
+    int32_t *inv = pf_alloc_array((size_t)nnz + 1, sizeof *inv);
+    int32_t *stamp = pf_alloc_array((size_t)nn + 1, sizeof *stamp);
+    c->np_offsets = pf_calloc((size_t)nn + 1, sizeof *c->np_offsets);
+    pf_status st = PF_OK;
+    if (!inv_offsets || !inv || !stamp || !c->np_offsets) {
+        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate node pairs");
+        goto done;
+    }
+    for (int64_t q = 0; q < nnz; ++q)
+        inv_offsets[c->row_node[q] + 2]++;
+    for (int32_t i = 0; i < nn; ++i)
+        inv_offsets[i + 2] += inv_offsets[i + 1];
+    for (int32_t p = 0; p < c->np; ++p)
+        for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q)
+            inv[inv_offsets[c->row_node[q] + 1]++] = p;
+    for (int pass = 0; pass < 2; ++pass) {
+        for (int32_t i = 0; i < nn; ++i)
+            stamp[i] = -1;
+        int64_t w = 0;
+        for (int32_t i = 0; i < nn; ++i) {
+            int64_t first = w;
+            for (int64_t q = inv_offsets[i]; q < inv_offsets[i + 1]; ++q) {
+                int32_t p = inv[q];
+                for (int64_t r = c->row_offsets[p]; r < c->row_offsets[p + 1]; ++r) {
+                    int32_t j = c->row_node[r];
+                    if (j < i || stamp[j] == i)
+                        continue;
+                    stamp[j] = i;
+                    if (pass == 1)
+                        c->np_col[w] = j;
+                    ++w;
+                }
+            }
+            if (pass == 0)
+                c->np_offsets[i + 1] = w;
+            else
+                qsort(c->np_col + first, (size_t)(w - first), sizeof *c->np_col, compare_i32);
+        }
+        if (pass == 0) {
+            c->np_col = pf_alloc_array((size_t)w + 1, sizeof *c->np_col);
+            c->c_val = pf_calloc(9 * (size_t)w + 1, sizeof *c->c_val);
+            c->c_used = pf_calloc((size_t)w + 1, 1);
+            c->used = pf_alloc_array((size_t)w + 1, sizeof *c->used);
+            if (!c->np_col || !c->c_val || !c->c_used || !c->used) {
+                st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                  "cannot allocate %lld node pairs", (long long)w);
+                goto done;
+            }
+        }
+    }
+done:
+    pf_free(inv_offsets);
+    pf_free(inv);
+    pf_free(stamp);
+    return st;
+}
+
 pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_error *err)
 {
     *out = NULL;
@@ -299,20 +380,20 @@ pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_erro
         c->pred = pf_alloc_array(3 * nt, sizeof *c->pred);
         c->node_u = pf_alloc_array(3 * (size_t)s->mesh->n_nodes + 1, sizeof *c->node_u);
         c->pos = pf_alloc_array(3 * (size_t)c->np + 1, sizeof *c->pos);
-        c->beta = pf_calloc(nt, sizeof *c->beta);
-        c->mark = pf_calloc(nt, sizeof *c->mark);
-        c->touched = pf_alloc_array((size_t)c->max_row + 1, sizeof *c->touched);
+        c->node_f = pf_calloc(3 * (size_t)s->mesh->n_nodes + 1, sizeof *c->node_f);
         c->triple_block = pf_calloc(nt, sizeof *c->triple_block);
-        if (!c->pred || !c->node_u || !c->pos || !c->beta || !c->mark || !c->touched ||
-            !c->triple_block)
+        if (!c->pred || !c->node_u || !c->pos || !c->node_f || !c->triple_block)
             st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                               "cannot allocate contact scratch for %lld unknowns",
                               (long long)(3 * c->n_triples));
     }
+    if (st >= 0)
+        st = node_pairs(c, err);
     if (st < 0) {
         pf_contact_destroy(&c);
         return st;
     }
+    c->damping_beta = s->scene->damping_beta;
     c->stats.points = c->np;
     *out = c;
     return PF_OK;
@@ -327,9 +408,10 @@ void pf_contact_destroy(pf_contact **cp)
         pf_rayscene_destroy(&c->shapes[i].rs);
     pf_free(c->shapes);
     pf_free(c->shift);
+    pf_free(c->velocity);
     void *arrays[] = {c->x0, c->row_offsets, c->row_node, c->row_w, c->order,
-                      c->triple_block, c->pred, c->node_u, c->pos, c->beta, c->mark,
-                      c->touched};
+                      c->triple_block, c->pred, c->node_u, c->pos, c->np_offsets,
+                      c->np_col, c->c_val, c->c_used, c->used, c->node_f};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
     pf_free(c);
@@ -555,84 +637,119 @@ static bool box_meets(const shape *g, pf_vec3 t, pf_vec3 lo, pf_vec3 hi)
 
 /* ---- assembly ---------------------------------------------------------------------------- */
 
-static int compare_i64(const void *pa, const void *pb)
-{
-    int64_t a = *(const int64_t *)pa, b = *(const int64_t *)pb;
-    return (a > b) - (a < b);
-}
-
-/* beta for point p (the nodal map composed with the point's row), its triples sorted in touched;
- * returns how many. */
-static int64_t combine(pf_contact *c, int32_t p)
-{
-    int64_t n = 0;
-    for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q) {
-        int32_t i = c->row_node[q];
-        double wi = c->row_w[q];
-        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r) {
-            int64_t t = c->map_triple[r];
-            if (!c->mark[t]) {
-                c->mark[t] = 1;
-                c->touched[n++] = t;
-            }
-            c->beta[t] += wi * c->map_w[r];
-        }
-    }
-    qsort(c->touched, (size_t)n, sizeof *c->touched, compare_i64);
-    return n;
-}
-
-/* K_ab += k beta_a beta_b n n^T, F_a += k beta_a (n . (c - x0)) n (DG paper sec. 8), upper
- * triangle only, straight into the stored columns (pf_block_matrix layout: a block's rows
- * start at adj_row within each column of the column block). */
-static void add_penalty(pf_contact *c, int64_t n_touched, double stiffness, pf_vec3 normal,
-                        double gap0, pf_block_matrix *k, double *f)
+/* C_ij += k w_i w_j n n^T for the node pairs of point p's row, F_i += k w_i g n (DG paper sec. 8,
+ * at node level: the point's displacement is sum_i w_i (S u)_i). */
+static void add_point(pf_contact *c, int32_t p, double k, pf_vec3 normal, double g)
 {
     const double nn[3] = {normal.x, normal.y, normal.z};
-    const int64_t *t = c->touched;
-    for (int64_t a = 0; a < n_touched; ++a) {
-        double s = stiffness * c->beta[t[a]] * gap0;
+    for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q) {
+        int32_t i = c->row_node[q];
+        double wi = k * c->row_w[q];
         for (int r = 0; r < 3; ++r)
-            f[3 * t[a] + r] += s * nn[r];
+            c->node_f[3 * (size_t)i + r] += wi * g * nn[r];
+        for (int64_t l = c->row_offsets[p]; l < c->row_offsets[p + 1]; ++l) {
+            int32_t j = c->row_node[l];
+            if (j < i)
+                continue;
+            /* the pair's slot: binary search in node i's sorted list */
+            int64_t lo = c->np_offsets[i], hi = c->np_offsets[i + 1] - 1;
+            while (lo < hi) {
+                int64_t mid = lo + (hi - lo) / 2;
+                if (c->np_col[mid] < j)
+                    lo = mid + 1;
+                else
+                    hi = mid;
+            }
+            double s = wi * c->row_w[l];
+            double *v = c->c_val + 9 * lo;
+            for (int r = 0; r < 3; ++r)
+                for (int cc = 0; cc < 3; ++cc)
+                    v[3 * r + cc] += s * nn[r] * nn[cc];
+            if (!c->c_used[lo]) {
+                c->c_used[lo] = 1;
+                c->used[c->n_used++] = lo;
+            }
+        }
     }
-    for (int64_t ja = 0; ja < n_touched;) {
-        int32_t bj = c->triple_block[t[ja]];
-        int64_t je = ja;
-        while (je < n_touched && c->triple_block[t[je]] == bj)
-            ++je;
-        for (int64_t ia = 0; ia < je;) {
-            int32_t bi = c->triple_block[t[ia]];
-            int64_t ie = ia;
-            while (ie < je && c->triple_block[t[ie]] == bi)
-                ++ie;
-            int64_t slot = pf_block_matrix_slot(k, bi, bj);
-            if (slot >= 0) { /* always, with the extended pattern */
-                int64_t row0 = k->block_start[bi];
-                for (int64_t b = ja; b < je; ++b)
-                    for (int cc = 0; cc < 3; ++cc) {
-                        int64_t col = 3 * t[b] + cc;
-                        int64_t base = k->col_ptr[col] + k->adj_row[slot] - row0;
-                        double sb = stiffness * c->beta[t[b]] * nn[cc];
-                        for (int64_t a = ia; a < ie; ++a)
-                            for (int r = 0; r < 3; ++r) {
-                                int64_t row = 3 * t[a] + r;
-                                if (row <= col)
-                                    k->val[base + row] += sb * c->beta[t[a]] * nn[r];
+}
+
+/* Adds S_i^T C_ij S_j (and its transpose for i < j) to the upper triangle of k, straight into
+ * the stored columns (pf_block_matrix: a block's rows start at adj_row within each column of the
+ * column block); with i = j only the entries on or above the diagonal of the symmetric term. */
+static void add_node_pair(const pf_contact *c, int32_t i, int32_t j, const double *cij,
+                          pf_block_matrix *k)
+{
+    const int64_t *ti = c->map_triple + c->map_offsets[i];
+    const int64_t *tj = c->map_triple + c->map_offsets[j];
+    const double *wi = c->map_w + c->map_offsets[i], *wj = c->map_w + c->map_offsets[j];
+    int64_t ni = c->map_offsets[i + 1] - c->map_offsets[i];
+    int64_t nj = c->map_offsets[j + 1] - c->map_offsets[j];
+    for (int64_t a0 = 0; a0 < ni;) {
+        int32_t ba = c->triple_block[ti[a0]];
+        int64_t a1 = a0;
+        while (a1 < ni && c->triple_block[ti[a1]] == ba)
+            ++a1;
+        for (int64_t b0 = 0; b0 < nj;) {
+            int32_t bb = c->triple_block[tj[b0]];
+            int64_t b1 = b0;
+            while (b1 < nj && c->triple_block[tj[b1]] == bb)
+                ++b1;
+            int32_t bl = ba < bb ? ba : bb, bh = ba < bb ? bb : ba;
+            int64_t slot = i == j && ba > bb ? -1 : pf_block_matrix_slot(k, bl, bh);
+            if (slot >= 0) { /* always, with the extended pattern (or a mirrored i = j pair) */
+                int64_t row0 = k->block_start[bl];
+                for (int64_t a = a0; a < a1; ++a)
+                    for (int64_t b = b0; b < b1; ++b) {
+                        double s = wi[a] * wj[b];
+                        for (int r = 0; r < 3; ++r)
+                            for (int cc = 0; cc < 3; ++cc) {
+                                int64_t row = 3 * ti[a] + r, col = 3 * tj[b] + cc;
+                                double v = s * cij[3 * r + cc];
+                                if (i == j) {
+                                    if (row > col)
+                                        continue;
+                                } else if (row == col) {
+                                    v *= 2; /* the term and its transpose meet */
+                                }
+                                int64_t lo = row < col ? row : col, hi = row < col ? col : row;
+                                k->val[k->col_ptr[hi] + k->adj_row[slot] + lo - row0] += v;
                             }
                     }
             }
-            ia = ie;
+            b0 = b1;
         }
-        ja = je;
+        a0 = a1;
     }
 }
 
-static void clear_combination(pf_contact *c, int64_t n_touched)
+/* The node-level terms of this step onto the unknowns (S^T C S, S^T F), then cleared. */
+static void scatter(pf_contact *c, pf_block_matrix *k, double *f)
 {
-    for (int64_t a = 0; a < n_touched; ++a) {
-        c->beta[c->touched[a]] = 0;
-        c->mark[c->touched[a]] = 0;
+    for (int32_t i = 0; i < c->mesh->n_nodes; ++i) {
+        const double *fi = c->node_f + 3 * (size_t)i;
+        if (fi[0] == 0 && fi[1] == 0 && fi[2] == 0)
+            continue;
+        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r)
+            for (int d = 0; d < 3; ++d)
+                f[3 * c->map_triple[r] + d] += c->map_w[r] * fi[d];
     }
+    memset(c->node_f, 0, 3 * (size_t)c->mesh->n_nodes * sizeof *c->node_f);
+    for (int64_t u = 0; u < c->n_used; ++u) {
+        int64_t q = c->used[u];
+        /* the pair's first node: the row of q in np_offsets */
+        int64_t lo = 0, hi = c->mesh->n_nodes - 1;
+        while (lo < hi) {
+            int64_t mid = lo + (hi - lo + 1) / 2;
+            if (c->np_offsets[mid] <= q)
+                lo = mid;
+            else
+                hi = mid - 1;
+        }
+        add_node_pair(c, (int32_t)lo, c->np_col[q], c->c_val + 9 * q, k);
+        memset(c->c_val + 9 * q, 0, 9 * sizeof *c->c_val);
+        c->c_used[q] = 0;
+    }
+    c->n_used = 0;
 }
 
 int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const double *v, double h,
@@ -660,8 +777,15 @@ int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const doub
     c->stats.embed_seconds += t1 - t0;
 
     int64_t contacts = 0;
-    for (int32_t g = 0; g < c->n_shapes; ++g)
-        c->shift[g] = c->shapes[g].o ? pf_obstacle_translation(c->shapes[g].o, t) : pf_v3(0, 0, 0);
+    for (int32_t g = 0; g < c->n_shapes; ++g) {
+        const pf_obstacle *o = c->shapes[g].o;
+        c->shift[g] = o ? pf_obstacle_translation(o, t) : pf_v3(0, 0, 0);
+        /* the mean velocity over the step */
+        c->velocity[g] = o && h > 0 ? pf_v3_scale(pf_v3_sub(c->shift[g],
+                                                            pf_obstacle_translation(o, t - h)),
+                                                  1 / h)
+                                    : pf_v3(0, 0, 0);
+    }
     for (int32_t c0 = 0; c0 < c->np; c0 += CHUNK) {
         int32_t c1 = c0 + CHUNK < c->np ? c0 + CHUNK : c->np;
         pf_vec3 lo = pf_v3_load(c->pos + 3 * (size_t)c->order[c0]), hi = lo;
@@ -679,16 +803,17 @@ int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const doub
                 pf_vec3 x = pf_v3_load(c->pos + 3 * (size_t)p), at, n;
                 if (!penetrates(sh, c->shift[g], x, &at, &n))
                     continue;
-                int64_t nt = combine(c, p);
-                if (nt > 0) {
-                    double gap0 = pf_v3_dot(n, pf_v3_sub(at, pf_v3_load(c->x0 + 3 * (size_t)p)));
-                    add_penalty(c, nt, sh->stiffness, n, gap0, k, f);
-                    contacts++;
-                }
-                clear_combination(c, nt);
+                /* f = k n (n . (c - x0) + beta n . v_obstacle) - k n n^T u~: the penalty,
+                 * with the Rayleigh damping beta K the driver applies to it made relative to
+                 * the obstacle's velocity */
+                double gap = pf_v3_dot(n, pf_v3_sub(at, pf_v3_load(c->x0 + 3 * (size_t)p))) +
+                             c->damping_beta * pf_v3_dot(n, c->velocity[g]);
+                add_point(c, p, sh->stiffness, n, gap);
+                contacts++;
             }
         }
     }
+    scatter(c, k, f);
     c->stats.search_seconds += pf_time_seconds() - t1;
     return contacts;
 }

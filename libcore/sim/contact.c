@@ -61,6 +61,16 @@ struct pf_contact {
     int64_t n_used;
     double *node_f;       /* [3 n_nodes] */
     double damping_beta;  /* Rayleigh beta: damps contact relative to the obstacle's motion */
+    /* the contacts found by pf_contact_detect: point, outward normal, right-hand side gap;
+     * capacity np x n_shapes */
+    int32_t *hit_point;
+    pf_vec3 *hit_normal;
+    double *hit_gap;
+    double *hit_k;
+    int64_t n_hits;
+    /* points whose couplings are in the matrix pattern, and those to add at the next growth */
+    uint8_t *in_pattern;
+    bool grow;
     pf_contact_stats stats;
 };
 
@@ -382,7 +392,14 @@ pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_erro
         c->pos = pf_alloc_array(3 * (size_t)c->np + 1, sizeof *c->pos);
         c->node_f = pf_calloc(3 * (size_t)s->mesh->n_nodes + 1, sizeof *c->node_f);
         c->triple_block = pf_calloc(nt, sizeof *c->triple_block);
-        if (!c->pred || !c->node_u || !c->pos || !c->node_f || !c->triple_block)
+        size_t cap = (size_t)c->np * (size_t)c->n_shapes + 1;
+        c->hit_point = pf_alloc_array(cap, sizeof *c->hit_point);
+        c->hit_normal = pf_alloc_array(cap, sizeof *c->hit_normal);
+        c->hit_gap = pf_alloc_array(cap, sizeof *c->hit_gap);
+        c->hit_k = pf_alloc_array(cap, sizeof *c->hit_k);
+        c->in_pattern = pf_calloc((size_t)c->np + 1, 1);
+        if (!c->pred || !c->node_u || !c->pos || !c->node_f || !c->triple_block ||
+            !c->hit_point || !c->hit_normal || !c->hit_gap || !c->hit_k || !c->in_pattern)
             st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                               "cannot allocate contact scratch for %lld unknowns",
                               (long long)(3 * c->n_triples));
@@ -394,6 +411,9 @@ pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_erro
         return st;
     }
     c->damping_beta = s->scene->damping_beta;
+    for (int32_t b = 0; b < s->n_blocks; ++b)
+        for (int64_t u = s->block_start[b]; u < s->block_start[b + 1]; u += 3)
+            c->triple_block[u / 3] = b;
     c->stats.points = c->np;
     *out = c;
     return PF_OK;
@@ -411,7 +431,8 @@ void pf_contact_destroy(pf_contact **cp)
     pf_free(c->velocity);
     void *arrays[] = {c->x0, c->row_offsets, c->row_node, c->row_w, c->order,
                       c->triple_block, c->pred, c->node_u, c->pos, c->np_offsets,
-                      c->np_col, c->c_val, c->c_used, c->used, c->node_f};
+                      c->np_col, c->c_val, c->c_used, c->used, c->node_f,
+                      c->hit_point, c->hit_normal, c->hit_gap, c->hit_k, c->in_pattern};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
     pf_free(c);
@@ -439,13 +460,12 @@ static int64_t point_blocks(const pf_contact *c, int32_t p, int32_t *stamp, int3
     return n;
 }
 
-pf_status pf_contact_extend_pattern(const pf_contact *cc, pf_block_matrix *k, pf_error *err)
+bool pf_contact_needs_pattern(const pf_contact *c) { return c->grow; }
+
+pf_status pf_contact_grow_pattern(pf_contact *c, pf_block_matrix *k, pf_error *err)
 {
-    pf_contact *c = (pf_contact *)cc; /* triple_block is filled here, once */
     int32_t nb = k->n_blocks;
-    for (int32_t b = 0; b < nb; ++b)
-        for (int64_t u = k->block_start[b]; u < k->block_start[b + 1]; u += 3)
-            c->triple_block[u / 3] = b;
+    c->grow = false;
     /* point -> blocks, then block -> points, then for each block j the blocks i < j that share
      * a point with it, each once (stamp per j) */
     size_t n = (size_t)nb + 1;
@@ -462,7 +482,8 @@ pf_status pf_contact_extend_pattern(const pf_contact *cc, pf_block_matrix *k, pf
     for (int32_t b = 0; b < nb; ++b)
         stamp[b] = -1;
     for (int32_t p = 0; p < c->np; ++p)
-        pb_offsets[p + 1] = pb_offsets[p] + point_blocks(c, p, stamp, p, blocks);
+        pb_offsets[p + 1] =
+            pb_offsets[p] + (c->in_pattern[p] ? point_blocks(c, p, stamp, p, blocks) : 0);
     pb = pf_alloc_array((size_t)pb_offsets[c->np] + 1, sizeof *pb);
     inv = pf_alloc_array((size_t)pb_offsets[c->np] + 1, sizeof *inv);
     if (!pb || !inv) {
@@ -472,7 +493,8 @@ pf_status pf_contact_extend_pattern(const pf_contact *cc, pf_block_matrix *k, pf
     for (int32_t b = 0; b < nb; ++b)
         stamp[b] = -1;
     for (int32_t p = 0; p < c->np; ++p) {
-        point_blocks(c, p, stamp, p, pb + pb_offsets[p]);
+        if (c->in_pattern[p])
+            point_blocks(c, p, stamp, p, pb + pb_offsets[p]);
         for (int64_t q = pb_offsets[p]; q < pb_offsets[p + 1]; ++q)
             inv_offsets[pb[q] + 1]++;
     }
@@ -752,8 +774,7 @@ static void scatter(pf_contact *c, pf_block_matrix *k, double *f)
     c->n_used = 0;
 }
 
-int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const double *v, double h,
-                            pf_block_matrix *k, double *f)
+int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double *v, double h)
 {
     double t0 = pf_time_seconds();
     /* predicted nodal displacements S (u + h v), then every point's predicted position */
@@ -776,7 +797,6 @@ int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const doub
     double t1 = pf_time_seconds();
     c->stats.embed_seconds += t1 - t0;
 
-    int64_t contacts = 0;
     for (int32_t g = 0; g < c->n_shapes; ++g) {
         const pf_obstacle *o = c->shapes[g].o;
         c->shift[g] = o ? pf_obstacle_translation(o, t) : pf_v3(0, 0, 0);
@@ -786,6 +806,7 @@ int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const doub
                                                   1 / h)
                                     : pf_v3(0, 0, 0);
     }
+    c->n_hits = 0;
     for (int32_t c0 = 0; c0 < c->np; c0 += CHUNK) {
         int32_t c1 = c0 + CHUNK < c->np ? c0 + CHUNK : c->np;
         pf_vec3 lo = pf_v3_load(c->pos + 3 * (size_t)c->order[c0]), hi = lo;
@@ -798,24 +819,44 @@ int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const doub
             const shape *sh = &c->shapes[g];
             if (!box_meets(sh, c->shift[g], lo, hi))
                 continue;
+            bool chunk_in_pattern = true;
             for (int32_t q = c0; q < c1; ++q) {
                 int32_t p = c->order[q];
+                chunk_in_pattern &= c->in_pattern[p] != 0;
                 pf_vec3 x = pf_v3_load(c->pos + 3 * (size_t)p), at, n;
                 if (!penetrates(sh, c->shift[g], x, &at, &n))
                     continue;
                 /* f = k n (n . (c - x0) + beta n . v_obstacle) - k n n^T u~: the penalty,
                  * with the Rayleigh damping beta K the driver applies to it made relative to
                  * the obstacle's velocity */
-                double gap = pf_v3_dot(n, pf_v3_sub(at, pf_v3_load(c->x0 + 3 * (size_t)p))) +
-                             c->damping_beta * pf_v3_dot(n, c->velocity[g]);
-                add_point(c, p, sh->stiffness, n, gap);
-                contacts++;
+                int64_t e = c->n_hits++;
+                c->hit_point[e] = p;
+                c->hit_normal[e] = n;
+                c->hit_k[e] = sh->stiffness;
+                c->hit_gap[e] =
+                    pf_v3_dot(n, pf_v3_sub(at, pf_v3_load(c->x0 + 3 * (size_t)p))) +
+                    c->damping_beta * pf_v3_dot(n, c->velocity[g]);
+                if (!c->in_pattern[p])
+                    c->grow = true;
             }
+            /* a chunk near an obstacle joins the pattern whole when one of its points touches:
+             * its neighbours will touch next */
+            if (c->grow && !chunk_in_pattern)
+                for (int32_t q = c0; q < c1; ++q)
+                    c->in_pattern[c->order[q]] = 1;
         }
     }
-    scatter(c, k, f);
     c->stats.search_seconds += pf_time_seconds() - t1;
-    return contacts;
+    return c->n_hits;
+}
+
+void pf_contact_assemble(pf_contact *c, pf_block_matrix *k, double *f)
+{
+    double t0 = pf_time_seconds();
+    for (int64_t e = 0; e < c->n_hits; ++e)
+        add_point(c, c->hit_point[e], c->hit_k[e], c->hit_normal[e], c->hit_gap[e]);
+    scatter(c, k, f);
+    c->stats.search_seconds += pf_time_seconds() - t0;
 }
 
 const pf_contact_stats *pf_contact_get_stats(const pf_contact *c) { return &c->stats; }

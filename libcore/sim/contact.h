@@ -27,6 +27,8 @@ typedef struct pf_contact_setup {
     const pf_weights *weights;
     double auto_stiffness; /* the method's automatic stiffness per boundary node */
     double model_size;     /* the mesh's bounding-box diagonal */
+    int32_t n_blocks;      /* the matrix's blocks: block_start [n_blocks + 1] unknowns */
+    const int64_t *block_start;
 } pf_contact_setup;
 
 /* Time spent, seconds, since creation. */
@@ -42,15 +44,24 @@ typedef struct pf_contact_stats {
 pf_status pf_contact_create(pf_contact **c, const pf_contact_setup *setup, pf_error *err);
 void pf_contact_destroy(pf_contact **c);
 
-/* Rebuilds k's pattern (values zero) with every pair of blocks a contact point may couple added:
- * the blocks of the triples in one point's combination. PF_ERR_NOMEM. */
-pf_status pf_contact_extend_pattern(const pf_contact *c, pf_block_matrix *k, pf_error *err);
+/* Finds the points whose position predicted by u + h v lies inside an obstacle or below the
+ * ground at time t (the end of the step), and keeps them for pf_contact_assemble. Returns their
+ * number. A contact whose couplings are not in the matrix pattern yet asks for growth
+ * (pf_contact_needs_pattern): contact only costs pattern and fill where it happens. Allocates
+ * nothing. */
+int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double *v, double h);
 
-/* Adds the linearised penalty of every point whose position predicted by u + h v lies inside an
- * obstacle or below the ground at time t (the end of the step) to k (its pattern from
- * pf_contact_extend_pattern) and f. Returns the number of contacts. Allocates nothing. */
-int64_t pf_contact_assemble(pf_contact *c, double t, const double *u, const double *v, double h,
-                            pf_block_matrix *k, double *f);
+/* True after a detection found points outside the pattern. */
+bool pf_contact_needs_pattern(const pf_contact *c);
+
+/* Rebuilds k's pattern (values zero) from its current pairs plus every pair of blocks a point in
+ * the pattern set may couple: the blocks of the triples in one point's combination. The caller
+ * analyses the new pattern again (a growth event, not a steady-state step). PF_ERR_NOMEM. */
+pf_status pf_contact_grow_pattern(pf_contact *c, pf_block_matrix *k, pf_error *err);
+
+/* Adds the linearised penalty of the detected contacts to k (pattern grown) and f, DG paper
+ * sec. 8. Allocates nothing. */
+void pf_contact_assemble(pf_contact *c, pf_block_matrix *k, double *f);
 
 const pf_contact_stats *pf_contact_get_stats(const pf_contact *c);
 

@@ -99,13 +99,15 @@ static pf_status setup_contact(pf_sim *s, const pf_surface *surface, const pf_we
                            .surface = surface,
                            .weights = weights,
                            .auto_stiffness = s->ops->ground_stiffness(s->method),
-                           .model_size = s->model_size};
+                           .model_size = s->model_size,
+                           .n_blocks = s->k.n_blocks,
+                           .block_start = s->k.block_start};
     s->ops->nodal_map(s->method, &cs.map_offsets, &cs.map_triple, &cs.map_w);
     PF_TRY(pf_contact_create(&s->contact, &cs, err));
     if (!s->contact)
         return PF_OK;
     s->stats.contact_points = pf_contact_get_stats(s->contact)->points;
-    return pf_contact_extend_pattern(s->contact, &s->k, err);
+    return PF_OK;
 }
 
 pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh, pf_error *err)
@@ -204,19 +206,40 @@ static bool state_is_sane(const pf_sim *s)
     return true;
 }
 
+/* New contact points whose couplings the pattern lacks: the pattern grows and is analysed again
+ * (a growth event; the steady state allocates nothing). */
+static pf_status grow_pattern(pf_sim *s, pf_error *err)
+{
+    double t0 = pf_time_seconds();
+    PF_TRY(pf_contact_grow_pattern(s->contact, &s->k, err));
+    pf_cholesky_destroy(&s->chol);
+    PF_TRY(pf_cholesky_create(&s->chol, &s->k, err));
+    s->factored_once = false;
+    s->stats.matrix_nnz = s->k.col_ptr[s->k.n];
+    s->stats.factor_nnz = pf_cholesky_factor_nnz(s->chol);
+    s->stats.pattern_growths++;
+    s->stats.setup_seconds += pf_time_seconds() - t0;
+    return PF_OK;
+}
+
 static pf_status step(pf_sim *s, double h, pf_error *err)
 {
     const pf_scene *sc = s->scene;
     size_t n = (size_t)s->n;
+    int64_t contacts = 0;
+    const pf_contact_stats *cs = s->contact ? pf_contact_get_stats(s->contact) : NULL;
+    double embed0 = cs ? cs->embed_seconds : 0, search0 = cs ? cs->search_seconds : 0;
+    if (s->contact) {
+        contacts = pf_contact_detect(s->contact, s->time + h, s->u, s->v, h);
+        if (pf_contact_needs_pattern(s->contact))
+            PF_TRY(grow_pattern(s, err));
+    }
     double t0 = pf_time_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
-    int64_t contacts = 0;
     if (s->contact) {
-        const pf_contact_stats *cs = pf_contact_get_stats(s->contact);
-        double embed0 = cs->embed_seconds, search0 = cs->search_seconds;
-        contacts = pf_contact_assemble(s->contact, s->time + h, s->u, s->v, h, &s->k, s->f);
+        pf_contact_assemble(s->contact, &s->k, s->f);
         s->stats.embed_seconds += cs->embed_seconds - embed0;
         s->stats.contact_seconds += cs->search_seconds - search0;
     }

@@ -206,6 +206,8 @@ typedef struct pf_sim_stats {
     double contact_seconds;  /* contact search (broad and narrow phase) and penalty assembly */
     double embed_seconds;    /* predicted positions of the contact points (embedding mat-vec) */
     int32_t contact_points;  /* boundary nodes or embedded-surface vertices (0: no contact) */
+    int32_t pattern_growths; /* times contact needed new couplings: pattern and analysis redone
+                                (their time counts as setup) */
     double factor_seconds;
     double solve_seconds;
     int64_t steps, factorisations;

@@ -718,25 +718,48 @@ static void add_node_pair(const pf_contact *c, int32_t i, int32_t j, const doubl
                 ++b1;
             int32_t bl = ba < bb ? ba : bb, bh = ba < bb ? bb : ba;
             int64_t slot = i == j && ba > bb ? -1 : pf_block_matrix_slot(k, bl, bh);
-            if (slot >= 0) { /* always, with the extended pattern (or a mirrored i = j pair) */
-                int64_t row0 = k->block_start[bl];
-                for (int64_t a = a0; a < a1; ++a)
-                    for (int64_t b = b0; b < b1; ++b) {
-                        double s = wi[a] * wj[b];
-                        for (int r = 0; r < 3; ++r)
-                            for (int cc = 0; cc < 3; ++cc) {
-                                int64_t row = 3 * ti[a] + r, col = 3 * tj[b] + cc;
-                                double v = s * cij[3 * r + cc];
-                                if (i == j) {
-                                    if (row > col)
-                                        continue;
-                                } else if (row == col) {
-                                    v *= 2; /* the term and its transpose meet */
-                                }
-                                int64_t lo = row < col ? row : col, hi = row < col ? col : row;
-                                k->val[k->col_ptr[hi] + k->adj_row[slot] + lo - row0] += v;
+            if (slot >= 0) { /* always, with the grown pattern (or a mirrored i = j pair) */
+                int64_t off = k->adj_row[slot] - k->block_start[bl];
+                if (ba != bb) {
+                    /* rows from the lower block, columns from the higher: all above the
+                     * diagonal; C_ij itself, or transposed when i's triples are the columns */
+                    bool swap = ba > bb;
+                    const int64_t *tr = swap ? tj : ti, *tc = swap ? ti : tj;
+                    const double *wr = swap ? wj : wi, *wc = swap ? wi : wj;
+                    int64_t r0 = swap ? b0 : a0, r1 = swap ? b1 : a1;
+                    int64_t q0 = swap ? a0 : b0, q1 = swap ? a1 : b1;
+                    for (int64_t q = q0; q < q1; ++q)
+                        for (int cc = 0; cc < 3; ++cc) {
+                            int64_t col = k->col_ptr[3 * tc[q] + cc] + off;
+                            double cw[3];
+                            for (int r = 0; r < 3; ++r)
+                                cw[r] = wc[q] * (swap ? cij[3 * cc + r] : cij[3 * r + cc]);
+                            for (int64_t a = r0; a < r1; ++a) {
+                                double *v = k->val + col + 3 * tr[a];
+                                v[0] += wr[a] * cw[0];
+                                v[1] += wr[a] * cw[1];
+                                v[2] += wr[a] * cw[2];
                             }
-                    }
+                        }
+                } else {
+                    for (int64_t a = a0; a < a1; ++a)
+                        for (int64_t b = b0; b < b1; ++b) {
+                            double s = wi[a] * wj[b];
+                            for (int r = 0; r < 3; ++r)
+                                for (int cc = 0; cc < 3; ++cc) {
+                                    int64_t row = 3 * ti[a] + r, col = 3 * tj[b] + cc;
+                                    double v = s * cij[3 * r + cc];
+                                    if (i == j) {
+                                        if (row > col)
+                                            continue;
+                                    } else if (row == col) {
+                                        v *= 2; /* the term and its transpose meet */
+                                    }
+                                    int64_t lo = row < col ? row : col, hi = row < col ? col : row;
+                                    k->val[k->col_ptr[hi] + off + lo] += v;
+                                }
+                        }
+                }
             }
             b0 = b1;
         }

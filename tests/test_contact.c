@@ -18,6 +18,10 @@
 #include <pf/embed.h>
 #include <pf/io.h>
 #include <pf/sim.h>
+#include <pf/solve.h>
+
+#include "sim/contact.h"
+#include "test_random.h"
 
 static const double G = 9.81;
 
@@ -455,9 +459,108 @@ static void bad_obstacles_are_refused(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+
+/* The penalty terms against a dense computation of DG paper sec. 8, K = sum_p k (b_p (x) n)
+ * (b_p (x) n)^T and F = sum_p k (n . (c_p - x_p)) b_p (x) n with b_p = S^T w_p: a made-up nodal
+ * map S (8 nodes onto 3 random triples of 10, in 5 blocks of 2), 6 surface points on random rows
+ * of 3 nodes, all below a tilted plane. Every entry of the grown pattern to 1e-13 (sums of a few
+ * dozen products of numbers below 1). */
+static void penalty_matches_dense_sum(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    pf_error err = {0};
+    rng r = {2024};
+    pf_mesh m = {0};
+    make_box(&m, (pf_vec3){0, 0, 0}, (pf_vec3){1, 1, 1}, 1, 1, 1);
+    enum { NT = 10, NB = 5, NP = 6, ROW = 3, PER = 3 };
+    int64_t map_offsets[9], map_triple[8 * PER];
+    double map_w[8 * PER];
+    for (int i = 0; i < 8; ++i) {
+        map_offsets[i] = PER * i;
+        int64_t t0 = (int64_t)(uniform01(&r) * (NT - PER));
+        for (int q = 0; q < PER; ++q) { /* ascending, distinct */
+            map_triple[PER * i + q] = t0 + q + (q == 2 && t0 + 3 < NT ? 1 : 0);
+            map_w[PER * i + q] = uniform(&r);
+        }
+    }
+    map_offsets[8] = 8 * PER;
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_alloc(&s, NP, 0, &err), PF_OK);
+    pf_weights w = {0};
+    assert_int_equal(pf_weights_alloc(&w, NP, 8, NP * ROW, &err), PF_OK);
+    for (int p = 0; p < NP; ++p) {
+        s.x[3 * p] = uniform(&r);
+        s.x[3 * p + 1] = uniform(&r);
+        s.x[3 * p + 2] = -2 + uniform(&r); /* below the plane */
+        int first = (int)(uniform01(&r) * (8 - ROW));
+        for (int q = 0; q < ROW; ++q) {
+            w.col[ROW * p + q] = (uint32_t)(first + q);
+            w.val[ROW * p + q] = uniform(&r);
+        }
+        w.row_offsets[p + 1] = ROW * (p + 1);
+    }
+    pf_scene sc;
+    parse(&sc,
+          "{\"ground\": false, \"obstacles\": [{\"plane\": {\"point\": [0, 0, 1],"
+          " \"normal\": [1, 2, 3]}, \"stiffness\": 3}]}",
+          "dense.json");
+    int32_t size[NB];
+    int64_t start[NB + 1];
+    for (int b = 0; b < NB; ++b)
+        size[b] = 6, start[b] = 6 * b;
+    start[NB] = 6 * NB;
+    pf_block_matrix k = {0};
+    assert_int_equal(pf_block_matrix_create(&k, NB, size, 0, NULL, &err), PF_OK);
+    pf_contact_setup cs = {.scene = &sc, .mesh = &m, .n_triples = NT, .map_offsets = map_offsets,
+                           .map_triple = map_triple, .map_w = map_w, .surface = &s,
+                           .weights = &w, .auto_stiffness = 1, .model_size = 1,
+                           .n_blocks = NB, .block_start = start};
+    pf_contact *c = NULL;
+    assert_int_equal(pf_contact_create(&c, &cs, &err), PF_OK);
+    double u[3 * NT] = {0}, v[3 * NT] = {0}, f[3 * NT] = {0};
+    assert_int_equal(pf_contact_detect(c, 0.1, u, v, 0.01), NP);
+    assert_true(pf_contact_needs_pattern(c));
+    assert_int_equal(pf_contact_grow_pattern(c, &k, &err), PF_OK);
+    pf_contact_assemble(c, &k, f);
+    /* dense */
+    pf_vec3 n = pf_v3_normalize(pf_v3(1, 2, 3));
+    double nn[3] = {n.x, n.y, n.z}, dense[3 * NT][3 * NT] = {{0}}, fd[3 * NT] = {0};
+    for (int p = 0; p < NP; ++p) {
+        double beta[NT] = {0};
+        for (int q = 0; q < ROW; ++q) {
+            int i = (int)w.col[ROW * p + q];
+            for (int64_t e = map_offsets[i]; e < map_offsets[i + 1]; ++e)
+                beta[map_triple[e]] += w.val[ROW * p + q] * map_w[e];
+        }
+        pf_vec3 x = pf_v3_load(s.x + 3 * p);
+        double gap = 1 * n.z - pf_v3_dot(n, x); /* n . (c - x) with c on the plane */
+        for (int a = 0; a < 3 * NT; ++a) {
+            fd[a] += 3 * gap * beta[a / 3] * nn[a % 3];
+            for (int b = 0; b < 3 * NT; ++b)
+                dense[a][b] += 3 * beta[a / 3] * nn[a % 3] * beta[b / 3] * nn[b % 3];
+        }
+    }
+    for (int a = 0; a < 3 * NT; ++a) {
+        assert_true(fabs(f[a] - fd[a]) < 1e-13);
+        for (int b = 0; b < 3 * NT; ++b)
+            if (fabs(pf_block_matrix_get(&k, a, b) - dense[a][b]) > 1e-13)
+                fail_msg("entry (%d, %d): %.17g, dense %.17g", a, b,
+                         pf_block_matrix_get(&k, a, b), dense[a][b]);
+    }
+    pf_contact_destroy(&c);
+    pf_block_matrix_release(&k);
+    pf_scene_release(&sc);
+    pf_weights_release(&w);
+    pf_surface_release(&s);
+    pf_mesh_release(&m);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(penalty_matches_dense_sum),
         cmocka_unit_test(box_rests_on_plane_obstacle),
         cmocka_unit_test(ball_dropped_on_mesh_obstacle),
         cmocka_unit_test(contact_at_embedded_surface),

@@ -6,7 +6,14 @@
  * the points of chunks whose box meets an obstacle's box (a plane: whose box reaches below it) go
  * to the narrow phase. Predicting the positions is one pass over the points (the embedding
  * mat-vec); the narrow phase, the only part whose cost depends on the obstacles, follows the
- * number of points near them. Mesh obstacles answer closest-point queries through Embree. */
+ * number of points near them. Mesh obstacles answer closest-point queries through Embree.
+ *
+ * Assembly: the penalties are summed at node level first, C = sum_p k (w_p w_p^T) (x) n n^T and
+ * F = sum_p k g w_p n, and only then mapped to the unknowns through the method's nodal map, S^T C S
+ * and S^T F (DG paper sec. 8, K_ij = W_i A W_j with W = w S): contacts sharing nodes, as the
+ * vertices of a fine surface do, share that work. The matrix pattern holds the couplings of the
+ * points that have come near an obstacle only; it grows (and is analysed again) when new ones
+ * touch, so a body touching the ground at one end pays fill there alone. */
 #include "contact.h"
 
 #include <math.h>

@@ -15,6 +15,7 @@
 
 #include "test_random.h"
 #include <pf/geom.h>
+#include <pf/mesh.h>
 
 #define PI 3.14159265358979323846
 
@@ -691,6 +692,113 @@ static void test_polyhedron_L_prism(void **state)
     no_leaks();
 }
 
+
+/* ---- closest points ---------------------------------------------------------------------- */
+
+/* The nearest point of a triangle against dense sampling: no sample is nearer (the exact minimum
+ * is below every sample, up to rounding 1e-14), the best sample is at most the sampling spacing
+ * (edge / 400) farther, and the point lies in the triangle (barycentric coordinates >= -1e-12). */
+static void test_triangle_closest_point(void **state)
+{
+    (void)state;
+    rng r = {4242};
+    for (int trial = 0; trial < 200; ++trial) {
+        pf_vec3 v[3], p;
+        for (int k = 0; k < 3; ++k)
+            v[k] = pf_v3(uniform(&r), uniform(&r), uniform(&r));
+        p = pf_v3(2 * uniform(&r), 2 * uniform(&r), 2 * uniform(&r));
+        pf_vec3 q = pf_triangle_closest_point(p, v[0], v[1], v[2]);
+        double d = pf_v3_dist(p, q), best = INFINITY, edge = 0;
+        for (int k = 0; k < 3; ++k)
+            edge = fmax(edge, pf_v3_dist(v[k], v[(k + 1) % 3]));
+        const int n = 400;
+        for (int i = 0; i <= n; ++i)
+            for (int j = 0; i + j <= n; ++j) {
+                double a = (double)i / n, b = (double)j / n;
+                pf_vec3 x = pf_v3_add(v[0], pf_v3_add(pf_v3_scale(pf_v3_sub(v[1], v[0]), a),
+                                                      pf_v3_scale(pf_v3_sub(v[2], v[0]), b)));
+                best = fmin(best, pf_v3_dist(p, x));
+            }
+        assert_true(d <= best + 1e-14);
+        assert_true(best - d <= 2 * edge / n);
+        /* barycentric coordinates of q: solve in the plane by normal equations */
+        pf_vec3 e1 = pf_v3_sub(v[1], v[0]), e2 = pf_v3_sub(v[2], v[0]), w = pf_v3_sub(q, v[0]);
+        double a11 = pf_v3_dot(e1, e1), a12 = pf_v3_dot(e1, e2), a22 = pf_v3_dot(e2, e2);
+        double b1 = pf_v3_dot(w, e1), b2 = pf_v3_dot(w, e2), det = a11 * a22 - a12 * a12;
+        double s = (b1 * a22 - b2 * a12) / det, t = (a11 * b2 - a12 * b1) / det;
+        assert_true(s >= -1e-12 && t >= -1e-12 && s + t <= 1 + 1e-12);
+    }
+}
+
+/* pf_rayscene_closest against every triangle by brute force on a sphere of 800 triangles: the
+ * same distance (the BVH only prunes; equally near triangles tie within 1e-12 relative);
+ * within max_dist only; and on a cube
+ * of 12 triangles the sign of dot(p - point, normal) tells inside from outside for points near
+ * its edges and corners, where several triangles are equally near. */
+static void test_rayscene_closest(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    pf_error err = {0};
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 20, 20, &err), PF_OK);
+    pf_rayscene *rs = NULL;
+    assert_int_equal(pf_rayscene_create(&rs, s.x, s.n_verts, s.tri, s.n_tris, &err), PF_OK);
+    rng r = {99};
+    for (int trial = 0; trial < 300; ++trial) {
+        pf_vec3 p = pf_v3(1.5 * uniform(&r), 1.5 * uniform(&r), 1.5 * uniform(&r));
+        double brute = INFINITY;
+        for (int32_t t = 0; t < s.n_tris; ++t) {
+            pf_vec3 a = pf_v3_load(s.x + 3 * (size_t)s.tri[3 * t]);
+            pf_vec3 b = pf_v3_load(s.x + 3 * (size_t)s.tri[3 * t + 1]);
+            pf_vec3 c = pf_v3_load(s.x + 3 * (size_t)s.tri[3 * t + 2]);
+            brute = fmin(brute, pf_v3_dist(p, pf_triangle_closest_point(p, a, b, c)));
+        }
+        pf_closest cl;
+        assert_true(pf_rayscene_closest(rs, p, 10, &cl));
+        /* equal, up to the relative 1e-12 within which equally near triangles tie */
+        if (fabs(cl.dist - brute) > 1e-12 * brute)
+            fail_msg("trial %d: closest %.17g, brute force %.17g", trial, cl.dist, brute);
+        assert_true(pf_v3_dist(cl.point, p) == cl.dist);
+        /* a radius below the distance finds nothing */
+        if (brute > 1e-3)
+            assert_false(pf_rayscene_closest(rs, p, 0.999 * brute, &cl));
+    }
+    pf_rayscene_destroy(&rs);
+    pf_surface_release(&s);
+
+    /* the cube [-1, 1]^3 */
+    double x[24];
+    for (int k = 0; k < 8; ++k) {
+        x[3 * k] = k & 1 ? 1 : -1;
+        x[3 * k + 1] = k & 2 ? 1 : -1;
+        x[3 * k + 2] = k & 4 ? 1 : -1;
+    }
+    const uint32_t tri[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                              2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    assert_int_equal(pf_rayscene_create(&rs, x, 8, tri, 12, &err), PF_OK);
+    for (int trial = 0; trial < 2000; ++trial) {
+        /* near a corner or an edge: two or three coordinates close to +-1 */
+        double c[3];
+        int near = 2 + trial % 2;
+        for (int k = 0; k < 3; ++k) {
+            double sgn = uniform(&r) < 0 ? -1 : 1;
+            c[k] = k < near ? sgn * (1 + 0.2 * uniform(&r)) : 0.9 * uniform(&r);
+        }
+        pf_vec3 p = pf_v3_load(c);
+        bool inside = fabs(c[0]) < 1 && fabs(c[1]) < 1 && fabs(c[2]) < 1;
+        pf_closest cl;
+        assert_true(pf_rayscene_closest(rs, p, 10, &cl));
+        if (cl.dist < 1e-9)
+            continue;
+        double side = pf_v3_dot(pf_v3_sub(p, cl.point), cl.normal);
+        if (inside != (side < 0))
+            fail_msg("point (%g, %g, %g): inside %d, side %g", c[0], c[1], c[2], inside, side);
+    }
+    pf_rayscene_destroy(&rs);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -711,6 +819,8 @@ int main(void)
         cmocka_unit_test(test_polygon_offset_and_planarity),
         cmocka_unit_test(test_polyhedron_box_and_tet),
         cmocka_unit_test(test_polyhedron_L_prism),
+        cmocka_unit_test(test_triangle_closest_point),
+        cmocka_unit_test(test_rayscene_closest),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -292,6 +292,11 @@ typedef struct scene {
     double *x;          /* [3 surface.n_verts] displaced surface */
     pf_scene sim_scene; /* the simulation's scene (SCEN), for its ground plane */
     bool have_sim_scene;
+    /* its obstacles at rest, as triangles (obstacle[k] of the scene is shape[k], empty when it
+     * cannot be drawn), and scratch for their moved vertices */
+    pf_surface *obstacle_shape;
+    int32_t n_obstacle_shapes;
+    double *obstacle_x;
 } scene;
 
 static void scene_release(scene *s)
@@ -301,13 +306,105 @@ static void scene_release(scene *s)
     pf_weights_release(&s->weights);
     pf_stress_data_release(&s->stress);
     pf_scene_release(&s->sim_scene);
+    for (int32_t k = 0; k < s->n_obstacle_shapes; ++k)
+        pf_surface_release(&s->obstacle_shape[k]);
+    pf_free(s->obstacle_shape);
+    pf_free(s->obstacle_x);
     pf_free(s->x);
     memset(s, 0, sizeof *s);
 }
 
+/* A box lo..hi as 24 vertices (four per face, so each face is shaded flat) and 12 triangles,
+ * counter-clockwise seen from outside. */
+static pf_status box_shape(pf_surface *b, pf_vec3 lo, pf_vec3 hi, pf_error *err)
+{
+    PF_TRY(pf_surface_alloc(b, 24, 12, err));
+    for (int f = 0; f < 6; ++f) {
+        int axis = f / 2, side = f % 2, a = (axis + 1) % 3, c = (axis + 2) % 3;
+        for (int q = 0; q < 4; ++q) {
+            double p[3];
+            p[axis] = side ? pf_v3_get(hi, axis) : pf_v3_get(lo, axis);
+            p[a] = (q == 1 || q == 2) ? pf_v3_get(hi, a) : pf_v3_get(lo, a);
+            p[c] = q >= 2 ? pf_v3_get(hi, c) : pf_v3_get(lo, c);
+            memcpy(b->x + 3 * (4 * f + q), p, sizeof p);
+        }
+        /* corners 0 1 2 3 run counter-clockwise in (a, c), which faces +axis */
+        uint32_t v = (uint32_t)(4 * f), t[6] = {v, v + 1, v + 2, v, v + 2, v + 3};
+        for (int k = 0; k < 6; ++k)
+            b->tri[6 * f + k] = side ? t[k] : t[5 - k];
+    }
+    return PF_OK;
+}
+
+/* The triangles of obstacle o at rest: a sphere of 16 x 32 bands, a box, the mesh's file (read
+ * here; a file that cannot be read is skipped with a warning), a plane as a square of side
+ * 4 size centred under the mesh's centre c. */
+static pf_status obstacle_shape(const pf_obstacle *o, pf_vec3 c, double size, pf_surface *out,
+                                pf_error *err)
+{
+    switch (o->kind) {
+    case PF_OBSTACLE_SPHERE:
+        PF_TRY(pf_surface_make_sphere(out, o->radius, 16, 32, err));
+        for (int32_t i = 0; i < out->n_verts; ++i) {
+            out->x[3 * i] += o->centre.x;
+            out->x[3 * i + 1] += o->centre.y;
+            out->x[3 * i + 2] += o->centre.z;
+        }
+        return PF_OK;
+    case PF_OBSTACLE_BOX: return box_shape(out, o->lo, o->hi, err);
+    case PF_OBSTACLE_MESH: return pf_import_surface(o->file, out, err);
+    case PF_OBSTACLE_PLANE: {
+        /* two unit vectors across the normal, the square's centre on the plane below c */
+        pf_vec3 n = o->normal;
+        pf_vec3 t = fabs(n.x) < 0.9 ? pf_v3(1, 0, 0) : pf_v3(0, 1, 0);
+        pf_vec3 e1 = pf_v3_normalize(pf_v3_cross(n, t)), e2 = pf_v3_cross(n, e1);
+        pf_vec3 m = pf_v3_sub(c, pf_v3_scale(n, pf_v3_dot(n, pf_v3_sub(c, o->point))));
+        PF_TRY(pf_surface_alloc(out, 4, 2, err));
+        for (int q = 0; q < 4; ++q) {
+            double s1 = (q == 1 || q == 2) ? 2 * size : -2 * size, s2 = q >= 2 ? 2 * size : -2 * size;
+            pf_vec3 p = pf_v3_add(m, pf_v3_add(pf_v3_scale(e1, s1), pf_v3_scale(e2, s2)));
+            pf_v3_store(p, out->x + 3 * q);
+        }
+        const uint32_t tri[6] = {0, 1, 2, 0, 2, 3}; /* e1 x e2 = n: counter-clockwise seen from n */
+        memcpy(out->tri, tri, sizeof tri);
+        return PF_OK;
+    }
+    }
+    return PF_OK;
+}
+
+/* The scene's obstacles as triangles, once per SCEN; tool NULL: no warnings. */
+static void take_obstacles(scene *s, const char *tool)
+{
+    const pf_scene *sc = &s->sim_scene;
+    if (sc->n_obstacles == 0)
+        return;
+    s->obstacle_shape = pf_calloc((size_t)sc->n_obstacles, sizeof *s->obstacle_shape);
+    if (!s->obstacle_shape)
+        return;
+    s->n_obstacle_shapes = sc->n_obstacles;
+    pf_vec3 lo = pf_v3(-0.5, -0.5, -0.5), hi = pf_v3(0.5, 0.5, 0.5);
+    if (s->have_mesh)
+        pf_mesh_bounds(&s->mesh, &lo, &hi);
+    pf_vec3 c = pf_v3_scale(pf_v3_add(lo, hi), 0.5);
+    double size = fmax(pf_v3_dist(lo, hi), 1e-3);
+    int32_t most = 0;
+    for (int32_t k = 0; k < sc->n_obstacles; ++k) {
+        pf_error err = {0};
+        if (obstacle_shape(&sc->obstacles[k], c, size, &s->obstacle_shape[k], &err) < 0) {
+            if (tool) /* the rendering pass warns; the survey pass is quiet */
+                fprintf(stderr, "%s: warning: obstacles[%d] is not drawn: %s\n", tool, (int)k,
+                    err.msg);
+            pf_surface_release(&s->obstacle_shape[k]);
+        }
+        most = s->obstacle_shape[k].n_verts > most ? s->obstacle_shape[k].n_verts : most;
+    }
+    s->obstacle_x = pf_alloc_array(3 * (size_t)most + 1, sizeof *s->obstacle_x);
+}
+
 /* The simulation's scene, for the ground it simulated against. A scene this pf cannot read is
  * ignored: the picture then keeps its default ground under the lowest point. */
-static void take_scene(scene *s, const pf_chunk *c)
+static void take_scene(scene *s, const pf_chunk *c, const char *tool)
 {
     char *json = NULL;
     size_t size = 0;
@@ -318,6 +415,13 @@ static void take_scene(scene *s, const pf_chunk *c)
         pf_scene_parse(&s->sim_scene, json, size, "SCEN", &err) == PF_OK)
         s->have_sim_scene = true;
     pf_free(json);
+    for (int32_t k = 0; k < s->n_obstacle_shapes; ++k)
+        pf_surface_release(&s->obstacle_shape[k]);
+    PF_FREE(s->obstacle_shape);
+    PF_FREE(s->obstacle_x);
+    s->n_obstacle_shapes = 0;
+    if (s->have_sim_scene)
+        take_obstacles(s, tool);
 }
 
 /* Height along +z of the simulation's ground plane, when the scene has one facing +z (the
@@ -500,7 +604,7 @@ static pf_status survey_chunk(scene *s, survey *sv, mode m, const pf_chunk *c, i
     if (strcmp(c->tag, "WGHT") == 0)
         return take_weights(s, c, err);
     if (strcmp(c->tag, "SCEN") == 0) {
-        take_scene(s, c);
+        take_scene(s, c, NULL);
         return PF_OK;
     }
     if (strcmp(c->tag, "STRS") == 0) {
@@ -691,11 +795,33 @@ static void ensure_view(render *rd, const double *u)
     rd->view_ready = true;
 }
 
+/* The simulation's obstacles where their paths put them at time t, painted slate blue. */
+static pf_status add_obstacles(render *rd, double t, pf_error *err)
+{
+    scene *s = &rd->s;
+    pf_paint p = pf_paint_default();
+    p.rgb[0] = 0.22f, p.rgb[1] = 0.30f, p.rgb[2] = 0.45f;
+    for (int32_t k = 0; k < s->n_obstacle_shapes && s->obstacle_x; ++k) {
+        const pf_surface *o = &s->obstacle_shape[k];
+        if (o->n_tris == 0)
+            continue;
+        pf_vec3 d = pf_obstacle_translation(&s->sim_scene.obstacles[k], t);
+        for (int32_t i = 0; i < o->n_verts; ++i) {
+            s->obstacle_x[3 * i] = o->x[3 * i] + d.x;
+            s->obstacle_x[3 * i + 1] = o->x[3 * i + 1] + d.y;
+            s->obstacle_x[3 * i + 2] = o->x[3 * i + 2] + d.z;
+        }
+        PF_TRY(pf_render_add_surface(&rd->geom, o, s->obstacle_x, &p, err));
+    }
+    return PF_OK;
+}
+
 static pf_status render_frame(render *rd, const pf_frame_data *f, pf_error *err)
 {
     bool legend;
     PF_TRY(build_geometry(rd, f, &legend, err));
-    ensure_view(rd, f ? f->u : NULL);
+    ensure_view(rd, f ? f->u : NULL); /* framed on the body, not the obstacles */
+    PF_TRY(add_obstacles(rd, f ? f->time : 0, err));
     PF_TRY(pf_renderer_draw(rd->renderer, &rd->geom, &rd->view, rd->rgb, err));
     if (legend)
         pf_render_draw_legend(rd->rgb, rd->o->width, rd->o->height, rd->sv.stress_lo,
@@ -778,7 +904,7 @@ static pf_status render_chunk(render *rd, const pf_chunk *c, pf_error *err)
     if (strcmp(c->tag, "WGHT") == 0)
         return take_weights(&rd->s, c, err);
     if (strcmp(c->tag, "SCEN") == 0) {
-        take_scene(&rd->s, c);
+        take_scene(&rd->s, c, rd->cli->tool);
         return PF_OK;
     }
     return PF_OK; /* INFO, END_ and unknown chunks do not change the picture */

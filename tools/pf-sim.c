@@ -14,7 +14,9 @@ static const char USAGE[] =
     "Simulates the stream's MESH as the scene says (docs/scene.md) and writes the stream on:\n"
     "every input chunk except earlier frames, then SCEN, and one FRAM (stitched nodal\n"
     "displacements) and STRS (von Mises stress per element) per frame. Without a scene file,\n"
-    "the defaults drop the body under gravity onto a ground plane below it.\n"
+    "the defaults drop the body under gravity onto a ground plane below it. Contact with the\n"
+    "ground and the scene's obstacles acts at the mesh's boundary nodes or, when the stream\n"
+    "carries embedding weights (WGHT, from pf-embed) for its SURF, at the surface's vertices.\n"
     "\n"
     "Overrides of scene keys:\n"
     "  --method dg|cg     discretisation (cg: harmonic basis, not available yet)\n"
@@ -46,6 +48,11 @@ typedef struct run {
     bool quiet;
     pf_mesh mesh;
     bool have_mesh;
+    pf_surface surface; /* the latest SURF and WGHT, for contact at the embedded surface */
+    bool have_surface;
+    pf_weights weights;
+    bool have_weights;
+    bool embedded; /* contact at the surface's vertices */
     pf_stream_writer *out;
     pf_error err;
 } run;
@@ -134,6 +141,16 @@ static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
             pf_mesh_release(&r->mesh);
             PF_TRY(pf_stream_decode_mesh(&c, &r->mesh, err));
             r->have_mesh = true;
+            r->have_weights = false; /* weights refer to a mesh */
+        } else if (!strcmp(c.tag, "SURF")) {
+            pf_surface_release(&r->surface);
+            PF_TRY(pf_stream_decode_surface(&c, &r->surface, err));
+            r->have_surface = true;
+            r->have_weights = false;
+        } else if (!strcmp(c.tag, "WGHT")) {
+            pf_weights_release(&r->weights);
+            PF_TRY(pf_stream_decode_weights(&c, &r->weights, err));
+            r->have_weights = true;
         }
         PF_TRY(pf_stream_write_raw(r->out, &c, err));
     }
@@ -177,10 +194,13 @@ static void print_summary(const run *r, const pf_sim *sim)
     const pf_sim_stats *st = pf_sim_get_stats(sim);
     fprintf(stderr,
             "pf-sim: %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; setup "
-            "%.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s\n",
+            "%.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at %d "
+            "%s: %lld contacts, search %.3f s, positions %.3f s\n",
             (int)r->mesh.n_elems, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
             (long long)st->steps, st->setup_seconds, st->assemble_seconds, st->factor_seconds,
-            (long long)st->factorisations, st->solve_seconds);
+            (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
+            r->embedded ? "surface vertices" : "nodes", (long long)st->contacts,
+            st->contact_seconds, st->embed_seconds);
 }
 
 /* The frames: one for a static scene, the rest state and scene->frames more otherwise. */
@@ -189,8 +209,18 @@ static pf_status simulate(run *r, pf_error *err)
     pf_vec3 lo, hi;
     pf_mesh_bounds(&r->mesh, &lo, &hi);
     pf_scene_resolve(&r->scene, lo, hi);
+    /* contact at the embedded surface when the stream's weights belong to its SURF and MESH */
+    const pf_weights *w = &r->weights;
+    bool embedded = r->embedded = r->have_weights && r->have_surface && w->surface_id == r->surface.id &&
+                    w->mesh_id == r->mesh.id && w->rows == r->surface.n_verts &&
+                    w->cols == r->mesh.n_nodes;
+    if (r->have_weights && !embedded && !r->quiet)
+        fprintf(stderr, "pf-sim: warning: the WGHT chunk does not belong to the latest SURF and "
+                        "MESH: contact at the mesh nodes\n");
+    PF_TRY(pf_scene_load_obstacles(&r->scene, err));
     pf_sim *sim = NULL;
-    PF_TRY(pf_sim_create(&sim, &r->scene, &r->mesh, err));
+    PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->surface : NULL,
+                                  embedded ? w : NULL, err));
     bool progress = pf_cli_show_progress(r->quiet);
     pf_status st = PF_OK;
     if (r->scene.is_static) {
@@ -263,6 +293,8 @@ int main(int argc, char **argv)
     pf_cli_close_input(in_file);
     pf_free(command);
     pf_mesh_release(&r.mesh);
+    pf_surface_release(&r.surface);
+    pf_weights_release(&r.weights);
     pf_scene_release(&r.scene);
     if (st < 0)
         pf_cli_fail(&r.cli, err);

@@ -1,6 +1,7 @@
-/* Ray crossings against a triangle surface through Embree 3. */
+/* Ray crossings and closest points against a triangle surface through Embree 3. */
 #include <pf/geom.h>
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -10,6 +11,9 @@ struct pf_rayscene {
     RTCDevice device;
     RTCScene scene;
     pf_vec3 centre; /* subtracted from every coordinate before conversion to float */
+    double *x;      /* [3 nv] the vertices in double, for exact closest points */
+    uint32_t *tri;  /* [3 nt] */
+    double extent;  /* largest |coordinate - centre|: the scale of the float rounding */
 };
 
 /* The context handed to the filter: Embree passes the RTCIntersectContext pointer through, so the
@@ -93,6 +97,19 @@ pf_status pf_rayscene_create(pf_rayscene **rs, const double *x, int32_t nv, cons
     }
     for (int64_t i = 0; i < 3 * (int64_t)nt; ++i)
         idx[i] = tri[i];
+    s->x = pf_alloc_array(3 * (size_t)nv + 1, sizeof *s->x);
+    s->tri = pf_alloc_array(3 * (size_t)nt + 1, sizeof *s->tri);
+    if (!s->x || !s->tri) {
+        rtcReleaseGeometry(g);
+        pf_rayscene_destroy(&s);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot copy a surface of %d vertices", (int)nv);
+    }
+    if (nv)
+        memcpy(s->x, x, 3 * (size_t)nv * sizeof *x);
+    if (nt)
+        memcpy(s->tri, tri, 3 * (size_t)nt * sizeof *tri);
+    s->extent = pf_v3_max_abs(pf_v3_sub(hi, s->centre));
     rtcSetGeometryIntersectFilterFunction(g, collect_hit);
     rtcCommitGeometry(g);
     rtcAttachGeometry(s->scene, g);
@@ -110,6 +127,8 @@ void pf_rayscene_destroy(pf_rayscene **rs)
         rtcReleaseScene((*rs)->scene);
     if ((*rs)->device)
         rtcReleaseDevice((*rs)->device);
+    pf_free((*rs)->x);
+    pf_free((*rs)->tri);
     PF_FREE(*rs);
 }
 
@@ -156,6 +175,101 @@ pf_status pf_rayscene_crossings(const pf_rayscene *rs, pf_vec3 org, pf_vec3 dir,
     }
     *n = kept;
     return PF_OK;
+}
+
+pf_vec3 pf_triangle_closest_point(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c)
+{
+    /* p's projection onto the plane in barycentric form, clamped region by region: each corner's
+     * region is where both edge parameters from it are <= 0, each edge's where the barycentric
+     * coordinate of the opposite corner is <= 0 and the projection falls within the edge. */
+    pf_vec3 ab = pf_v3_sub(b, a), ac = pf_v3_sub(c, a), ap = pf_v3_sub(p, a);
+    double d1 = pf_v3_dot(ab, ap), d2 = pf_v3_dot(ac, ap);
+    if (d1 <= 0 && d2 <= 0)
+        return a;
+    pf_vec3 bp = pf_v3_sub(p, b);
+    double d3 = pf_v3_dot(ab, bp), d4 = pf_v3_dot(ac, bp);
+    if (d3 >= 0 && d4 <= d3)
+        return b;
+    double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0)
+        return pf_v3_add(a, pf_v3_scale(ab, d1 / (d1 - d3)));
+    pf_vec3 cp = pf_v3_sub(p, c);
+    double d5 = pf_v3_dot(ab, cp), d6 = pf_v3_dot(ac, cp);
+    if (d6 >= 0 && d5 <= d6)
+        return c;
+    double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0)
+        return pf_v3_add(a, pf_v3_scale(ac, d2 / (d2 - d6)));
+    double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
+        return pf_v3_add(b, pf_v3_scale(pf_v3_sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6))));
+    double den = va + vb + vc;
+    if (!(den > 0)) /* degenerate triangle: the nearest of its corners */
+        return pf_v3_dist(p, a) <= pf_v3_dist(p, b)
+                   ? (pf_v3_dist(p, a) <= pf_v3_dist(p, c) ? a : c)
+                   : (pf_v3_dist(p, b) <= pf_v3_dist(p, c) ? b : c);
+    return pf_v3_add(a, pf_v3_add(pf_v3_scale(ab, vb / den), pf_v3_scale(ac, vc / den)));
+}
+
+typedef struct closest_query {
+    const pf_rayscene *rs;
+    pf_vec3 p;
+    double best;   /* distance of the best candidate, INFINITY before one */
+    double align;  /* |cos| between p - point and the best triangle's normal */
+    double slack;  /* added to the float radius: the rounding of the float BVH */
+    pf_closest out;
+    bool found;
+} closest_query;
+
+static bool visit_triangle(struct RTCPointQueryFunctionArguments *args)
+{
+    closest_query *q = args->userPtr;
+    const pf_rayscene *rs = q->rs;
+    const uint32_t *t = rs->tri + 3 * (size_t)args->primID;
+    pf_vec3 a = pf_v3_load(rs->x + 3 * (size_t)t[0]);
+    pf_vec3 b = pf_v3_load(rs->x + 3 * (size_t)t[1]);
+    pf_vec3 c = pf_v3_load(rs->x + 3 * (size_t)t[2]);
+    pf_vec3 point = pf_triangle_closest_point(q->p, a, b, c);
+    pf_vec3 d = pf_v3_sub(q->p, point);
+    double dist = pf_v3_norm(d);
+    if (dist > q->best * (1 + 1e-12) + 1e-300)
+        return false;
+    pf_vec3 n = pf_v3_cross(pf_v3_sub(b, a), pf_v3_sub(c, a));
+    double nn = pf_v3_norm(n);
+    if (!(nn > 0))
+        return false;
+    n = pf_v3_scale(n, 1 / nn);
+    double align = dist > 0 ? fabs(pf_v3_dot(d, n)) / dist : 1;
+    /* equally near (an edge or corner shared with the best so far): keep the better aligned */
+    if (q->found && dist >= q->best * (1 - 1e-12) && align <= q->align)
+        return false;
+    bool shrink = dist < q->best;
+    q->best = fmin(dist, q->best);
+    q->align = align;
+    q->out = (pf_closest){.point = point, .normal = n, .tri = (int32_t)args->primID,
+                          .dist = dist};
+    q->found = true;
+    if (!shrink)
+        return false;
+    args->query->radius = (float)(dist + q->slack);
+    return true;
+}
+
+bool pf_rayscene_closest(const pf_rayscene *rs, pf_vec3 p, double max_dist, pf_closest *out)
+{
+    pf_vec3 o = pf_v3_sub(p, rs->centre);
+    /* float rounding of the stored vertices and of the query: a few ulps of the coordinates */
+    double slack = 4e-7 * (rs->extent + pf_v3_max_abs(o)) + 1e-30;
+    closest_query q = {.rs = rs, .p = p, .best = max_dist, .align = 0, .slack = slack};
+    struct RTCPointQuery query = {.x = (float)o.x, .y = (float)o.y, .z = (float)o.z,
+                                  .time = 0, .radius = (float)(max_dist + slack)};
+    struct RTCPointQueryContext context;
+    rtcInitPointQueryContext(&context);
+    rtcPointQuery(rs->scene, &query, &context, visit_triangle, &q);
+    if (!q.found)
+        return false;
+    *out = q.out;
+    return true;
 }
 
 double pf_winding_number(const double *x, const uint32_t *tri, int32_t nt, pf_vec3 p)

@@ -24,11 +24,20 @@ typedef struct pf_method_ops {
     void (*mass_mul)(const void *m, double alpha, const double *x, double *y);
     /* Loads and body forces, constant in time, added to f. */
     void (*external_forces)(const void *m, double *f);
-    /* Penalty contact with the ground plane (stiffness k_c per node) for points whose position
-     * predicted by u + h v lies below it: adds to k and f, returns the number of contacts. */
-    int64_t (*ground_contact)(const void *m, const pf_plane *ground, double k_c, const double *u,
-                              const double *v, double h, pf_block_matrix *k, double *f);
-    /* The automatic ground stiffness: ten times an element's stiffness. */
+    /* The linear map S from the unknowns to the nodal displacements, with which the driver
+     * handles all contact (ground, obstacles; at nodes or at embedded-surface vertices through
+     * WGHT, DG paper sec. 8) for every method. The unknowns are read as consecutive (x, y, z)
+     * triples, u_t = (u[3 t], u[3 t + 1], u[3 t + 2]), each weighted alike in the three
+     * components; node i moves by
+     *     sum_{q in [offsets[i], offsets[i + 1])}  w[q] u_{triple[q]}.
+     * DG: the stitching of eq. 30 (triples are an element's monomial coefficients); a conforming
+     * method: weight 1 on the node's own free triple, no entry for a fixed node. Triples are
+     * sorted ascending within each node. The arrays (offsets [n_nodes + 1], triple and w
+     * [offsets[n_nodes]]) are the method's, valid until destroy. Contact couples the blocks of
+     * every triple a contact point reaches: the driver adds those pairs to the pattern. */
+    void (*nodal_map)(const void *m, const int64_t **offsets, const int64_t **triple,
+                      const double **w);
+    /* The automatic contact stiffness per point: ten times an element's stiffness. */
     double (*ground_stiffness)(const void *m);
     /* DG only (NULL otherwise): the penalty factor, and the mass shift that lifts the rigid modes
      * of a free body in the definiteness test of the penalty search. */

@@ -15,6 +15,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <pf/io.h>
+
 #include "scene_json.h"
 
 /* ---- defaults -------------------------------------------------------------------------------- */
@@ -46,12 +48,15 @@ void pf_scene_default(pf_scene *s)
     };
 }
 
+static void release_obstacles(pf_scene *s);
+
 void pf_scene_release(pf_scene *s)
 {
     if (!s)
         return;
     pf_free(s->fixed);
     pf_free(s->loads);
+    release_obstacles(s);
     pf_free(s->json);
     memset(s, 0, sizeof *s);
 }
@@ -557,6 +562,242 @@ static pf_status read_ground(reader *r, const cJSON *v, pf_scene *s)
     return PF_OK;
 }
 
+/* ---- obstacles ------------------------------------------------------------------------------- */
+
+static void release_obstacle(pf_obstacle *o)
+{
+    pf_free(o->file);
+    pf_free(o->key_time);
+    pf_free(o->key_translation);
+    pf_surface_release(&o->surface);
+    memset(o, 0, sizeof *o);
+}
+
+static void release_obstacles(pf_scene *s)
+{
+    for (int32_t i = 0; i < s->n_obstacles; ++i)
+        release_obstacle(&s->obstacles[i]);
+    pf_free(s->obstacles);
+    s->obstacles = NULL;
+    s->n_obstacles = 0;
+}
+
+/* {"point": [...], "normal": [...]}, both required. */
+static pf_status read_obstacle_plane(reader *r, const cJSON *v, pf_obstacle *o)
+{
+    static const char *const keys[] = {"point", "normal", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    bool has_point = false, has_normal = false;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "point")) {
+            READ_KEY(r, it, read_vec3(r, it, &o->point));
+            has_point = true;
+        } else {
+            READ_KEY(r, it, read_normal(r, it, &o->normal));
+            has_normal = true;
+        }
+    }
+    if (!has_point || !has_normal)
+        return fail(r, "missing key \"%s\"", has_point ? "normal" : "point");
+    o->kind = PF_OBSTACLE_PLANE;
+    return PF_OK;
+}
+
+/* {"centre": [...], "radius": r > 0}, both required. */
+static pf_status read_obstacle_sphere(reader *r, const cJSON *v, pf_obstacle *o)
+{
+    static const char *const keys[] = {"centre", "radius", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    bool has_centre = false, has_radius = false;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "centre")) {
+            READ_KEY(r, it, read_vec3(r, it, &o->centre));
+            has_centre = true;
+        } else {
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &o->radius));
+            has_radius = true;
+        }
+    }
+    if (!has_centre || !has_radius)
+        return fail(r, "missing key \"%s\"", has_centre ? "radius" : "centre");
+    o->kind = PF_OBSTACLE_SPHERE;
+    return PF_OK;
+}
+
+/* [[lo], [hi]] with lo < hi: a solid box of positive volume. */
+static pf_status read_obstacle_box(reader *r, const cJSON *v, pf_obstacle *o)
+{
+    pf_region box;
+    PF_TRY(read_box(r, v, &box));
+    for (int i = 0; i < 3; ++i)
+        if (pf_v3_get(box.lo, i) == pf_v3_get(box.hi, i))
+            return fail(r, "the box is flat along %c: an obstacle box needs lo < hi", "xyz"[i]);
+    o->kind = PF_OBSTACLE_BOX;
+    o->lo = box.lo;
+    o->hi = box.hi;
+    return PF_OK;
+}
+
+/* The file relative to the directory of the scene file (r->name up to its last '/'), unless it is
+ * absolute or the name has no directory. */
+static pf_status resolve_file(reader *r, const char *file, char **out)
+{
+    const char *slash = strrchr(r->name, '/');
+    size_t dir = file[0] != '/' && slash ? (size_t)(slash - r->name) + 1 : 0;
+    size_t n = strlen(file);
+    *out = pf_alloc(dir + n + 1);
+    PF_CHECK(*out, r->err, PF_ERR_NOMEM, "%s: %s: out of memory", r->name, r->path);
+    memcpy(*out, r->name, dir);
+    memcpy(*out + dir, file, n + 1);
+    return PF_OK;
+}
+
+/* {"file": "name", "depth": d >= 0}: file required. */
+static pf_status read_obstacle_mesh(reader *r, const cJSON *v, pf_obstacle *o)
+{
+    static const char *const keys[] = {"file", "depth", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    for (const cJSON *it = v->child; it; it = it->next) {
+        size_t mark = push_key(r, it->string);
+        if (!strcmp(it->string, "file")) {
+            if (!cJSON_IsString(it) || !it->valuestring[0])
+                return fail_type(r, it, "a non-empty file name");
+            PF_TRY(resolve_file(r, it->valuestring, &o->file));
+        } else {
+            PF_TRY(read_number(r, it, RANGE_NONNEG, &o->depth));
+        }
+        pop(r, mark);
+    }
+    if (!o->file)
+        return fail(r, "missing key \"file\"");
+    o->kind = PF_OBSTACLE_MESH;
+    return PF_OK;
+}
+
+/* [{"time": t, "translation": [...]}, ...]: at least one key, times strictly increasing. */
+static pf_status read_path(reader *r, const cJSON *v, pf_obstacle *o)
+{
+    if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) == 0)
+        return fail_type(r, v, "a non-empty array of {\"time\", \"translation\"} keys");
+    int n = cJSON_GetArraySize(v);
+    o->key_time = pf_alloc_array((size_t)n, sizeof *o->key_time);
+    o->key_translation = pf_alloc_array((size_t)n, sizeof *o->key_translation);
+    PF_CHECK(o->key_time && o->key_translation, r->err, PF_ERR_NOMEM, "%s: %s: out of memory",
+             r->name, r->path);
+    static const char *const keys[] = {"time", "translation", NULL};
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+        size_t mark = push_index(r, i);
+        PF_TRY(begin_object(r, it, keys));
+        bool has_time = false, has_translation = false;
+        for (const cJSON *k = it->child; k; k = k->next) {
+            if (!strcmp(k->string, "time")) {
+                READ_KEY(r, k, read_number(r, k, RANGE_FINITE, &o->key_time[i]));
+                has_time = true;
+            } else {
+                READ_KEY(r, k, read_vec3(r, k, &o->key_translation[i]));
+                has_translation = true;
+            }
+        }
+        if (!has_time || !has_translation)
+            return fail(r, "missing key \"%s\"", has_time ? "translation" : "time");
+        if (i > 0 && !(o->key_time[i] > o->key_time[i - 1])) {
+            push_key(r, "time");
+            return fail(r, "times must increase strictly along the path");
+        }
+        pop(r, mark);
+        o->n_keys = i + 1;
+    }
+    return PF_OK;
+}
+
+/* One obstacle: exactly one of plane / sphere / box / mesh, optional stiffness and path. */
+static pf_status read_obstacle(reader *r, const cJSON *v, pf_obstacle *o)
+{
+    static const char *const keys[] = {"plane", "sphere", "box", "mesh", "stiffness", "path",
+                                       NULL};
+    PF_TRY(begin_object(r, v, keys));
+    int n_shapes = 0;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        const char *k = it->string;
+        if (!strcmp(k, "stiffness")) {
+            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &o->stiffness));
+            continue;
+        }
+        if (!strcmp(k, "path")) {
+            READ_KEY(r, it, read_path(r, it, o));
+            continue;
+        }
+        if (n_shapes++)
+            return fail(r, "give one shape, \"plane\", \"sphere\", \"box\" or \"mesh\", not "
+                           "several");
+        if (!strcmp(k, "plane"))
+            READ_KEY(r, it, read_obstacle_plane(r, it, o));
+        else if (!strcmp(k, "sphere"))
+            READ_KEY(r, it, read_obstacle_sphere(r, it, o));
+        else if (!strcmp(k, "box"))
+            READ_KEY(r, it, read_obstacle_box(r, it, o));
+        else
+            READ_KEY(r, it, read_obstacle_mesh(r, it, o));
+    }
+    if (n_shapes == 0)
+        return fail(r, "missing shape: give \"plane\", \"sphere\", \"box\" or \"mesh\"");
+    return PF_OK;
+}
+
+static pf_status read_obstacles(reader *r, const cJSON *v, pf_scene *s)
+{
+    if (!cJSON_IsArray(v))
+        return fail_type(r, v, "an array");
+    int n = cJSON_GetArraySize(v);
+    release_obstacles(s);
+    s->obstacles = pf_calloc((size_t)n, sizeof *s->obstacles);
+    PF_CHECK(s->obstacles || n == 0, r->err, PF_ERR_NOMEM, "%s: obstacles: out of memory",
+             r->name);
+    s->n_obstacles = n;
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+        size_t mark = push_index(r, i);
+        PF_TRY(read_obstacle(r, it, &s->obstacles[i]));
+        pop(r, mark);
+    }
+    return PF_OK;
+}
+
+pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t)
+{
+    if (o->n_keys == 0)
+        return pf_v3(0, 0, 0);
+    if (t <= o->key_time[0])
+        return o->key_translation[0];
+    for (int32_t k = 1; k < o->n_keys; ++k)
+        if (t < o->key_time[k]) {
+            double s = (t - o->key_time[k - 1]) / (o->key_time[k] - o->key_time[k - 1]);
+            return pf_v3_add(pf_v3_scale(o->key_translation[k - 1], 1 - s),
+                             pf_v3_scale(o->key_translation[k], s));
+        }
+    return o->key_translation[o->n_keys - 1];
+}
+
+pf_status pf_scene_load_obstacles(pf_scene *s, pf_error *err)
+{
+    for (int32_t i = 0; i < s->n_obstacles; ++i) {
+        pf_obstacle *o = &s->obstacles[i];
+        if (o->kind != PF_OBSTACLE_MESH || o->surface.n_tris > 0)
+            continue;
+        pf_surface_release(&o->surface);
+        pf_status st = pf_import_surface(o->file, &o->surface, err);
+        if (st >= 0 && o->surface.n_tris == 0)
+            st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: no triangles",
+                              o->file);
+        if (st < 0) {
+            pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
+            return st;
+        }
+    }
+    return PF_OK;
+}
+
 static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
 {
     if (!cJSON_IsObject(root)) {
@@ -567,7 +808,7 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
     }
     static const char *const keys[] = {"material", "method", "corotation", "gravity",
                                        "body_force", "damping", "fixed", "loads",
-                                       "ground", "time", "static", NULL};
+                                       "ground", "obstacles", "time", "static", NULL};
     PF_TRY(begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;
@@ -589,6 +830,8 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
             READ_KEY(r, it, read_loads(r, it, s));
         else if (!strcmp(k, "ground"))
             READ_KEY(r, it, read_ground(r, it, s));
+        else if (!strcmp(k, "obstacles"))
+            READ_KEY(r, it, read_obstacles(r, it, s));
         else if (!strcmp(k, "time"))
             READ_KEY(r, it, read_time(r, it, s));
         else

@@ -32,6 +32,41 @@ static cJSON *region(const pf_region *r)
     return o;
 }
 
+/* The mesh file as resolved (relative to the working directory, or absolute), so the SCEN chunk
+ * names a file a tool reading the stream from the same directory finds. */
+static cJSON *obstacle(const pf_obstacle *o)
+{
+    cJSON *j = cJSON_CreateObject();
+    if (o->kind == PF_OBSTACLE_PLANE) {
+        cJSON *plane = cJSON_AddObjectToObject(j, "plane");
+        cJSON_AddItemToObject(plane, "point", vector(o->point));
+        cJSON_AddItemToObject(plane, "normal", vector(o->normal));
+    } else if (o->kind == PF_OBSTACLE_SPHERE) {
+        cJSON *sphere = cJSON_AddObjectToObject(j, "sphere");
+        cJSON_AddItemToObject(sphere, "centre", vector(o->centre));
+        cJSON_AddNumberToObject(sphere, "radius", o->radius);
+    } else if (o->kind == PF_OBSTACLE_BOX) {
+        cJSON *box = cJSON_AddArrayToObject(j, "box");
+        cJSON_AddItemToArray(box, vector(o->lo));
+        cJSON_AddItemToArray(box, vector(o->hi));
+    } else {
+        cJSON *mesh = cJSON_AddObjectToObject(j, "mesh");
+        cJSON_AddStringToObject(mesh, "file", o->file ? o->file : "");
+        cJSON_AddNumberToObject(mesh, "depth", o->depth);
+    }
+    cJSON_AddNumberToObject(j, "stiffness", o->stiffness);
+    if (o->n_keys > 0) {
+        cJSON *path = cJSON_AddArrayToObject(j, "path");
+        for (int32_t k = 0; k < o->n_keys; ++k) {
+            cJSON *key = cJSON_CreateObject();
+            cJSON_AddNumberToObject(key, "time", o->key_time[k]);
+            cJSON_AddItemToObject(key, "translation", vector(o->key_translation[k]));
+            cJSON_AddItemToArray(path, key);
+        }
+    }
+    return j;
+}
+
 static cJSON *scene_object(const pf_scene *s)
 {
     cJSON *root = cJSON_CreateObject();
@@ -77,6 +112,10 @@ static cJSON *scene_object(const pf_scene *s)
         cJSON_AddItemToObject(ground, "normal", vector(s->ground_normal));
         cJSON_AddNumberToObject(ground, "stiffness", s->ground_stiffness);
     }
+
+    cJSON *obstacles = cJSON_AddArrayToObject(root, "obstacles");
+    for (int32_t k = 0; k < s->n_obstacles; ++k)
+        cJSON_AddItemToArray(obstacles, obstacle(&s->obstacles[k]));
 
     cJSON *time = cJSON_AddObjectToObject(root, "time");
     cJSON_AddNumberToObject(time, "dt", s->dt);

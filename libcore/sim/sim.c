@@ -3,7 +3,8 @@
  * Dynamics: semi-implicit (linearly implicit) Euler on M a + D v + K u = f with Rayleigh damping
  * D = alpha M + beta K. With h = dt / substeps and K, f evaluated at the start of the step
  * (corotation warps K with the current element rotations and moves their constant part into f;
- * ground contact adds its linearised penalty, DG paper sec. 8):
+ * contact with the ground and the obstacles adds its linearised penalty, DG paper sec. 8, at the
+ * positions predicted by u + h v, against the obstacles where they are at the end of the step):
  *     ((1 + h alpha) M + (h beta + h^2) K) v' = M v + h (f - K u),     u' = u + h v'.
  * The matrix changes every step when corotation or contact is on: the pattern is analysed once,
  * the numeric factorisation redone per step; without either it is factored once. */
@@ -12,6 +13,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "contact.h"
 #include "method.h"
 
 struct pf_sim {
@@ -27,8 +29,7 @@ struct pf_sim {
     pf_block_matrix k;
     pf_cholesky *chol;
     bool factored_once;   /* linear, contact-free dynamics reuse the first factorisation */
-    double ground_stiffness;
-    pf_plane ground;
+    pf_contact *contact;  /* NULL without ground and obstacles, and in static scenes */
     double model_size;
     double time;
     int32_t frame;
@@ -86,9 +87,41 @@ static pf_status choose_penalty(pf_sim *s, pf_error *err)
                         "has degenerate elements");
 }
 
+/* Contact (contact.c) through the method's nodal map, and the pattern it needs. */
+static pf_status setup_contact(pf_sim *s, const pf_surface *surface, const pf_weights *weights,
+                               pf_error *err)
+{
+    if (s->scene->is_static)
+        return PF_OK;
+    pf_contact_setup cs = {.scene = s->scene,
+                           .mesh = s->mesh,
+                           .n_triples = s->n / 3,
+                           .surface = surface,
+                           .weights = weights,
+                           .auto_stiffness = s->ops->ground_stiffness(s->method),
+                           .model_size = s->model_size,
+                           .n_blocks = s->k.n_blocks,
+                           .block_start = s->k.block_start};
+    s->ops->nodal_map(s->method, &cs.map_offsets, &cs.map_triple, &cs.map_w);
+    PF_TRY(pf_contact_create(&s->contact, &cs, err));
+    if (!s->contact)
+        return PF_OK;
+    s->stats.contact_points = pf_contact_get_stats(s->contact)->points;
+    return PF_OK;
+}
+
 pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh, pf_error *err)
 {
+    return pf_sim_create_embedded(out, scene, mesh, NULL, NULL, err);
+}
+
+pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh,
+                                 const pf_surface *surface, const pf_weights *weights,
+                                 pf_error *err)
+{
     *out = NULL;
+    PF_CHECK(!surface == !weights, err, PF_ERR_INVALID,
+             "an embedded surface needs both the surface and its weights");
     PF_CHECK(scene->method == PF_METHOD_DG, err, PF_ERR_UNSUPPORTED,
              "method cg (harmonic basis) is not available yet; use method dg");
     double t0 = pf_time_seconds();
@@ -106,8 +139,13 @@ pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh
         st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
                           "a static scene needs fixed faces: no boundary face centroid lies in "
                           "any 'fixed' region");
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(mesh, &lo, &hi);
+    s->model_size = pf_v3_norm(pf_v3_sub(hi, lo));
     if (st >= 0)
         st = s->ops->pattern(s->method, &s->k, err);
+    if (st >= 0)
+        st = setup_contact(s, surface, weights, err);
     if (st >= 0)
         st = pf_cholesky_create(&s->chol, &s->k, err);
     if (st >= 0)
@@ -117,12 +155,6 @@ pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh
         return st;
     }
     s->ops->external_forces(s->method, s->f_ext);
-    s->ground_stiffness = scene->ground_stiffness > 0 ? scene->ground_stiffness
-                                                      : s->ops->ground_stiffness(s->method);
-    s->ground = pf_plane_from_point_normal(scene->ground_point, scene->ground_normal);
-    pf_vec3 lo, hi;
-    pf_mesh_bounds(mesh, &lo, &hi);
-    s->model_size = pf_v3_norm(pf_v3_sub(hi, lo));
     s->stats.dofs = s->n;
     s->stats.matrix_nnz = s->k.col_ptr[s->k.n];
     s->stats.factor_nnz = pf_cholesky_factor_nnz(s->chol);
@@ -143,6 +175,7 @@ void pf_sim_destroy(pf_sim **sim)
         pf_free(vectors[k]);
     pf_block_matrix_release(&s->k);
     pf_cholesky_destroy(&s->chol);
+    pf_contact_destroy(&s->contact);
     pf_free(s);
     *sim = NULL;
 }
@@ -173,18 +206,45 @@ static bool state_is_sane(const pf_sim *s)
     return true;
 }
 
+/* New contact points whose couplings the pattern lacks: the pattern grows and is analysed again
+ * (a growth event; the steady state allocates nothing). */
+static pf_status grow_pattern(pf_sim *s, pf_error *err)
+{
+    double t0 = pf_time_seconds();
+    PF_TRY(pf_contact_grow_pattern(s->contact, &s->k, err));
+    pf_cholesky_destroy(&s->chol);
+    PF_TRY(pf_cholesky_create(&s->chol, &s->k, err));
+    s->factored_once = false;
+    s->stats.matrix_nnz = s->k.col_ptr[s->k.n];
+    s->stats.factor_nnz = pf_cholesky_factor_nnz(s->chol);
+    s->stats.pattern_growths++;
+    s->stats.setup_seconds += pf_time_seconds() - t0;
+    return PF_OK;
+}
+
 static pf_status step(pf_sim *s, double h, pf_error *err)
 {
     const pf_scene *sc = s->scene;
     size_t n = (size_t)s->n;
+    int64_t contacts = 0;
+    const pf_contact_stats *cs = s->contact ? pf_contact_get_stats(s->contact) : NULL;
+    double embed0 = cs ? cs->embed_seconds : 0, search0 = cs ? cs->search_seconds : 0;
+    if (s->contact) {
+        contacts = pf_contact_detect(s->contact, s->time + h, s->u, s->v, h);
+        if (pf_contact_needs_pattern(s->contact))
+            PF_TRY(grow_pattern(s, err));
+    }
     double t0 = pf_time_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
-    int64_t contacts = 0;
-    if (sc->ground)
-        contacts = s->ops->ground_contact(s->method, &s->ground, s->ground_stiffness, s->u, s->v,
-                                          h, &s->k, s->f);
+    s->stats.assemble_seconds += pf_time_seconds() - t0;
+    if (s->contact) {
+        pf_contact_assemble(s->contact, &s->k, s->f);
+        s->stats.embed_seconds += cs->embed_seconds - embed0;
+        s->stats.contact_seconds += cs->search_seconds - search0;
+    }
     s->stats.contacts += contacts;
+    t0 = pf_time_seconds();
     /* rhs = M v + h (f - K u); then k := (h beta + h^2) K + (1 + h alpha) M */
     pf_block_matrix_mul(&s->k, 1, s->u, 0, s->ku);
     for (size_t q = 0; q < n; ++q)

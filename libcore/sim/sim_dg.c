@@ -2,10 +2,8 @@
  * element's monomials (pf/fem.h). Fixed regions are weak Dirichlet conditions on their faces
  * (sec. 4.2); rotations come from the linear part of each element's displacement (sec. 6.1).
  *
- * Ground contact is a penalty at the mesh nodes, applied per element with each element's own
- * displacement at the node and weight 1 / (elements at the node), so the coupling stays inside
- * elements (the matrix pattern never changes) and a node shared by k elements feels k_c in total;
- * the force k_c (d - n . p) n is linear in u and treated implicitly (sec. 8). */
+ * Contact is the driver's (contact.c): this method gives it the stitching (eq. 30) as the map
+ * from its coefficients to nodal displacements. */
 #include "method.h"
 
 #include <math.h>
@@ -22,6 +20,10 @@ typedef struct dg_method {
     double *fixed_affine; /* [12 n_fixed] */
     double *x0;           /* rest coefficients */
     double *rot;          /* [9 n_elems] */
+    /* the stitching as a matrix (method.h, nodal_map) */
+    int64_t *map_offsets; /* [n_nodes + 1] */
+    int64_t *map_triple;  /* [map_offsets[n_nodes]] */
+    double *map_w;        /* [map_offsets[n_nodes]] */
 } dg_method;
 
 static int64_t n_dofs(const void *m) { return ((const dg_method *)m)->dg.n_dofs; }
@@ -82,50 +84,51 @@ static void external_forces(const void *m, double *f)
         pf_dg_add_body_force(&d->dg, body, f);
 }
 
-static int64_t ground_contact(const void *m, const pf_plane *ground, double k_c, const double *u,
-                              const double *v, double h, pf_block_matrix *k, double *f)
+/* Stitching (eq. 30) as a matrix: node i averages u|_K(x_i) = sum_a phi_a(x_i) u_{K,a} over the
+ * |N_i| elements K at it, so triple (K, a) gets weight phi_a(x_i) / |N_i|. */
+static pf_status build_nodal_map(dg_method *d, pf_error *err)
 {
-    const dg_method *d = m;
     const pf_dg *dg = &d->dg;
-    int nb = dg->nb, n = 3 * nb;
-    const double nn[3] = {ground->n.x, ground->n.y, ground->n.z};
-    double block[30 * 30];
-    int64_t contacts = 0;
+    int nb = dg->nb;
+    int64_t nnz = dg->node_offsets[dg->n_nodes] * nb;
+    d->map_offsets = pf_alloc_array((size_t)dg->n_nodes + 1, sizeof *d->map_offsets);
+    d->map_triple = pf_alloc_array((size_t)nnz + 1, sizeof *d->map_triple);
+    d->map_w = pf_alloc_array((size_t)nnz + 1, sizeof *d->map_w);
+    PF_CHECK(d->map_offsets && d->map_triple && d->map_w, err, PF_ERR_NOMEM,
+             "cannot allocate the nodal map of %d nodes", (int)dg->n_nodes);
+    int64_t q = 0;
+    d->map_offsets[0] = 0;
     for (int32_t i = 0; i < dg->n_nodes; ++i) {
         int64_t begin = dg->node_offsets[i], end = dg->node_offsets[i + 1];
-        if (end == begin)
-            continue;
-        const double *xi = d->mesh->x + 3 * (size_t)i;
-        double w = k_c / (double)(end - begin);
-        for (int64_t q = begin; q < end; ++q) {
-            int32_t e = dg->node_elem[q];
-            const double *phi = dg->node_phi + (size_t)q * nb;
-            const double *ue = u + (size_t)e * n, *ve = v + (size_t)e * n;
-            double pred = 0, rest = 0; /* n . (x + u + h v) and n . x */
-            for (int c = 0; c < 3; ++c) {
-                double uc = 0, vc = 0;
-                for (int a = 0; a < nb; ++a) {
-                    uc += phi[a] * ue[3 * a + c];
-                    vc += phi[a] * ve[3 * a + c];
-                }
-                pred += nn[c] * (xi[c] + uc + h * vc);
-                rest += nn[c] * xi[c];
-            }
-            if (pred >= ground->d)
-                continue;
-            contacts++;
+        double share = end > begin ? 1.0 / (double)(end - begin) : 0;
+        int64_t first = q;
+        for (int64_t k = begin; k < end; ++k)
             for (int a = 0; a < nb; ++a) {
-                for (int b = 0; b < nb; ++b)
-                    for (int r = 0; r < 3; ++r)
-                        for (int c = 0; c < 3; ++c)
-                            block[(3 * a + r) * n + 3 * b + c] = w * phi[a] * phi[b] * nn[r] * nn[c];
-                for (int r = 0; r < 3; ++r)
-                    f[(size_t)e * n + 3 * a + r] += w * (ground->d - rest) * nn[r] * phi[a];
+                d->map_triple[q] = (int64_t)dg->node_elem[k] * nb + a;
+                d->map_w[q] = dg->node_phi[(size_t)k * nb + a] * share;
+                ++q;
             }
-            pf_block_matrix_add(k, pf_block_matrix_slot(k, e, e), e, e, block, n);
-        }
+        for (int64_t x = first + 1; x < q; ++x) /* insertion sort: a few dozen entries */
+            for (int64_t y = x; y > first && d->map_triple[y - 1] > d->map_triple[y]; --y) {
+                int64_t t = d->map_triple[y];
+                d->map_triple[y] = d->map_triple[y - 1];
+                d->map_triple[y - 1] = t;
+                double w = d->map_w[y];
+                d->map_w[y] = d->map_w[y - 1];
+                d->map_w[y - 1] = w;
+            }
+        d->map_offsets[i + 1] = q;
     }
-    return contacts;
+    return PF_OK;
+}
+
+static void nodal_map(const void *m, const int64_t **offsets, const int64_t **triple,
+                      const double **w)
+{
+    const dg_method *d = m;
+    *offsets = d->map_offsets;
+    *triple = d->map_triple;
+    *w = d->map_w;
 }
 
 /* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
@@ -261,6 +264,9 @@ static void destroy(void *m)
     pf_free(d->fixed_affine);
     pf_free(d->x0);
     pf_free(d->rot);
+    pf_free(d->map_offsets);
+    pf_free(d->map_triple);
+    pf_free(d->map_w);
     pf_free(d);
 }
 
@@ -271,7 +277,7 @@ static const pf_method_ops DG_OPS = {
     .add_mass = add_mass,
     .mass_mul = mass_mul,
     .external_forces = external_forces,
-    .ground_contact = ground_contact,
+    .nodal_map = nodal_map,
     .ground_stiffness = ground_stiffness,
     .set_penalty = set_penalty,
     .rigid_mode_shift = rigid_mode_shift,
@@ -345,6 +351,8 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
         pf_dg_rest_coefficients(&d->dg, d->x0);
         st = select_faces(d, fixed_faces, loaded_faces, err);
     }
+    if (st >= 0)
+        st = build_nodal_map(d, err);
     if (st < 0) {
         destroy(d);
         return st;

@@ -7,6 +7,7 @@
 #define PF_GEOM_H
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #include <pf/base.h>
@@ -261,6 +262,28 @@ void pf_rayscene_destroy(pf_rayscene **rs);
 pf_status pf_rayscene_crossings(const pf_rayscene *rs, pf_vec3 org, pf_vec3 dir, double t_max,
                                 double merge_eps, pf_crossing *out, int64_t cap, int64_t *n,
                                 pf_error *err);
+
+/* The nearest point of a surface to a query point (pf_rayscene_closest). */
+typedef struct pf_closest {
+    pf_vec3 point;  /* on the surface, model units */
+    pf_vec3 normal; /* unit normal of the triangle holding it (right-handed corner order: outward
+                       for a counter-clockwise surface) */
+    int32_t tri;    /* that triangle */
+    double dist;    /* |query - point| */
+} pf_closest;
+
+/* The surface point nearest to p within max_dist (> 0), through Embree's point query over the
+ * BVH (rtcPointQuery) with distances computed in double precision from the original vertices: the
+ * float BVH only prunes, its radius widened beyond float rounding. Where several triangles are
+ * equally near (p's nearest point is an edge or a vertex), the one whose normal is most nearly
+ * parallel to p - point is kept, so the sign of dot(p - point, normal) tells the side of a closed
+ * surface at convex and concave edges alike. Returns false (out untouched) when no triangle lies
+ * within max_dist. Thread-safe. */
+bool pf_rayscene_closest(const pf_rayscene *rs, pf_vec3 p, double max_dist, pf_closest *out);
+
+/* The point of triangle (a, b, c) nearest to p (its Voronoi regions: a corner, an edge or the
+ * interior). */
+pf_vec3 pf_triangle_closest_point(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c);
 
 /* Generalised winding number of the triangles tri[3 nt] (into x) at p: the sum of their signed
  * solid angles over 4 pi (Van Oosterom-Strackee). 1 inside a closed outward surface, 0 outside,

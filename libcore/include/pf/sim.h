@@ -47,6 +47,42 @@ typedef struct pf_load {
     pf_vec3 traction;
 } pf_load;
 
+/* An obstacle: a rigid solid the body cannot enter, penalty contact (DG paper sec. 8). Plane: the
+ * half-space below the plane through point with the unit normal (pointing out of the solid);
+ * sphere: the ball; box: the axis-aligned solid box lo..hi; mesh: the solid bounded by a closed
+ * triangle surface (or, for an open one, the layer of thickness depth behind it, seen against
+ * its triangles' orientation). A path moves it: translation(t) linear between keyframes
+ * (key_time strictly increasing), the first and last translation held before and after; without
+ * keys it stays put. */
+typedef enum pf_obstacle_kind {
+    PF_OBSTACLE_PLANE = 0,
+    PF_OBSTACLE_SPHERE = 1,
+    PF_OBSTACLE_BOX = 2,
+    PF_OBSTACLE_MESH = 3,
+} pf_obstacle_kind;
+
+typedef struct pf_obstacle {
+    pf_obstacle_kind kind;
+    pf_vec3 point, normal; /* plane: a point (model units) and the unit normal */
+    pf_vec3 centre;        /* sphere: centre (model units) */
+    double radius;         /* sphere: radius, > 0 */
+    pf_vec3 lo, hi;        /* box: corners, lo < hi componentwise */
+    char *file;            /* mesh: the surface file as resolved: relative to the scene file's
+                              directory when the file names a relative path (pf_alloc) */
+    double depth;          /* mesh: the deepest penetration looked for, model units; 0 =
+                              automatic (a tenth of the body's bounding-box diagonal) */
+    double stiffness;      /* penalty, force per unit length per contact point; 0 = automatic
+                              (the ground's automatic stiffness) */
+    int32_t n_keys;
+    double *key_time;         /* [n_keys] time, strictly increasing */
+    pf_vec3 *key_translation; /* [n_keys] model units */
+    pf_surface surface;       /* mesh: the triangles, read by pf_scene_load_obstacles (empty
+                                 until then) */
+} pf_obstacle;
+
+/* The obstacle's translation at time t (zero without keys). */
+pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t);
+
 typedef struct pf_scene {
     /* material: isotropic, linear (corotated) */
     double E;       /* Young's modulus, stress units (default 1e5) */
@@ -79,7 +115,12 @@ typedef struct pf_scene {
     bool ground_auto;       /* ground_point not given: pf_scene_resolve puts it below the mesh */
     pf_vec3 ground_point;   /* model units */
     pf_vec3 ground_normal;  /* unit (default 0, 0, 1) */
-    double ground_stiffness; /* penalty, force per unit length per node; 0 = automatic */
+    double ground_stiffness; /* penalty, force per unit length per contact point (a boundary
+                                node, or an embedded-surface vertex); 0 = automatic */
+
+    /* obstacles (docs/scene.md, "obstacles") */
+    int32_t n_obstacles;
+    pf_obstacle *obstacles;
 
     /* time */
     bool is_static;   /* solve K u = f once, write one frame (default false) */
@@ -128,11 +169,18 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
  * (a new mesh) moves an automatic ground, not tolerances already set. */
 void pf_scene_resolve(pf_scene *s, pf_vec3 lo, pf_vec3 hi);
 
-/* Frees fixed, loads and json and zeroes s (NULL allowed). */
+/* Reads the surface of every mesh obstacle whose surface is still empty (pf_import_surface on
+ * its file). PF_ERR_IO / PF_ERR_FORMAT "obstacles[i].mesh: file: reason" when one cannot be read,
+ * PF_ERR_INVALID when it has no triangles. Call before pf_sim_create for scenes with mesh
+ * obstacles. */
+pf_status pf_scene_load_obstacles(pf_scene *s, pf_error *err);
+
 /* The scene as a scene file (every key explicit, overrides included; an automatic ground stays
  * automatic), NUL-terminated, freed with pf_free. Parsing it gives the same scene. */
 pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err);
 
+/* Frees fixed, loads, obstacles (their keys, files and surfaces) and json and zeroes s (NULL
+ * allowed). */
 void pf_scene_release(pf_scene *s);
 
 /* True when point p (a face centroid) is selected by region r: a box with inclusive bounds, a
@@ -154,7 +202,12 @@ typedef struct pf_sim_stats {
     double penalty;          /* the eta in use */
     int32_t penalty_doublings;
     double setup_seconds;    /* basis, integrals, pattern, analysis, penalty search */
-    double assemble_seconds; /* stiffness assembly, rotations, contact */
+    double assemble_seconds; /* stiffness assembly, rotations */
+    double contact_seconds;  /* contact search (broad and narrow phase) and penalty assembly */
+    double embed_seconds;    /* predicted positions of the contact points (embedding mat-vec) */
+    int32_t contact_points;  /* boundary nodes or embedded-surface vertices (0: no contact) */
+    int32_t pattern_growths; /* times contact needed new couplings: pattern and analysis redone
+                                (their time counts as setup) */
     double factor_seconds;
     double solve_seconds;
     int64_t steps, factorisations;
@@ -162,11 +215,24 @@ typedef struct pf_sim_stats {
     int64_t contacts;        /* active contact points summed over steps */
 } pf_sim_stats;
 
-/* Sets everything up for the scene (resolved with pf_scene_resolve) on the mesh (valid, derived).
- * The mesh and scene are borrowed and must outlive the simulator. PF_ERR_INVALID for a static
+/* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles loaded with
+ * pf_scene_load_obstacles) on the mesh (valid, derived). Contact with the ground and the
+ * obstacles acts at the mesh's boundary nodes. The mesh and scene are borrowed and must outlive
+ * the simulator. PF_ERR_INVALID also for a mesh obstacle whose surface is not loaded. PF_ERR_INVALID for a static
  * scene without fixed faces (rigid motions make it singular), PF_ERR_NUMERIC when no penalty up
  * to 2^20 makes the stiffness positive definite. */
 pf_status pf_sim_create(pf_sim **sim, const pf_scene *scene, const pf_mesh *mesh, pf_error *err);
+/* The same with contact at the vertices of an embedded surface instead of the mesh's boundary
+ * nodes (DG paper sec. 8, fig. 6): a vertex's displacement is its weights' row (pf_weights:
+ * surface x mesh nodes, weights->rows = surface->n_verts, weights->cols = mesh->n_nodes) applied
+ * to the method's nodal displacements, and its penalty forces and stiffness reach the unknowns
+ * through the same weights (W^T A W). surface and weights are borrowed (both NULL: nodes, as
+ * pf_sim_create). The automatic contact stiffness is then divided by the number of vertices per
+ * boundary node, so the body's total contact stiffness does not depend on the surface's
+ * resolution. PF_ERR_INVALID when only one is given or their sizes do not match. */
+pf_status pf_sim_create_embedded(pf_sim **sim, const pf_scene *scene, const pf_mesh *mesh,
+                                 const pf_surface *surface, const pf_weights *weights,
+                                 pf_error *err);
 void pf_sim_destroy(pf_sim **sim);
 
 /* Static solve: the displacement under the scene's loads, gravity and fixed regions (linear

@@ -1,0 +1,63 @@
+# Collisions through the tools: issue 7's pipeline pf-voxelize | pf-embed | pf-sim | pf-render on
+# a generated model, contact at the embedded surface, obstacles drawn deterministically, bad keys.
+. "$(dirname "$0")/lib.sh"
+
+# An ellipsoid 1.4 x 1 x 1 standing on z = 0: 12 bands of 24 segments between the poles.
+awk 'BEGIN { pi = 3.14159265358979; nl = 12; nm = 24; print "v 0 0 1"
+  for (i = 1; i < nl; i++) { t = pi * i / nl
+    for (j = 0; j < nm; j++) { p = 2 * pi * j / nm
+      printf "v %.9f %.9f %.9f\n", 0.7 * sin(t) * cos(p), 0.5 * sin(t) * sin(p), 0.5 * cos(t) + 0.5 } }
+  print "v 0 0 0"
+  for (j = 0; j < nm; j++) print "f 1", 2 + j, 2 + (j + 1) % nm
+  for (i = 0; i < nl - 2; i++) for (j = 0; j < nm; j++) {
+    a = 2 + i * nm + j; b = 2 + i * nm + (j + 1) % nm; print "f", a, a + nm, b + nm; print "f", a, b + nm, b }
+  s = 2 + (nl - 1) * nm
+  for (j = 0; j < nm; j++) print "f", s, 2 + (nl - 2) * nm + (j + 1) % nm, 2 + (nl - 2) * nm + j }' >"$tmp/model.obj"
+
+# The ground 0.02 below the model: the voxel mesh (cells whose centre is inside) ends up to half
+# a cell away from the surface, so only contact at the surface puts the surface on the ground.
+cat >"$tmp/scene.json" <<'JSON'
+{"ground": {"point": [0, 0, -0.02], "stiffness": 1e5},
+ "damping": {"alpha": 6, "beta": 0.002},
+ "time": {"frames": 15, "substeps": 4}}
+JSON
+"$bin/pf-voxelize" "$tmp/model.obj" --res 8 --quiet |
+  "$bin/pf-embed" --method mls --quiet 2>/dev/null |
+  "$bin/pf-sim" "$tmp/scene.json" 2>"$tmp/sim.err" | tee "$tmp/sim.pfs" |
+  "$bin/pf-render" --out "$tmp/frames" --quiet --size 160x120
+check "pf-sim contacts at the 266 surface vertices" grep -q "contact at 266 surface vertices" "$tmp/sim.err"
+check "the surface touched the ground" bash -c "! grep -q ': 0 contacts' '$tmp/sim.err'"
+check "the pipeline renders 16 frames" test "$(ls "$tmp/frames" | wc -l)" = 16
+
+# At rest on its own surface: the last frame's lowest surface vertex lies at the ground (0.02
+# below the model) within the penalty depth m g / (N k) ~ 3e-3 (733 kg on some 24 vertices of
+# 1e5), far from the voxel mesh's bottom.
+"$bin/pf-export" --obj "$tmp/obj" --frames 15 --quiet "$tmp/sim.pfs"
+low=$(awk '$1 == "v" && (n == 0 || $4 < m) { m = $4; n = 1 } END { print m }' "$tmp/obj/frame_00015.obj")
+check "lowest surface vertex $low rests on the ground at -0.02" \
+  awk -v z="$low" 'BEGIN { exit !(z < -0.015 && z > -0.03) }'
+
+# Obstacles: a sphere under a small box and a mesh obstacle beside it, drawn by pf-render the
+# same way twice (byte-identical PNGs).
+cat >"$tmp/obstacles.json" <<'JSON'
+{"ground": false,
+ "obstacles": [{"sphere": {"centre": [0.5, 0.5, -0.3], "radius": 0.3}},
+               {"mesh": {"file": "model.obj"}, "path": [{"time": 0, "translation": [1.6, 0, -0.6]}]},
+               {"plane": {"point": [0, 0, -0.6], "normal": [0, 0, 1]}}],
+ "time": {"frames": 4}}
+JSON
+"$bin/pf-shape" box --size 1,1,1 --cells 2,2,2 >"$tmp/cube.pfs"
+expect 0 "contact at 26 nodes" "$bin/pf-sim" "$tmp/obstacles.json" --input "$tmp/cube.pfs"
+"$bin/pf-sim" "$tmp/obstacles.json" --quiet --input "$tmp/cube.pfs" >"$tmp/obst.pfs"
+"$bin/pf-render" --out "$tmp/r1" --frames 4 --size 160x120 --quiet "$tmp/obst.pfs"
+"$bin/pf-render" --out "$tmp/r2" --frames 4 --size 160x120 --quiet "$tmp/obst.pfs"
+check "obstacle frames are deterministic" cmp -s "$tmp/r1/frame_00004.png" "$tmp/r2/frame_00004.png"
+"$bin/pf-render" --out "$tmp/r3" --frames 4 --size 160x120 --quiet "$tmp/cube.pfs"
+check "the obstacles change the picture" bash -c "! cmp -s '$tmp/r1/frame_00004.png' '$tmp/r3/frame_00000.png'"
+
+# Bad obstacles: one line naming the key, exit 1.
+echo '{"obstacles": [{"sphere": {"centre": [0, 0, 0], "radius": -1}}]}' >"$tmp/bad.json"
+expect 1 "obstacles[0].sphere.radius: must be > 0" "$bin/pf-sim" "$tmp/bad.json" --input "$tmp/cube.pfs"
+echo '{"obstacles": [{"mesh": {"file": "missing.obj"}}]}' >"$tmp/missing.json"
+expect 1 "obstacles[0].mesh" "$bin/pf-sim" "$tmp/missing.json" --input "$tmp/cube.pfs"
+finish

@@ -219,8 +219,10 @@ pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
  * unknowns are ordered free node by free node, component innermost. */
 
 /* Gauss rule degree for harmonic elements, chosen by the convergence check in tests/test_cg.c:
- * at this degree K_e differs from a degree-14 rule by less than 1e-3 relative on every harmonic
- * cell type tested, well below the basis' boundary error (~1e-2). */
+ * MFS integrands vary steeply near the boundary (kernels 0.1 sizes outside it), so rules converge
+ * slowly: K_e at degree 4 differs from degree 12 by <= 1e-2 on block-like cells and <= 3.3e-2 on
+ * sliced-sphere cells, within every cell's own boundary error (degree 2 just reaches it, degree 1
+ * does not), at 64 points per tetrahedron of the cone decomposition. */
 #define PF_CG_DEFAULT_QUADRATURE 4
 
 typedef struct pf_cg_params {

@@ -258,19 +258,20 @@ static double norm(const double *v, int64_t n)
 /* ---- element matrices ------------------------------------------------------------------- */
 
 /* The rule degree of harmonic elements: K_e at degree d against degree 12 (relative Frobenius
- * difference) on the six harmonic cells of the mixed block and the first three of a sliced
+ * difference) on the six harmonic cells of the mixed block and the first two of a sliced
  * sphere. MFS functions have kernels xi = 0.1 element sizes outside the boundary, so the
  * integrands vary steeply near it and the rules converge slowly (the table is printed). The
- * criterion: at the default degree every cell's K_e is within its own basis error (the boundary
- * error of pf/basis.h, 1-3 % on block cells, 7-18 % on sphere cells), so the rule is not what
- * limits the accuracy; degree 1 is not (the check can fail). Higher degrees cost points: a
- * degree-4 rule has 64 points per tetrahedron of the cone decomposition, degree 8 216. */
+ * criterion, which chose the default: the smallest degree at which every cell's K_e is within
+ * its own basis error (the boundary error of pf/basis.h, 1-3 % on block cells, 7-18 % on sphere
+ * cells), so the rule is not what limits the accuracy; degree 1 is not (the check can fail).
+ * Higher degrees cost points: 27 per tetrahedron of the cone decomposition at degree 2, 64 at
+ * 4, 216 at 8. */
 static void quadrature_order_converges(void **state)
 {
     (void)state;
     int64_t live = pf_alloc_live_bytes();
     pf_error err = {0};
-    const int degrees[] = {1, 2, PF_CG_DEFAULT_QUADRATURE, 8};
+    const int degrees[] = {1, PF_CG_DEFAULT_QUADRATURE, 4, 8};
     enum { ND = sizeof degrees / sizeof *degrees };
     double worst[2][ND] = {{0}};
     int within[ND] = {0}, cells = 0;
@@ -285,7 +286,7 @@ static void quadrature_order_converges(void **state)
         size_t n = 3 * (size_t)cg.max_nodes;
         double *ref = malloc(n * n * sizeof *ref), *ke = malloc(n * n * sizeof *ke);
         int used = 0;
-        for (int32_t e = 0; e < m.n_elems && used < (mesh == 0 ? 6 : 3); ++e) {
+        for (int32_t e = 0; e < m.n_elems && used < (mesh == 0 ? 6 : 2); ++e) {
             if (pf_basis_elem_kind(&cg.basis, e) != PF_BASIS_HARMONIC)
                 continue;
             ++used, ++cells;
@@ -312,7 +313,7 @@ static void quadrature_order_converges(void **state)
         printf("  degree %d: largest relative difference %.2e (block), %.2e (sphere); %d of %d "
                "cells within their boundary error\n",
                degrees[d], worst[0][d], worst[1][d], within[d], cells);
-    assert_int_equal(within[2], cells);
+    assert_int_equal(within[1], cells);
     assert_true(within[0] < cells);
     assert_true(worst[0][3] < worst[0][0] && worst[1][3] < worst[1][0]);
     assert_int_equal(pf_alloc_live_bytes(), live);
@@ -442,9 +443,12 @@ static void patch_test_on_mixed_meshes(void **state)
         else
             make_sliced_sphere(&m, 3);
         double with = patch_error(&m, true), without = mesh == 0 ? patch_error(&m, false) : 1;
-        printf("patch test, %s: interior error %.2e (without the consistency correction "
-               "%.2e)\n",
-               mesh == 0 ? "tet/hex/polyhedron block" : "sliced sphere", with, without);
+        if (mesh == 0)
+            printf("patch test, tet/hex/polyhedron block: interior error %.2e (without the "
+                   "consistency correction %.2e)\n",
+                   with, without);
+        else
+            printf("patch test, sliced sphere: interior error %.2e\n", with);
         assert_true(with < 1e-8);
         assert_true(without > 1e-6); /* (measured on the block only: set-up time) */
         pf_mesh_release(&m);

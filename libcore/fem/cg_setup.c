@@ -59,6 +59,7 @@ static void accum_start(accum *a, int32_t k)
     a->moment = pf_v3(0, 0, 0);
 }
 
+/* Upper triangle (q >= p) only: accum_symmetrize mirrors it. */
 static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, double w,
                         double rho)
 {
@@ -71,7 +72,7 @@ static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, doubl
         double wg[3] = {w * gp[0], w * gp[1], w * gp[2]};
         for (int i = 0; i < 3; ++i)
             a->gint[3 * p + i] += wg[i];
-        for (int32_t q = 0; q < k; ++q) {
+        for (int32_t q = p; q < k; ++q) {
             a->me[p * k + q] += rho * wp * a->val[q];
             const double *gq = a->grad + 3 * q;
             double *d = a->d + 9 * ((size_t)p * k + q);
@@ -82,6 +83,21 @@ static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, doubl
     }
     a->volume += w;
     a->moment = pf_v3_add(a->moment, pf_v3_scale(x, w));
+}
+
+/* D_qp = D_pq^T and M_qp = M_pq for q < p. */
+static void accum_symmetrize(accum *a)
+{
+    int32_t k = a->k;
+    for (int32_t p = 0; p < k; ++p)
+        for (int32_t q = 0; q < p; ++q) {
+            a->me[p * k + q] = a->me[q * k + p];
+            const double *src = a->d + 9 * ((size_t)q * k + p);
+            double *dst = a->d + 9 * ((size_t)p * k + q);
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    dst[3 * i + j] = src[3 * j + i];
+        }
 }
 
 /* K_e from the gradient products D (eq. 15 with isotropic C). */
@@ -148,6 +164,7 @@ static void integrate_hex(accum *a, const pf_basis *b, const pf_mesh *m, int32_t
                                             pf_v3_add(pf_v3_scale(e2, l1), pf_v3_scale(e3, l2))));
         accum_point(a, b, e, x, det / 8, rho);
     }
+    accum_symmetrize(a);
 }
 
 static pf_status integrate_harmonic(accum *a, const pf_basis *b, const pf_mesh *m, int32_t e,
@@ -165,6 +182,7 @@ static pf_status integrate_harmonic(accum *a, const pf_basis *b, const pf_mesh *
         accum_point(a, b, e, pf_v3_load(rule.x + 3 * q), rule.w[q], rho);
     *points += rule.n;
     pf_quadrature_release(&rule);
+    accum_symmetrize(a);
     return PF_OK;
 }
 

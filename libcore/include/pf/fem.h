@@ -219,11 +219,13 @@ pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
  * unknowns are ordered free node by free node, component innermost. */
 
 /* Gauss rule degree for harmonic elements, chosen by the convergence check in tests/test_cg.c:
- * MFS integrands vary steeply near the boundary (kernels 0.1 sizes outside it), so rules converge
- * slowly: K_e at degree 4 differs from degree 12 by <= 1e-2 on block-like cells and <= 3.3e-2 on
- * sliced-sphere cells, within every cell's own boundary error (degree 2 just reaches it, degree 1
- * does not), at 64 points per tetrahedron of the cone decomposition. */
-#define PF_CG_DEFAULT_QUADRATURE 4
+ * the smallest degree at which K_e of every harmonic cell tested lies within that cell's own
+ * boundary error (pf/basis.h) of a degree-12 rule. MFS integrands vary steeply near the
+ * boundary (kernels 0.1 sizes outside it), so rules converge slowly: degree 2 differs from
+ * degree 12 by <= 1.5e-2 on block-like cells and <= 0.11 on sliced-sphere cells (their boundary
+ * errors: 1-3 % and 7-18 %), degree 4 by 1e-2 and 3.3e-2 at 2.4 times the points, degree 1 misses
+ * on every cell. 27 points per tetrahedron of the cone decomposition. */
+#define PF_CG_DEFAULT_QUADRATURE 2
 
 typedef struct pf_cg_params {
     pf_basis_params basis;     /* zero fields: basis defaults */

@@ -27,6 +27,6 @@ set logscale y
 set xlabel 'kernel offset xi (fraction of the element size)'
 set ylabel 'relative error'
 set key top right
-plot for [s in "2 3 5"] sweep using ($2 == s ? $1 : NaN):6 with linespoints title sprintf('tip error, edge samples %s', s), \
-     for [s in "2 3 5"] sweep using ($2 == s ? $1 : NaN):4 with linespoints dt 2 title sprintf('median boundary error, edge samples %s', s)
+plot for [s in "2 3 5"] sweep using ($2 == s+0 ? $1 : NaN):6 with linespoints title sprintf('tip error, edge samples %s', s), \
+     for [s in "2 3 5"] sweep using ($2 == s+0 ? $1 : NaN):4 with linespoints dt 2 title sprintf('median boundary error, edge samples %s', s)
 unset multiplot

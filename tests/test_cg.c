@@ -816,8 +816,8 @@ static void cantilever_converges_to_dg(void **state)
         assert_true(e < previous);
         previous = e;
     }
-    assert_true(previous < 0.1);
-    const int res[] = {6, 9, 12};
+    assert_true(previous < 0.1); /* measured 3.8 % on 16 x 4 x 4 */
+    const int res[] = {4, 6, 9};
     previous = INFINITY;
     for (int q = 0; q < 3; ++q) {
         int harmonic = 0;
@@ -830,6 +830,7 @@ static void cantilever_converges_to_dg(void **state)
         assert_true(e < previous);
         previous = e;
     }
+    assert_true(previous < 0.1); /* measured 5.5 % at res 9 */
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 

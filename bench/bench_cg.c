@@ -76,8 +76,8 @@ static int per_element(void)
             for (int32_t e = 0; e < m.n_elems; ++e) {
                 pf_basis_kind kind = pf_basis_elem_kind(&cg.basis, e);
                 double basis_ms = cg.basis.stats[e].setup_ms;
-                printf("%s%d,%d,%s,%d,%d,%.4f,%.4f,%.4f\n", t ? "torus" : "sphere", res[r],
-                       (int)e, pf_basis_kind_name(kind), elem_convex(&m, e, &cg) ? 1 : 0,
+                printf("%s%d,%d,%s,%d,%d,%.4f,%.4f,%.4f\n", t ? "torus" : "sphere", res[r], (int)e,
+                       pf_basis_kind_name(kind), elem_convex(&m, e, &cg) ? 1 : 0,
                        (int)pf_basis_elem_nodes(&cg.basis, e, NULL), basis_ms, cg.elem_ms[e],
                        basis_ms + cg.elem_ms[e]);
             }
@@ -135,8 +135,8 @@ static double turned_cantilever(const pf_mesh *m, const pf_cg_params *params)
     if (pf_cholesky_create(&chol, &k, &err) >= 0 && pf_cholesky_factor(chol, &k, NULL, &err) >= 0 &&
         pf_cholesky_solve(chol, f, u, &err) >= 0)
         for (int32_t i = 0; i < map.n_free; ++i)
-            if (fabs(pf_plane_signed_distance(tip, pf_v3_load(m->x + 3 * (size_t)map.block_node[i]))) <
-                1e-9)
+            if (fabs(pf_plane_signed_distance(
+                    tip, pf_v3_load(m->x + 3 * (size_t)map.block_node[i]))) < 1e-9)
                 w += u[3 * i + 2], ++count;
     pf_cholesky_destroy(&chol);
     free(f);

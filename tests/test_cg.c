@@ -27,10 +27,10 @@
  * mesh face (stored as the first cell lists it, reversed for the second). */
 typedef struct cell_list {
     int32_t n_cells;
-    int32_t n_faces;          /* face uses */
-    int32_t cell_faces[256];  /* face uses per cell: cell c has [cell_start[c], cell_start[c+1]) */
+    int32_t n_faces;         /* face uses */
+    int32_t cell_faces[256]; /* face uses per cell: cell c has [cell_start[c], cell_start[c+1]) */
     int32_t cell_start[257];
-    int64_t face_off[2049];   /* face uses */
+    int64_t face_off[2049]; /* face uses */
     uint32_t nodes[8192];
 } cell_list;
 
@@ -108,7 +108,7 @@ static void make_mixed_block(pf_mesh *m, double scale)
             for (int i = 0; i < 4; ++i) {
                 int q = i + 4 * j + 16 * k;
                 x[3 * q] = scale * i, x[3 * q + 1] = scale * 1.25 * j,
-                x[3 * q + 2] = scale * 0.8 * k;
+                      x[3 * q + 2] = scale * 0.8 * k;
             }
     static cell_list cl;
     memset(&cl, 0, sizeof cl);
@@ -135,8 +135,8 @@ static void make_mixed_block(pf_mesh *m, double scale)
                     for (int t = 0; t < 6; ++t) {
                         cl.cell_start[cl.n_cells] = cl.n_faces;
                         const int *tv = kuhn[t];
-                        static const int tf[4][4] = {{0, 1, 2, 3}, {0, 1, 3, 2}, {1, 2, 3, 0},
-                                                     {0, 2, 3, 1}};
+                        static const int tf[4][4] = {
+                            {0, 1, 2, 3}, {0, 1, 3, 2}, {1, 2, 3, 0}, {0, 2, 3, 1}};
                         for (int f = 0; f < 4; ++f) {
                             uint32_t p = c[tv[tf[f][0]]], q = c[tv[tf[f][1]]], r = c[tv[tf[f][2]]],
                                      s = c[tv[tf[f][3]]];
@@ -352,7 +352,7 @@ static void rigid_modes_in_null_space(void **state)
         for (int mode = 0; mode < 7; ++mode) {
             for (int32_t i = 0; i < map.n_free; ++i) {
                 pf_vec3 x = pf_v3_load(m.x + 3 * (size_t)map.block_node[i]);
-                pf_vec3 v = mode < 3 ? pf_v3(mode == 0, mode == 1, mode == 2)
+                pf_vec3 v = mode < 3   ? pf_v3(mode == 0, mode == 1, mode == 2)
                             : mode < 6 ? pf_v3_cross(pf_v3(mode == 3, mode == 4, mode == 5), x)
                                        : pf_v3(0.01 * x.x, 0, 0);
                 pf_v3_store(v, r + 3 * i);
@@ -493,13 +493,14 @@ static void c0_continuity_across_faces(void **state)
             pf_vec3 v[3];
             for (int c = 0; c < 3; ++c)
                 v[c] = pf_v3_load(m.x + 3 * (size_t)idx[tri[3 * t + c]]);
-            double area = 0.5 * pf_v3_norm(pf_v3_cross(pf_v3_sub(v[1], v[0]), pf_v3_sub(v[2], v[0])));
-            static const double bary[4][3] = {{1.0 / 3, 1.0 / 3, 1.0 / 3}, {0.6, 0.2, 0.2},
-                                              {0.2, 0.6, 0.2}, {0.2, 0.2, 0.6}};
+            double area =
+                0.5 * pf_v3_norm(pf_v3_cross(pf_v3_sub(v[1], v[0]), pf_v3_sub(v[2], v[0])));
+            static const double bary[4][3] = {
+                {1.0 / 3, 1.0 / 3, 1.0 / 3}, {0.6, 0.2, 0.2}, {0.2, 0.6, 0.2}, {0.2, 0.2, 0.6}};
             for (int p = 0; p < 4; ++p) {
-                pf_vec3 x = pf_v3_add(pf_v3_add(pf_v3_scale(v[0], bary[p][0]),
-                                                pf_v3_scale(v[1], bary[p][1])),
-                                      pf_v3_scale(v[2], bary[p][2]));
+                pf_vec3 x = pf_v3_add(
+                    pf_v3_add(pf_v3_scale(v[0], bary[p][0]), pf_v3_scale(v[1], bary[p][1])),
+                    pf_v3_scale(v[2], bary[p][2]));
                 double side[2];
                 for (int s = 0; s < 2; ++s) {
                     int32_t e = s == 0 ? e1 : e2;
@@ -577,8 +578,8 @@ static void corotation_has_no_ghost_forces(void **state)
     const double q_minus_i[9] = {-1, -1, 0, 1, -1, 0, 0, 0, 0};
     double b[3];
     for (int i = 0; i < 3; ++i)
-        b[i] = -(q_minus_i[3 * i] * c[0] + q_minus_i[3 * i + 1] * c[1] +
-                 q_minus_i[3 * i + 2] * c[2]);
+        b[i] =
+            -(q_minus_i[3 * i] * c[0] + q_minus_i[3 * i + 1] * c[1] + q_minus_i[3 * i + 2] * c[2]);
     const double stretch[9] = {0.01, 0, 0, 0, 0, 0, 0, 0, 0};
     const double zero[3] = {0, 0, 0};
     for (int mass = 0; mass < 2; ++mass) {
@@ -668,8 +669,8 @@ static double hanging_cube_sag(double nu)
     sc.gravity = (pf_vec3){0, 0, -9.81};
     sc.is_static = true;
     sc.ground = false;
-    pf_fixed fixed = {.region = {.kind = PF_REGION_BOX, .lo = {-1, -1, 1 - 1e-9},
-                                 .hi = {2, 2, 1 + 1e-9}}};
+    pf_fixed fixed = {
+        .region = {.kind = PF_REGION_BOX, .lo = {-1, -1, 1 - 1e-9}, .hi = {2, 2, 1 + 1e-9}}};
     sc.fixed = &fixed;
     sc.n_fixed = 1;
     pf_error err = {0};
@@ -718,22 +719,20 @@ static void linear_tets_lock_at_nu_0499(void **state)
  * x' = 4, E = 1e5, nu = 0.3): mean u_z over the nodes of the loaded end. The beam may be turned
  * about z by angle (radians): x' is the beam's axis. mesh: the hex grid of the box
  * (cells = refine) or the slice of the turned box's surface at grid resolution refine. */
-static double cantilever_tip(pf_method method, bool sliced, int refine, double angle,
-                             int *harmonic)
+static double cantilever_tip(pf_method method, bool sliced, int refine, double angle, int *harmonic)
 {
     pf_error err = {0};
     pf_mesh m = {0};
     double ca = cos(angle), sa = sin(angle);
     if (!sliced) {
-        assert_int_equal(pf_mesh_make_box(&m, (pf_vec3){0, 0, 0}, (pf_vec3){4, 1, 1},
-                                          4 * refine, refine, refine, &err),
+        assert_int_equal(pf_mesh_make_box(&m, (pf_vec3){0, 0, 0}, (pf_vec3){4, 1, 1}, 4 * refine,
+                                          refine, refine, &err),
                          PF_OK);
         assert_int_equal(pf_mesh_derive(&m, &err), PF_OK);
     } else {
         pf_mesh box = {0};
-        assert_int_equal(pf_mesh_make_box(&box, (pf_vec3){0, 0, 0}, (pf_vec3){4, 1, 1}, 1, 1, 1,
-                                          &err),
-                         PF_OK);
+        assert_int_equal(
+            pf_mesh_make_box(&box, (pf_vec3){0, 0, 0}, (pf_vec3){4, 1, 1}, 1, 1, 1, &err), PF_OK);
         pf_boundary bd;
         assert_int_equal(pf_boundary_extract(&box, &bd, &err), PF_OK);
         pf_surface s = {0};
@@ -821,7 +820,8 @@ static void cantilever_converges_to_dg(void **state)
     previous = INFINITY;
     for (int q = 0; q < 3; ++q) {
         int harmonic = 0;
-        double w = cantilever_tip(PF_METHOD_CG, true, res[q], 30 * 3.14159265358979323846 / 180, &harmonic);
+        double w = cantilever_tip(PF_METHOD_CG, true, res[q], 30 * 3.14159265358979323846 / 180,
+                                  &harmonic);
         double e = fabs(w / limit - 1);
         printf("cantilever, cg on the turned beam sliced at res %2d (%d harmonic cells): %.6e, "
                "error %.3e\n",

@@ -203,8 +203,8 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
             }
             for (int32_t a = 0; a < kn; ++a)
                 for (int i = 0; i < 3; ++i)
-                    y[3 * a + i] =
-                        r[3 * i] * z[3 * a] + r[3 * i + 1] * z[3 * a + 1] + r[3 * i + 2] * z[3 * a + 2];
+                    y[3 * a + i] = r[3 * i] * z[3 * a] + r[3 * i + 1] * z[3 * a + 1] +
+                                   r[3 * i + 2] * z[3 * a + 2];
             any = true;
         } else {
             memset(y, 0, (size_t)n * sizeof *y);
@@ -215,7 +215,8 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
                     continue;
                 const double *gc = g + 3 * (size_t)nodes[c];
                 for (int32_t p = 0; p < n; ++p)
-                    y[p] -= kw[(size_t)p * n + 3 * c] * gc[0] + kw[(size_t)p * n + 3 * c + 1] * gc[1] +
+                    y[p] -= kw[(size_t)p * n + 3 * c] * gc[0] +
+                            kw[(size_t)p * n + 3 * c + 1] * gc[1] +
                             kw[(size_t)p * n + 3 * c + 2] * gc[2];
                 any = true;
             }

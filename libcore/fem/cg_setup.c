@@ -24,8 +24,8 @@ pf_cg_params pf_cg_params_default(void)
 void pf_cg_release(pf_cg *cg)
 {
     pf_basis_release(&cg->basis);
-    double *arrays[] = {cg->ke, cg->me, cg->n_int, cg->lumped, cg->grad_center, cg->volume,
-                        cg->size, cg->elem_ms};
+    double *arrays[] = {cg->ke,          cg->me,     cg->n_int, cg->lumped,
+                        cg->grad_center, cg->volume, cg->size,  cg->elem_ms};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
     pf_free(cg->ke_offsets);
@@ -60,8 +60,7 @@ static void accum_start(accum *a, int32_t k)
 }
 
 /* Upper triangle (q >= p) only: accum_symmetrize mirrors it. */
-static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, double w,
-                        double rho)
+static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, double w, double rho)
 {
     int32_t k = a->k;
     pf_basis_eval(b, e, x, a->val, a->grad);
@@ -210,8 +209,8 @@ static pf_status integrate(const pf_cg *cg, const pf_mesh *m, int32_t e, int deg
 /* ---- consistency correction -------------------------------------------------------------
  * Not in the paper. MFS functions are C0 across faces only to the boundary error, so the
  * element integrals of grad N_a around an interior node do not cancel, and a linear field
- * prescribed on the boundary is reproduced inside only to that error (the patch test fails at
- * ~1e-2). Each element's gradients are therefore shifted by a constant per node,
+ * prescribed on the boundary is reproduced inside only to about that error (the patch test
+ * misses by 1e-3). Each element's gradients are therefore shifted by a constant per node,
  *   grad N_a + c_a,   c_a = (int_de t_a n dA - int_e grad N_a) / V_e,
  * where t_a are traces shared by both elements of a face: the functions of the face's closed-form
  * element if it has one, else of the lower-numbered element, restricted to the face's nodes and
@@ -275,8 +274,7 @@ static pf_status face_flux(const pf_cg *cg, const pf_mesh *m, int32_t e, accum *
             sloc[j] = find_node(snodes, ks, idx[j]);
             eloc[j] = find_node(enodes, k, idx[j]);
             PF_CHECK(sloc[j] >= 0 && eloc[j] >= 0, err, PF_ERR_INVALID,
-                     "element %d: face %d node %u is not an element node", (int)e, (int)f,
-                     idx[j]);
+                     "element %d: face %d node %u is not an element node", (int)e, (int)f, idx[j]);
         }
         pf_vec3 area = pf_polygon_area_vector(m->x, idx, n);
         pf_vec3 nrm = pf_v3_normalize(area);
@@ -300,8 +298,7 @@ static pf_status face_flux(const pf_cg *cg, const pf_mesh *m, int32_t e, accum *
         }
         double det;
         pf_mat3 qinv = pf_m3_inverse(ptp, &det);
-        PF_CHECK(det > 0, err, PF_ERR_INVALID, "element %d: face %d is degenerate", (int)e,
-                 (int)f);
+        PF_CHECK(det > 0, err, PF_ERR_INVALID, "element %d: face %d is degenerate", (int)e, (int)f);
         pf_status st = pf_polygon_triangulate(m->x, idx, n, arena, tri, NULL, err);
         if (st < 0) {
             pf_error_prefix(err, "element %d, face %d", (int)e, (int)f);
@@ -315,8 +312,8 @@ static pf_status face_flux(const pf_cg *cg, const pf_mesh *m, int32_t e, accum *
             for (int i = 0; i < NG; ++i)
                 for (int j = 0; j < NG; ++j) {
                     double a = gx[i], bb = gx[j];
-                    pf_vec3 x = pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a),
-                                                        pf_v3_scale(e2, bb * (1 - a))));
+                    pf_vec3 x =
+                        pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a), pf_v3_scale(e2, bb * (1 - a))));
                     double w = gw[i] * gw[j] * jac * (1 - a);
                     pf_basis_eval(b, src, x, val, NULL);
                     pf_vec3 d = pf_v3_sub(x, o);
@@ -360,9 +357,8 @@ static void apply_correction(accum *a)
 }
 
 /* Integrals, correction and K_e of element e into a and ke. */
-static pf_status elem_matrices(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree,
-                               accum *a, pf_arena *arena, int64_t *points, double *ke,
-                               pf_error *err)
+static pf_status elem_matrices(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree, accum *a,
+                               pf_arena *arena, int64_t *points, double *ke, pf_error *err)
 {
     PF_TRY(integrate(cg, m, e, degree, a, arena, points, err));
     if (cg->consistency) {
@@ -402,12 +398,12 @@ static size_t elem_view_entries(const pf_mesh *m, int32_t e)
 /* Bytes an accumulator for k nodes and a polyhedron view of `entries` need. */
 static size_t arena_bytes(int32_t k, size_t entries)
 {
-    return ((size_t)k * k * 10 + 11 * (size_t)k + PF_BASIS_MAX_NODES) * sizeof(double) +
-           16 * 16 + 16 * entries + 64 * entries + 1024;
+    return ((size_t)k * k * 10 + 11 * (size_t)k + PF_BASIS_MAX_NODES) * sizeof(double) + 16 * 16 +
+           16 * entries + 64 * entries + 1024;
 }
 
-pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree,
-                               double *ke, double *me, pf_error *err)
+pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree, double *ke,
+                               double *me, pf_error *err)
 {
     PF_CHECK(e >= 0 && e < cg->n_elems, err, PF_ERR_INVALID, "element %d of %d", (int)e,
              (int)cg->n_elems);
@@ -490,8 +486,8 @@ static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, pf_error *err)
         const int32_t *nodes;
         int32_t k = pf_basis_elem_nodes(&cg->basis, e, &nodes);
         int64_t o = cg->basis.node_offsets[e];
-        st = elem_matrices(cg, m, e, cg->quadrature_degree, &a, &arena,
-                           &cg->n_quadrature_points, cg->ke + cg->ke_offsets[e], err);
+        st = elem_matrices(cg, m, e, cg->quadrature_degree, &a, &arena, &cg->n_quadrature_points,
+                           cg->ke + cg->ke_offsets[e], err);
         if (st < 0)
             break;
         memcpy(cg->me + cg->me_offsets[e], a.me, (size_t)k * k * sizeof *a.me);
@@ -520,8 +516,8 @@ pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double 
     pf_cg_params p = params ? *params : pf_cg_params_default();
     if (p.quadrature_degree == 0)
         p.quadrature_degree = PF_CG_DEFAULT_QUADRATURE;
-    PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && density > 0 && isfinite(density),
-             err, PF_ERR_INVALID, "bad material: E = %g, nu = %g, density = %g", E, nu, density);
+    PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && density > 0 && isfinite(density), err,
+             PF_ERR_INVALID, "bad material: E = %g, nu = %g, density = %g", E, nu, density);
     PF_CHECK(p.quadrature_degree >= 1 && p.quadrature_degree <= 29, err, PF_ERR_INVALID,
              "CG quadrature degree must be in [1, 29], got %d", (int)p.quadrature_degree);
     PF_CHECK(m->face_elems, err, PF_ERR_INVALID, "mesh not derived (pf_mesh_derive)");
@@ -579,8 +575,8 @@ void pf_cg_add_traction(const pf_cg *cg, const pf_mesh *m, const pf_boundary *bd
         for (int i = 0; i < NG; ++i)
             for (int j = 0; j < NG; ++j) {
                 double a = gx[i], bb = gx[j];
-                pf_vec3 x = pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a),
-                                                    pf_v3_scale(e2, bb * (1 - a))));
+                pf_vec3 x =
+                    pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a), pf_v3_scale(e2, bb * (1 - a))));
                 double w = gw[i] * gw[j] * jac * (1 - a);
                 pf_basis_eval(&cg->basis, e, x, val, NULL);
                 for (int32_t p = 0; p < k; ++p)
@@ -613,9 +609,12 @@ void pf_cg_von_mises(const pf_cg *cg, const double *u, double *out)
             for (int j = 0; j < 3; ++j)
                 eps[i][j] = 0.5 * (rf.m[i][j] + rf.m[j][i]) - (i == j);
         double tr = eps[0][0] + eps[1][1] + eps[2][2], lambda = cg->lambda, mu = cg->mu;
-        double sigma[6] = {lambda * tr + 2 * mu * eps[0][0], lambda * tr + 2 * mu * eps[1][1],
-                           lambda * tr + 2 * mu * eps[2][2], 2 * mu * eps[0][1],
-                           2 * mu * eps[1][2],              2 * mu * eps[2][0]};
+        double sigma[6] = {lambda * tr + 2 * mu * eps[0][0],
+                           lambda * tr + 2 * mu * eps[1][1],
+                           lambda * tr + 2 * mu * eps[2][2],
+                           2 * mu * eps[0][1],
+                           2 * mu * eps[1][2],
+                           2 * mu * eps[2][0]};
         out[e] = pf_von_mises(sigma);
     }
 }

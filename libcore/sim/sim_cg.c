@@ -25,7 +25,10 @@ typedef struct cg_method {
     pf_boundary bd;  /* boundary faces, triangulated (loads only) */
 } cg_method;
 
-static int64_t n_dofs(const void *m) { return 3 * (int64_t)((const cg_method *)m)->map.n_free; }
+static int64_t n_dofs(const void *m)
+{
+    return 3 * (int64_t)((const cg_method *)m)->map.n_free;
+}
 
 /* The pattern was built at creation (it fixes the unknowns); hand over a copy's ownership. */
 static pf_status pattern(const void *m, pf_block_matrix *k, pf_error *err)
@@ -172,8 +175,8 @@ static void momentum(const void *m, const double *u, const double *v, double *ki
             int32_t node = c->map.block_node[i];
             double mi = cg->lumped[node];
             pf_vec3 vi = pf_v3_load(v + 3 * (size_t)i);
-            pf_vec3 xi = pf_v3_add(pf_v3_load(c->mesh->x + 3 * (size_t)node),
-                                   pf_v3_load(u + 3 * (size_t)i));
+            pf_vec3 xi =
+                pf_v3_add(pf_v3_load(c->mesh->x + 3 * (size_t)node), pf_v3_load(u + 3 * (size_t)i));
             ke += 0.5 * mi * pf_v3_dot(vi, vi);
             p = pf_v3_add(p, pf_v3_scale(vi, mi));
             l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xi, vi), mi));
@@ -214,7 +217,8 @@ static void affine(const void *m, const double a[9], const double b[3], double *
     for (int32_t i = 0; i < c->map.n_free; ++i) {
         const double *x = c->mesh->x + 3 * (size_t)c->map.block_node[i];
         for (int r = 0; r < 3; ++r)
-            u[3 * (size_t)i + r] = a[3 * r] * x[0] + a[3 * r + 1] * x[1] + a[3 * r + 2] * x[2] + b[r];
+            u[3 * (size_t)i + r] =
+                a[3 * r] * x[0] + a[3 * r + 1] * x[1] + a[3 * r + 2] * x[2] + b[r];
     }
 }
 

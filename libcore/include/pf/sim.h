@@ -208,7 +208,7 @@ void pf_sim_set_affine_displacement(pf_sim *sim, const double a[9], const double
 
 /* The largest discontinuity of the DG displacement at a mesh node: the largest distance between
  * an element's own displacement at one of its nodes and the stitched (averaged) value there,
- * model units. It shrinks as the penalty grows (DG paper, fig. 1). */
+ * model units. It shrinks as the penalty grows (DG paper, fig. 1). 0 for cg (conforming). */
 double pf_sim_max_node_jump(const pf_sim *sim);
 
 /* Volume of the deformed body: the mesh's elements with the stitched displacement applied to

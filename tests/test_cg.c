@@ -534,6 +534,63 @@ static void c0_continuity_across_faces(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* Loads: partition of unity and linear reproduction make the nodal loads sum to the resultant
+ * (body force times volume, traction times area) and their first moments sum_a x_a f_a to
+ * b int x dV and t int x dA, exactly for any element (the rules integrate 1 and x exactly):
+ * 1e-12 relative. */
+static void loads_have_exact_resultants(void **state)
+{
+    (void)state;
+    int64_t live = pf_alloc_live_bytes();
+    pf_error err = {0};
+    pf_mesh m = {0};
+    make_mixed_block(&m, 1);
+    pf_cg cg;
+    assert_int_equal(pf_cg_create(&cg, &m, 1e5, 0.3, 1000, NULL, &err), PF_OK);
+    size_t n = 3 * (size_t)m.n_nodes;
+    double *f = calloc(n, sizeof *f);
+    const pf_vec3 b = {0.5, -2, 3};
+    pf_cg_add_body_force(&cg, b, f);
+    pf_vec3 sum = {0, 0, 0};
+    double mx = 0; /* sum x_a f_a,z */
+    for (int32_t i = 0; i < m.n_nodes; ++i) {
+        sum = pf_v3_add(sum, pf_v3_load(f + 3 * i));
+        mx += m.x[3 * i] * f[3 * i + 2];
+    }
+    double volume = 3 * 3.75 * 2.4; /* centroid x = 1.5 */
+    assert_true(pf_v3_dist(sum, pf_v3_scale(b, volume)) <= 1e-12 * pf_v3_norm(b) * volume);
+    assert_true(fabs(mx - b.z * 1.5 * volume) <= 1e-12 * fabs(b.z * 1.5 * volume));
+    /* Traction on the boundary faces of the side y = 0 (area 3 x 2.4, centroid x = 1.5), which
+     * the split centre box does not reach; and on the whole boundary (resultant t times the
+     * total area 2 (3 3.75 + 3 2.4 + 3.75 2.4)). */
+    pf_boundary bd;
+    assert_int_equal(pf_boundary_extract(&m, &bd, &err), PF_OK);
+    const pf_vec3 t = {1, 2, -0.5};
+    for (int pass = 0; pass < 2; ++pass) {
+        memset(f, 0, n * sizeof *f);
+        for (int32_t q = 0; q < bd.n_faces; ++q) {
+            const uint32_t *idx = m.face_nodes + m.face_offsets[bd.face[q]];
+            int64_t fn = m.face_offsets[bd.face[q] + 1] - m.face_offsets[bd.face[q]];
+            if (pass == 1 || fabs(pf_polygon_centroid(m.x, idx, fn).y) < 1e-12)
+                pf_cg_add_traction(&cg, &m, &bd, q, t, f);
+        }
+        sum = pf_v3(0, 0, 0);
+        mx = 0;
+        for (int32_t i = 0; i < m.n_nodes; ++i) {
+            sum = pf_v3_add(sum, pf_v3_load(f + 3 * i));
+            mx += m.x[3 * i] * f[3 * i + 2];
+        }
+        double area = pass ? 2 * (3 * 3.75 + 3 * 2.4 + 3.75 * 2.4) : 3 * 2.4;
+        assert_true(pf_v3_dist(sum, pf_v3_scale(t, area)) <= 1e-12 * pf_v3_norm(t) * area);
+        assert_true(fabs(mx - t.z * 1.5 * area) <= 1e-12 * fabs(t.z * 1.5 * area));
+    }
+    pf_boundary_release(&bd);
+    free(f);
+    pf_cg_release(&cg);
+    pf_mesh_release(&m);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 /* ---- the simulator ------------------------------------------------------------------------ */
 
 static void free_scene(pf_scene *sc)
@@ -873,6 +930,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(rigid_modes_in_null_space),
         cmocka_unit_test(patch_test_on_mixed_meshes),
         cmocka_unit_test(c0_continuity_across_faces),
+        cmocka_unit_test(loads_have_exact_resultants),
         cmocka_unit_test(corotation_has_no_ghost_forces),
         cmocka_unit_test(spinning_body_keeps_momentum),
         cmocka_unit_test(linear_tets_lock_at_nu_0499),

@@ -250,7 +250,7 @@ static const bad_case bad_cases[] = {
     /* unknown and duplicate keys, at every depth */
     {"{\"method\": {\"name\": \"dg\", \"fluxx\": \"ip\"}}", PF_ERR_INVALID,
      "scene.json: method.fluxx: unknown key (expected one of: name, degree, flux, penalty, "
-     "corotation)"},
+     "corotation, mass)"},
     {"{\"gravty\": [0, 0, 0]}", PF_ERR_INVALID,
      "scene.json: gravty: unknown key (expected one of: material, method, corotation, gravity, "
      "body_force, damping, fixed, loads, ground, obstacles, time, static)"},
@@ -634,7 +634,7 @@ static const override_case bad_overrides[] = {
     {"static", "yes", "static: must be true or false, got 'yes'"},
     {"corotation", "1", "corotation: must be true or false, got '1'"},
     {"gravity", "0", "gravity: unknown scene option (expected one of: method, degree, flux, "
-                     "frames, dt, static, E, nu, density, penalty, substeps, corotation)"},
+                     "mass, frames, dt, static, E, nu, density, penalty, substeps, corotation)"},
 };
 
 static void test_overrides(void **state)

@@ -19,7 +19,8 @@ static const char USAGE[] =
     "carries embedding weights (WGHT, from pf-embed) for its SURF, at the surface's vertices.\n"
     "\n"
     "Overrides of scene keys:\n"
-    "  --method dg|cg     discretisation (cg: harmonic basis, not available yet)\n"
+    "  --method dg|cg     discretisation (cg: harmonic basis functions, nodal unknowns)\n"
+    "  --mass consistent|lumped   CG mass matrix (default consistent)\n"
     "  --degree 1|2       DG polynomial degree\n"
     "  --flux ip|bz       DG flux: interior penalty or Babuska-Zlamal\n"
     "  --penalty ETA      DG penalty factor (default: doubled from 1 until K is definite)\n"
@@ -36,8 +37,8 @@ static const char USAGE[] =
     "the stream is closed properly); 2 bad usage.\n";
 
 enum {
-    OPT_METHOD = 1, OPT_DEGREE, OPT_FLUX, OPT_PENALTY, OPT_E, OPT_NU, OPT_DENSITY, OPT_FRAMES,
-    OPT_DT, OPT_SUBSTEPS, OPT_STATIC, OPT_NO_COROTATION, OPT_INPUT, OPT_QUIET
+    OPT_METHOD = 1, OPT_MASS, OPT_DEGREE, OPT_FLUX, OPT_PENALTY, OPT_E, OPT_NU, OPT_DENSITY,
+    OPT_FRAMES, OPT_DT, OPT_SUBSTEPS, OPT_STATIC, OPT_NO_COROTATION, OPT_INPUT, OPT_QUIET
 };
 
 typedef struct run {
@@ -62,6 +63,7 @@ static const char *override_key(int id)
 {
     switch (id) {
     case OPT_METHOD: return "method";
+    case OPT_MASS: return "mass";
     case OPT_DEGREE: return "degree";
     case OPT_FLUX: return "flux";
     case OPT_PENALTY: return "penalty";
@@ -80,7 +82,8 @@ static const char *override_key(int id)
 static void parse_arguments(run *r, int argc, char **argv)
 {
     static const pf_cli_option options[] = {
-        {"method", true, OPT_METHOD},   {"degree", true, OPT_DEGREE},
+        {"method", true, OPT_METHOD},   {"mass", true, OPT_MASS},
+        {"degree", true, OPT_DEGREE},
         {"flux", true, OPT_FLUX},       {"penalty", true, OPT_PENALTY},
         {"E", true, OPT_E},             {"nu", true, OPT_NU},
         {"density", true, OPT_DENSITY}, {"frames", true, OPT_FRAMES},
@@ -192,12 +195,21 @@ static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error 
 static void print_summary(const run *r, const pf_sim *sim)
 {
     const pf_sim_stats *st = pf_sim_get_stats(sim);
+    if (r->scene.method == PF_METHOD_CG)
+        fprintf(stderr,
+                "pf-sim: cg, %d elements (%d closed forms, MFS skipped; %d harmonic, basis "
+                "%.3f s), %lld unknowns, %lld steps; ",
+                (int)r->mesh.n_elems, (int)st->closed_form_elems, (int)st->harmonic_elems,
+                st->basis_seconds, (long long)st->dofs, (long long)st->steps);
+    else
+        fprintf(stderr,
+                "pf-sim: dg, %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; ",
+                (int)r->mesh.n_elems, (long long)st->dofs, st->penalty,
+                (int)st->penalty_doublings, (long long)st->steps);
     fprintf(stderr,
-            "pf-sim: %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; setup "
-            "%.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at %d "
-            "%s: %lld contacts, search %.3f s, positions %.3f s\n",
-            (int)r->mesh.n_elems, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
-            (long long)st->steps, st->setup_seconds, st->assemble_seconds, st->factor_seconds,
+            "setup %.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at "
+            "%d %s: %lld contacts, search %.3f s, positions %.3f s\n",
+            st->setup_seconds, st->assemble_seconds, st->factor_seconds,
             (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
             r->embedded ? "surface vertices" : "nodes", (long long)st->contacts,
             st->contact_seconds, st->embed_seconds);

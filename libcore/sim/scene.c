@@ -343,6 +343,24 @@ static bool parse_flux_name(const char *text, pf_flux *out)
     return true;
 }
 
+static bool parse_mass_name(const char *text, pf_mass *out)
+{
+    if (!strcmp(text, "consistent"))
+        *out = PF_MASS_CONSISTENT;
+    else if (!strcmp(text, "lumped"))
+        *out = PF_MASS_LUMPED;
+    else
+        return false;
+    return true;
+}
+
+static pf_status read_mass(reader *r, const cJSON *v, pf_mass *out)
+{
+    if (!cJSON_IsString(v) || !parse_mass_name(v->valuestring, out))
+        return fail_type(r, v, "\"consistent\" or \"lumped\"");
+    return PF_OK;
+}
+
 static pf_status read_method_name(reader *r, const cJSON *v, pf_method *out)
 {
     if (!cJSON_IsString(v) || !parse_method_name(v->valuestring, out))
@@ -371,7 +389,8 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
         return read_method_name(r, v, &s->method);
     if (!cJSON_IsObject(v))
         return fail_type(r, v, "\"dg\", \"cg\" or an object");
-    static const char *const keys[] = {"name", "degree", "flux", "penalty", "corotation", NULL};
+    static const char *const keys[] = {"name",       "degree", "flux", "penalty",
+                                       "corotation", "mass",   NULL};
     PF_TRY(begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "name"))
@@ -382,6 +401,8 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
             READ_KEY(r, it, read_flux(r, it, &s->flux));
         else if (!strcmp(it->string, "penalty"))
             READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->penalty));
+        else if (!strcmp(it->string, "mass"))
+            READ_KEY(r, it, read_mass(r, it, &s->mass));
         else
             READ_KEY(r, it, read_corotation(r, it, s));
     }
@@ -985,6 +1006,11 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
             return override_fail(err, key, value, "must be ip or bz");
         return PF_OK;
     }
+    if (!strcmp(key, "mass")) {
+        if (!value || !parse_mass_name(value, &s->mass))
+            return override_fail(err, key, value, "must be consistent or lumped");
+        return PF_OK;
+    }
     if (!strcmp(key, "degree"))
         return override_int(key, value, RANGE_DEGREE, &s->degree, err);
     if (!strcmp(key, "frames"))
@@ -1010,7 +1036,7 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
     }
     return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
                         "%.64s: unknown scene option (expected one of: method, degree, flux, "
-                        "frames, dt, static, E, nu, density, penalty, substeps, corotation)",
+                        "mass, frames, dt, static, E, nu, density, penalty, substeps, corotation)",
                         key);
 }
 

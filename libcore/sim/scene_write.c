@@ -81,6 +81,8 @@ static cJSON *scene_object(const pf_scene *s)
         cJSON_AddNumberToObject(method, "degree", s->degree);
         cJSON_AddStringToObject(method, "flux", s->flux == PF_FLUX_BZ ? "bz" : "ip");
         cJSON_AddNumberToObject(method, "penalty", s->penalty);
+    } else {
+        cJSON_AddStringToObject(method, "mass", s->mass == PF_MASS_LUMPED ? "lumped" : "consistent");
     }
     cJSON_AddBoolToObject(method, "corotation", s->corotation);
 

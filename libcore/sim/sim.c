@@ -1,4 +1,4 @@
-/* The simulator: a scene on a mesh, for any method (method.h): DG (sim_dg.c).
+/* The simulator: a scene on a mesh, for any method (method.h): DG (sim_dg.c), CG (sim_cg.c).
  *
  * Dynamics: semi-implicit (linearly implicit) Euler on M a + D v + K u = f with Rayleigh damping
  * D = alpha M + beta K. With h = dt / substeps and K, f evaluated at the start of the step
@@ -122,15 +122,18 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
     *out = NULL;
     PF_CHECK(!surface == !weights, err, PF_ERR_INVALID,
              "an embedded surface needs both the surface and its weights");
-    PF_CHECK(scene->method == PF_METHOD_DG, err, PF_ERR_UNSUPPORTED,
-             "method cg (harmonic basis) is not available yet; use method dg");
     double t0 = pf_time_seconds();
     pf_sim *s = pf_calloc(1, sizeof *s);
     PF_CHECK(s, err, PF_ERR_NOMEM, "cannot allocate the simulator");
     s->scene = scene;
     s->mesh = mesh;
-    pf_status st = pf_sim_dg_create(scene, mesh, &s->ops, &s->method, &s->stats.fixed_faces,
-                                    &s->stats.loaded_faces, err);
+    pf_method_create_fn create = scene->method == PF_METHOD_CG ? pf_sim_cg_create
+                                                               : pf_sim_dg_create;
+    pf_status st = create(scene, mesh, &s->ops, &s->method, &s->stats.fixed_faces,
+                          &s->stats.loaded_faces, err);
+    if (st >= 0 && scene->method == PF_METHOD_CG)
+        pf_sim_cg_stats(s->method, &s->stats.closed_form_elems, &s->stats.harmonic_elems,
+                        &s->stats.basis_seconds);
     if (st >= 0) {
         s->n = s->ops->n_dofs(s->method);
         st = allocate_state(s, err);

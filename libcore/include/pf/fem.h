@@ -19,6 +19,7 @@
 #include <stdint.h>
 
 #include <pf/base.h>
+#include <pf/basis.h>
 #include <pf/geom.h>
 #include <pf/integrate.h>
 #include <pf/mesh.h>
@@ -194,6 +195,151 @@ pf_status pf_dg_add_polynomial_dirichlet(const pf_dg *dg, const pf_mesh *m,
  * Errors as pf_dg_add_polynomial_body_force. */
 pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
                          const pf_poly3 *exact, double *error, double *norm, pf_error *err);
+
+/* ==== CG discretisation (harmonic paper sec. 6) ===============================================
+ * Conforming nodal FEM on the shape functions of pf/basis.h: the displacement inside element e
+ * is u(x) = sum_a N_a(x) u_a over the element's nodes a (eq. 5), 3 unknowns per mesh node. Every
+ * element matrix is computed once from the rest state and stored in the element's node order
+ * (pf_basis_elem_nodes), rows and columns 3 a + i (node a, component i):
+ *   K_e = int_e B^T C B (eq. 15), M_e = int_e rho N_a N_b (times I3).
+ * Integration: tets in closed form (constant gradients; M_ab = rho V (1 + delta_ab) / 20);
+ * parallelepiped hexes by the 2 x 2 x 2 Gauss product in their reference coordinates, exact for
+ * both matrices (every integrand has degree <= 2 in each reference coordinate); harmonic elements
+ * by pf_polyhedron_quadrature of degree quadrature_degree (Gauss rules on the cones of the
+ * element's convex pieces).
+ *
+ * Consistency correction (not in the paper): MFS functions are C0 across faces only to their
+ * boundary error, which makes the paper's K_e fail the patch test by about that error (1.4e-3
+ * on the mixed block of tests/test_cg.c). By
+ * default each element's gradients are shifted by a constant per node so that they integrate to
+ * int_de t_a n dA, with traces t_a shared exactly by the two elements of each face (the
+ * closed-form side's functions, else the lower-numbered element's, projected onto exact
+ * partition of unity and linear reproduction); the patch test then holds to round-off, linear
+ * reproduction and rigid modes are kept, and closed-form meshes are unchanged (cg_setup.c has
+ * the derivation). Fixed nodes are removed from the unknowns (strong Dirichlet); the
+ * unknowns are ordered free node by free node, component innermost. */
+
+/* Gauss rule degree for harmonic elements, chosen by the convergence check in tests/test_cg.c:
+ * the smallest degree at which K_e of every harmonic cell tested lies within that cell's own
+ * boundary error (pf/basis.h) of a degree-12 rule. MFS integrands vary steeply near the
+ * boundary (kernels 0.1 sizes outside it), so rules converge slowly: degree 2 differs from
+ * degree 12 by <= 1.5e-2 on block-like cells and <= 0.11 on sliced-sphere cells (their boundary
+ * errors: 1-3 % and 7-18 %), degree 4 by 1e-2 and 3.3e-2 at 2.4 times the points, degree 1 misses
+ * on every cell. 27 points per tetrahedron of the cone decomposition. */
+#define PF_CG_DEFAULT_QUADRATURE 2
+
+typedef struct pf_cg_params {
+    pf_basis_params basis;     /* zero fields: basis defaults */
+    int32_t quadrature_degree; /* harmonic elements, 1..29; 0 = PF_CG_DEFAULT_QUADRATURE */
+    bool no_consistency_correction; /* true: the paper's K_e as is (above; studies) */
+} pf_cg_params;
+
+pf_cg_params pf_cg_params_default(void);
+
+typedef struct pf_cg {
+    int32_t n_nodes, n_elems;
+    double lambda, mu, density;
+    pf_basis basis;      /* shape functions; element e's nodes: pf_basis_elem_nodes(&basis, e) */
+    int32_t max_nodes;   /* largest node count of an element */
+    double *ke;          /* element stiffness matrices, unwarped: see pf_cg_elem_stiffness */
+    int64_t *ke_offsets; /* [n_elems + 1]: element e's K_e is (3k)^2 doubles from ke_offsets[e] */
+    int64_t *me_offsets; /* [n_elems + 1]: element e's M_e is k^2 doubles from me_offsets[e] */
+    double *me;          /* int_e rho N_a N_b, row-major k x k */
+    double *n_int;       /* [basis.node_offsets[n_elems]] int_e N_a (volume units) */
+    double *lumped;      /* [n_nodes] lumped (row-sum) nodal mass sum_e rho int_e N_a */
+    double *grad_center; /* [3 basis.node_offsets[n_elems]] grad N_a at the element's centroid */
+    double *volume;      /* [n_elems] sum of the rule's weights (exact volume for closed forms) */
+    pf_vec3 *centroid;   /* [n_elems] */
+    double *size;        /* [n_elems] half the diagonal of the element nodes' bounding box */
+    double *elem_ms;     /* [n_elems] wall-clock integration time of K_e and M_e, milliseconds */
+    int32_t quadrature_degree;
+    bool consistency;            /* the consistency correction is applied */
+    int64_t n_quadrature_points; /* over all harmonic elements */
+    int32_t n_closed_form;       /* elements with closed-form functions (MFS skipped) */
+    double basis_seconds;        /* pf_basis_create */
+    double integrate_seconds;    /* element matrices */
+} pf_cg;
+
+/* Shape functions and element matrices of every element of the valid, derived mesh m for the
+ * material (E > 0, nu in (-1, 1/2), density > 0); params may be NULL. cg is overwritten (release
+ * with pf_cg_release; also released on failure). Statuses: PF_ERR_INVALID for a bad material or
+ * quadrature degree, an underived mesh, and what pf_basis_create and pf_polyhedron_quadrature
+ * report (the message names the element); PF_ERR_NOMEM. */
+pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double density,
+                       const pf_cg_params *params, pf_error *err);
+void pf_cg_release(pf_cg *cg);
+
+/* Element e's stored (unwarped) stiffness, (3k)^2 row-major, and mass, k^2 row-major. */
+static inline const double *pf_cg_elem_stiffness(const pf_cg *cg, int32_t e)
+{
+    return cg->ke + cg->ke_offsets[e];
+}
+static inline const double *pf_cg_elem_mass(const pf_cg *cg, int32_t e)
+{
+    return cg->me + cg->me_offsets[e];
+}
+
+/* Computes K_e and M_e of one element with an explicit rule degree for harmonic elements (the
+ * convergence study; pf_cg_create stores the default's): ke [(3k)^2], me [k^2] (may be NULL).
+ * m is the mesh cg was created from. Statuses of pf_polyhedron_quadrature. */
+pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree,
+                               double *ke, double *me, pf_error *err);
+
+/* Free nodes and where their blocks go. */
+typedef struct pf_cg_map {
+    int32_t n_free;      /* free nodes: the blocks of the matrix (3 unknowns each) */
+    int32_t *node_block; /* [n_nodes] block of each node, -1 when fixed */
+    int32_t *block_node; /* [n_free] */
+    int64_t *slot;       /* [me_offsets[n_elems]] block slot of element node pair (a, b) (row-major
+                            k x k per element), -1 when either node is fixed */
+    int32_t *node_elem;  /* [n_nodes] one element using the node (-1 when none), for messages */
+} pf_cg_map;
+
+/* The block pattern over the free nodes (fixed[i] != 0: node i fixed; NULL: none) coupling every
+ * two free nodes of an element, and the scatter slots. k and map zeroed or released first.
+ * PF_ERR_NOMEM, and what pf_block_matrix_create reports. */
+pf_status pf_cg_pattern(const pf_cg *cg, const uint8_t *fixed, pf_block_matrix *k, pf_cg_map *map,
+                        pf_error *err);
+void pf_cg_map_release(pf_cg_map *map);
+
+/* Doubles of scratch the assembly needs: (3 max_nodes)^2 + 9 max_nodes. */
+size_t pf_cg_scratch_size(const pf_cg *cg);
+
+/* Element rotations by shape matching (sec. 6, stiffness warping): R_e the rotation of the polar
+ * decomposition of A = sum_a (x_a - x_c)(X_a - X_c)^T over the element's nodes, X the rest
+ * positions x0 [3 n_nodes], x = X + u (u [3 n_nodes] nodal displacements), c the node averages.
+ * rot [9 n_elems] row-major. */
+void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double *rot);
+
+/* Assembles the stiffness over the free nodes into k (zeroed first; from pf_cg_pattern) and adds
+ * its constant terms to f [3 n_free]: with rotations (rot [9 n_elems], NULL for linear
+ * elasticity) each element's force is -R K_e (R^T x - X) (no ghost forces: zero for any rigid
+ * motion), i.e. stiffness R K_e R^T and constant force R K_e (I - R^T) X, X = x0 [3 n_nodes]
+ * (needed with rotations only); the prescribed displacements g [3 n_nodes] of fixed nodes (read
+ * at fixed nodes only; NULL: zero) add -K_fc g. scratch [pf_cg_scratch_size]. */
+void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const double *rot,
+                              const double *x0, const double *g, double *scratch,
+                              pf_block_matrix *k, double *f);
+
+/* Adds alpha M to k (consistent, or lumped: the diagonal of row sums); y += alpha M x for free
+ * unknowns x, y [3 n_free]. */
+void pf_cg_add_mass(const pf_cg *cg, const pf_cg_map *map, bool lumped, double alpha,
+                    pf_block_matrix *k);
+void pf_cg_mass_mul(const pf_cg *cg, const pf_cg_map *map, bool lumped, double alpha,
+                    const double *x, double *y);
+
+/* Nodal loads, f [3 n_nodes] (every node; the caller keeps the free rows): body force b (force
+ * per volume) f_a += b int N_a; traction t (force per area) on the boundary face
+ * bd->face[index] of m: f_a += t int_face N_a dA over the face's triangles (bd from
+ * pf_boundary_extract of m) with a degree-4 Gauss rule per triangle (exact for closed forms). */
+void pf_cg_add_body_force(const pf_cg *cg, pf_vec3 b, double *f);
+void pf_cg_add_traction(const pf_cg *cg, const pf_mesh *m, const pf_boundary *bd, int32_t index,
+                        pf_vec3 t, double *f);
+
+/* Von Mises stress of the corotated linear strain sym(R^T F) - I, F = I + grad u at each
+ * element's centroid (corrected gradients; R the polar rotation of F), u [3 n_nodes];
+ * out [n_elems]. */
+void pf_cg_von_mises(const pf_cg *cg, const double *u, double *out);
 
 #ifdef __cplusplus
 }

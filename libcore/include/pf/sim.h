@@ -22,6 +22,8 @@ extern "C" {
 
 typedef enum pf_method { PF_METHOD_DG = 0, PF_METHOD_CG = 1 } pf_method;
 typedef enum pf_flux { PF_FLUX_IP = 0, PF_FLUX_BZ = 1 } pf_flux;
+/* CG mass matrix: consistent (int rho N_a N_b, the Galerkin mass) or lumped (row sums). */
+typedef enum pf_mass { PF_MASS_CONSISTENT = 0, PF_MASS_LUMPED = 1 } pf_mass;
 
 /* A selection of boundary faces: those whose centroid lies in the box (bounds inclusive), or
  * within tol of the plane. */
@@ -96,6 +98,7 @@ typedef struct pf_scene {
     double penalty;   /* dg: eta of eq. 20; 0 = automatic (default): the smallest power of two
                          from 1 for which the stiffness matrix is positive definite */
     bool corotation;  /* default true */
+    pf_mass mass;     /* cg: consistent (default) or lumped */
 
     /* forces */
     pf_vec3 gravity;     /* acceleration (default 0, 0, -9.81) */
@@ -154,7 +157,7 @@ pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *
 pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err);
 
 /* A command-line override of one common key: key is one of method (dg|cg), degree, flux (ip|bz),
- * frames, dt, static, E, nu, density, penalty, substeps, corotation. Booleans (static,
+ * mass (consistent|lumped), frames, dt, static, E, nu, density, penalty, substeps, corotation. Booleans (static,
  * corotation) take true or false, NULL or empty meaning true. Numbers must be the whole of value
  * (strtod / base-10 strtol) and obey the same ranges as the file. static re-applies the rule "no
  * ground in a static scene unless the file gave one". PF_ERR_INVALID "key: reason, got 'value'"
@@ -189,8 +192,9 @@ bool pf_region_contains(const pf_region *r, pf_vec3 p);
 
 /* ==== simulator ===============================================================================
  * One scene on one mesh. Dynamic scenes advance frame by frame (pf_sim_frame); static scenes solve
- * K u = f once (pf_sim_solve_static). The DG method (scene->method = dg) is implemented;
- * method cg gives PF_ERR_UNSUPPORTED until the harmonic basis lands. */
+ * K u = f once (pf_sim_solve_static). Methods: DG (scene->method = dg, unknowns the elements'
+ * polynomial coefficients) and CG (cg: harmonic shape functions, 3 unknowns per free node, the
+ * nodes of fixed faces removed). */
 
 typedef struct pf_sim pf_sim;
 
@@ -213,6 +217,10 @@ typedef struct pf_sim_stats {
     int64_t steps, factorisations;
     int32_t fixed_faces, loaded_faces;
     int64_t contacts;        /* active contact points summed over steps */
+    /* cg only (0 for dg) */
+    int32_t closed_form_elems; /* tets and parallelepiped hexes: closed forms, MFS skipped */
+    int32_t harmonic_elems;    /* elements with MFS harmonic functions */
+    double basis_seconds;      /* shape-function set-up (part of setup_seconds) */
 } pf_sim_stats;
 
 /* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles loaded with
@@ -248,7 +256,8 @@ pf_status pf_sim_frame(pf_sim *sim, pf_error *err);
 double pf_sim_time(const pf_sim *sim);
 int32_t pf_sim_frame_index(const pf_sim *sim);
 
-/* Stitched nodal displacements (DG eq. 30), out [3 n_nodes]. */
+/* Nodal displacements, out [3 n_nodes]: stitched (DG eq. 30), or the nodal unknowns (CG; fixed
+ * nodes at their prescribed displacement). */
 void pf_sim_nodal_displacements(const pf_sim *sim, double *out);
 /* Per-element von Mises stress of the corotated linear strain at the element's centre. */
 void pf_sim_von_mises(const pf_sim *sim, double *out);
@@ -265,7 +274,7 @@ void pf_sim_set_affine_displacement(pf_sim *sim, const double a[9], const double
 
 /* The largest discontinuity of the DG displacement at a mesh node: the largest distance between
  * an element's own displacement at one of its nodes and the stitched (averaged) value there,
- * model units. It shrinks as the penalty grows (DG paper, fig. 1). */
+ * model units. It shrinks as the penalty grows (DG paper, fig. 1). 0 for cg (conforming). */
 double pf_sim_max_node_jump(const pf_sim *sim);
 
 /* Volume of the deformed body: the mesh's elements with the stitched displacement applied to

@@ -1,0 +1,306 @@
+/* CG assembly over the free nodes: element matrices warped by per-element rotations (harmonic
+ * paper sec. 6, stiffness warping after Mueller and Gross 2004) and scattered into 3 x 3 node
+ * blocks at slots looked up once (pf_cg_pattern).
+ *
+ * Corotated element force, for nodal positions x = X + u and the element rotation R:
+ *   f_e = -R K_e (R^T x - X) = -(R K_e R^T) u + R K_e (I - R^T) X,
+ * which vanishes for every rigid motion x = Q X + t with R = Q (R^T x - X is then the constant
+ * R^T t, in the null space of K_e): no ghost forces. Fixed nodes keep x = X + g: with the
+ * unknowns split into free (f) and fixed (c) rows, the free rows get -K'_ff u_f - K'_fc g_c. */
+#include <pf/fem.h>
+
+#include <string.h>
+
+void pf_cg_map_release(pf_cg_map *map)
+{
+    pf_free(map->node_block);
+    pf_free(map->block_node);
+    pf_free(map->slot);
+    pf_free(map->node_elem);
+    memset(map, 0, sizeof *map);
+}
+
+size_t pf_cg_scratch_size(const pf_cg *cg)
+{
+    size_t n = 3 * (size_t)cg->max_nodes;
+    return n * n + 3 * n;
+}
+
+static pf_status count_pairs(const pf_cg *cg, const pf_cg_map *map, int64_t *pairs)
+{
+    const pf_basis *b = &cg->basis;
+    *pairs = 0;
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t k = pf_basis_elem_nodes(b, e, &nodes), free_nodes = 0;
+        for (int32_t a = 0; a < k; ++a)
+            free_nodes += map->node_block[nodes[a]] >= 0;
+        *pairs += (int64_t)free_nodes * (free_nodes - 1) / 2;
+    }
+    return PF_OK;
+}
+
+pf_status pf_cg_pattern(const pf_cg *cg, const uint8_t *fixed, pf_block_matrix *k, pf_cg_map *map,
+                        pf_error *err)
+{
+    memset(map, 0, sizeof *map);
+    const pf_basis *b = &cg->basis;
+    size_t nn = (size_t)cg->n_nodes;
+    map->node_block = pf_alloc_array(nn + 1, sizeof *map->node_block);
+    map->block_node = pf_alloc_array(nn + 1, sizeof *map->block_node);
+    map->node_elem = pf_alloc_array(nn + 1, sizeof *map->node_elem);
+    map->slot = pf_alloc_array((size_t)cg->me_offsets[cg->n_elems] + 1, sizeof *map->slot);
+    if (!map->node_block || !map->block_node || !map->node_elem || !map->slot) {
+        pf_cg_map_release(map);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate the node map of %d nodes", (int)nn);
+    }
+    /* Nodes no element uses carry no unknowns either. */
+    for (size_t i = 0; i < nn; ++i)
+        map->node_elem[i] = -1;
+    for (int32_t e = cg->n_elems - 1; e >= 0; --e) {
+        const int32_t *nodes;
+        int32_t kn = pf_basis_elem_nodes(b, e, &nodes);
+        for (int32_t a = 0; a < kn; ++a)
+            map->node_elem[nodes[a]] = e;
+    }
+    map->n_free = 0;
+    for (size_t i = 0; i < nn; ++i) {
+        bool is_free = map->node_elem[i] >= 0 && !(fixed && fixed[i]);
+        map->node_block[i] = is_free ? map->n_free : -1;
+        if (is_free)
+            map->block_node[map->n_free++] = (int32_t)i;
+    }
+    int64_t n_pairs;
+    count_pairs(cg, map, &n_pairs);
+    int32_t *size = pf_alloc_array((size_t)map->n_free + 1, sizeof *size);
+    int32_t *pairs = pf_alloc_array(2 * (size_t)n_pairs + 1, sizeof *pairs);
+    if (!size || !pairs) {
+        pf_free(size);
+        pf_free(pairs);
+        pf_cg_map_release(map);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate %lld node pairs", (long long)n_pairs);
+    }
+    for (int32_t i = 0; i < map->n_free; ++i)
+        size[i] = 3;
+    int64_t at = 0;
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t kn = pf_basis_elem_nodes(b, e, &nodes);
+        for (int32_t a = 0; a < kn; ++a)
+            for (int32_t c = a + 1; c < kn; ++c) {
+                int32_t i = map->node_block[nodes[a]], j = map->node_block[nodes[c]];
+                if (i >= 0 && j >= 0) {
+                    pairs[at++] = i;
+                    pairs[at++] = j;
+                }
+            }
+    }
+    pf_status st = pf_block_matrix_create(k, map->n_free, size, n_pairs, pairs, err);
+    pf_free(size);
+    pf_free(pairs);
+    if (st < 0) {
+        pf_cg_map_release(map);
+        return st;
+    }
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t kn = pf_basis_elem_nodes(b, e, &nodes);
+        int64_t *slot = map->slot + cg->me_offsets[e];
+        for (int32_t a = 0; a < kn; ++a)
+            for (int32_t c = 0; c < kn; ++c) {
+                int32_t i = map->node_block[nodes[a]], j = map->node_block[nodes[c]];
+                slot[a * kn + c] = i >= 0 && j >= 0 ? pf_block_matrix_slot(k, i, j) : -1;
+            }
+    }
+    return PF_OK;
+}
+
+/* ---- rotations ---------------------------------------------------------------------------- */
+
+void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double *rot)
+{
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t k = pf_basis_elem_nodes(&cg->basis, e, &nodes);
+        pf_vec3 xc = pf_v3(0, 0, 0), rc = pf_v3(0, 0, 0);
+        for (int32_t a = 0; a < k; ++a) {
+            pf_vec3 r = pf_v3_load(x0 + 3 * (size_t)nodes[a]);
+            rc = pf_v3_add(rc, r);
+            xc = pf_v3_add(xc, pf_v3_add(r, pf_v3_load(u + 3 * (size_t)nodes[a])));
+        }
+        xc = pf_v3_scale(xc, 1.0 / k);
+        rc = pf_v3_scale(rc, 1.0 / k);
+        /* Shape matching: A = sum (x_a - x_c)(X_a - X_c)^T; R = rotation of A's polar form. */
+        pf_mat3 a = {{{0}}};
+        for (int32_t p = 0; p < k; ++p) {
+            pf_vec3 r = pf_v3_load(x0 + 3 * (size_t)nodes[p]);
+            pf_vec3 x = pf_v3_sub(pf_v3_add(r, pf_v3_load(u + 3 * (size_t)nodes[p])), xc);
+            r = pf_v3_sub(r, rc);
+            const double xv[3] = {x.x, x.y, x.z}, rv[3] = {r.x, r.y, r.z};
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    a.m[i][j] += xv[i] * rv[j];
+        }
+        pf_mat3 r = pf_mat3_polar_rotation(a);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                rot[9 * (size_t)e + 3 * i + j] = r.m[i][j];
+    }
+}
+
+/* ---- stiffness ---------------------------------------------------------------------------- */
+
+/* out = R K R^T per 3 x 3 block of the n x n matrix K (R row-major). */
+static void warp(const double *r, const double *kk, int32_t n, double *out)
+{
+    for (int32_t a = 0; a < n; a += 3)
+        for (int32_t c = 0; c < n; c += 3) {
+            double t[3][3];
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    t[i][j] = r[3 * i] * kk[(size_t)a * n + c + j] +
+                              r[3 * i + 1] * kk[(size_t)(a + 1) * n + c + j] +
+                              r[3 * i + 2] * kk[(size_t)(a + 2) * n + c + j];
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    out[(size_t)(a + i) * n + c + j] =
+                        t[i][0] * r[3 * j] + t[i][1] * r[3 * j + 1] + t[i][2] * r[3 * j + 2];
+        }
+}
+
+void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const double *rot,
+                              const double *x0, const double *g, double *scratch,
+                              pf_block_matrix *k, double *f)
+{
+    pf_block_matrix_zero(k);
+    const pf_basis *b = &cg->basis;
+    size_t nmax = 3 * (size_t)cg->max_nodes;
+    double *kw = scratch, *y = scratch + nmax * nmax, *z = y + nmax;
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t kn = pf_basis_elem_nodes(b, e, &nodes), n = 3 * kn;
+        const double *ke = pf_cg_elem_stiffness(cg, e);
+        const double *r = rot ? rot + 9 * (size_t)e : NULL;
+        if (r)
+            warp(r, ke, n, kw);
+        else
+            memcpy(kw, ke, (size_t)n * n * sizeof *kw);
+        /* Constant force of the free rows: R K (I - R^T) X - K' g_c (K' = R K R^T). */
+        bool any = false;
+        if (r) {
+            for (int32_t a = 0; a < kn; ++a) {
+                const double *xa = x0 + 3 * (size_t)nodes[a];
+                for (int i = 0; i < 3; ++i)
+                    y[3 * a + i] = xa[i] - (r[i] * xa[0] + r[3 + i] * xa[1] + r[6 + i] * xa[2]);
+            }
+            for (int32_t p = 0; p < n; ++p) {
+                double s = 0;
+                for (int32_t q = 0; q < n; ++q)
+                    s += ke[(size_t)p * n + q] * y[q];
+                z[p] = s;
+            }
+            for (int32_t a = 0; a < kn; ++a)
+                for (int i = 0; i < 3; ++i)
+                    y[3 * a + i] = r[3 * i] * z[3 * a] + r[3 * i + 1] * z[3 * a + 1] +
+                                   r[3 * i + 2] * z[3 * a + 2];
+            any = true;
+        } else {
+            memset(y, 0, (size_t)n * sizeof *y);
+        }
+        if (g)
+            for (int32_t c = 0; c < kn; ++c) {
+                if (map->node_block[nodes[c]] >= 0)
+                    continue;
+                const double *gc = g + 3 * (size_t)nodes[c];
+                for (int32_t p = 0; p < n; ++p)
+                    y[p] -= kw[(size_t)p * n + 3 * c] * gc[0] +
+                            kw[(size_t)p * n + 3 * c + 1] * gc[1] +
+                            kw[(size_t)p * n + 3 * c + 2] * gc[2];
+                any = true;
+            }
+        const int64_t *slot = map->slot + cg->me_offsets[e];
+        for (int32_t a = 0; a < kn; ++a) {
+            int32_t i = map->node_block[nodes[a]];
+            if (i < 0)
+                continue;
+            if (any)
+                for (int c = 0; c < 3; ++c)
+                    f[3 * (size_t)i + c] += y[3 * a + c];
+            for (int32_t c = a; c < kn; ++c) {
+                int32_t j = map->node_block[nodes[c]];
+                if (j >= 0)
+                    pf_block_matrix_add(k, slot[a * kn + c], i, j, kw + (size_t)3 * a * n + 3 * c,
+                                        n);
+            }
+        }
+    }
+}
+
+/* ---- mass --------------------------------------------------------------------------------- */
+
+void pf_cg_add_mass(const pf_cg *cg, const pf_cg_map *map, bool lumped, double alpha,
+                    pf_block_matrix *k)
+{
+    if (lumped) {
+        for (int32_t i = 0; i < map->n_free; ++i) {
+            double m = alpha * cg->lumped[map->block_node[i]];
+            const double block[9] = {m, 0, 0, 0, m, 0, 0, 0, m};
+            pf_block_matrix_add(k, pf_block_matrix_slot(k, i, i), i, i, block, 3);
+        }
+        return;
+    }
+    const pf_basis *b = &cg->basis;
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t kn = pf_basis_elem_nodes(b, e, &nodes);
+        const double *me = pf_cg_elem_mass(cg, e);
+        const int64_t *slot = map->slot + cg->me_offsets[e];
+        for (int32_t a = 0; a < kn; ++a) {
+            int32_t i = map->node_block[nodes[a]];
+            if (i < 0)
+                continue;
+            for (int32_t c = a; c < kn; ++c) {
+                int32_t j = map->node_block[nodes[c]];
+                if (j < 0)
+                    continue;
+                double m = alpha * me[a * kn + c];
+                const double block[9] = {m, 0, 0, 0, m, 0, 0, 0, m};
+                pf_block_matrix_add(k, slot[a * kn + c], i, j, block, 3);
+            }
+        }
+    }
+}
+
+void pf_cg_mass_mul(const pf_cg *cg, const pf_cg_map *map, bool lumped, double alpha,
+                    const double *x, double *y)
+{
+    if (lumped) {
+        for (int32_t i = 0; i < map->n_free; ++i) {
+            double m = alpha * cg->lumped[map->block_node[i]];
+            for (int c = 0; c < 3; ++c)
+                y[3 * (size_t)i + c] += m * x[3 * (size_t)i + c];
+        }
+        return;
+    }
+    const pf_basis *b = &cg->basis;
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t kn = pf_basis_elem_nodes(b, e, &nodes);
+        const double *me = pf_cg_elem_mass(cg, e);
+        for (int32_t a = 0; a < kn; ++a) {
+            int32_t i = map->node_block[nodes[a]];
+            if (i < 0)
+                continue;
+            for (int32_t c = 0; c < kn; ++c) {
+                int32_t j = map->node_block[nodes[c]];
+                if (j < 0)
+                    continue;
+                double m = alpha * me[a * kn + c];
+                for (int d = 0; d < 3; ++d)
+                    y[3 * (size_t)i + d] += m * x[3 * (size_t)j + d];
+            }
+        }
+    }
+}

@@ -1,0 +1,366 @@
+/* The CG method for the simulator (harmonic paper sec. 6): nodal unknowns on the harmonic (or
+ * closed-form) shape functions of pf/basis.h, 3 per free node. Fixed regions select boundary faces
+ * by their centroid; every node of a selected face is fixed strongly at the region's displacement
+ * (its unknowns removed; the prescribed displacement enters the right-hand side). Corotation warps
+ * each element's stiffness with its shape-matching rotation (pf_cg_rotations). Mass: consistent
+ * (the default) or lumped (scene key method.mass). Contact is the driver's, through the nodal map
+ * (the identity on free nodes). */
+#include "method.h"
+
+#include <math.h>
+#include <string.h>
+
+#include <pf/fem.h>
+
+typedef struct cg_method {
+    const pf_scene *scene;
+    const pf_mesh *mesh;
+    pf_cg cg;
+    pf_cg_map map;
+    bool lumped;
+    uint8_t *fixed;  /* [n_nodes] */
+    double *g;       /* [3 n_nodes] prescribed displacement of fixed nodes, 0 elsewhere */
+    double *u_full;  /* [3 n_nodes] scratch: nodal displacements of a state */
+    double *rot;     /* [9 n_elems] */
+    double *scratch; /* [pf_cg_scratch_size] */
+    pf_boundary bd;  /* boundary faces, triangulated (loads only) */
+    /* the identity on free nodes as method.h's nodal map (contact) */
+    int64_t *map_offsets; /* [n_nodes + 1] */
+    int64_t *map_triple;  /* [n_free] */
+    double *map_w;        /* [n_free] */
+} cg_method;
+
+static int64_t n_dofs(const void *m)
+{
+    return 3 * (int64_t)((const cg_method *)m)->map.n_free;
+}
+
+/* The pattern was built at creation (it fixes the unknowns); hand over a copy's ownership. */
+static pf_status pattern(const void *m, pf_block_matrix *k, pf_error *err)
+{
+    const cg_method *c = m;
+    pf_cg_map map;
+    PF_TRY(pf_cg_pattern(&c->cg, c->fixed, k, &map, err));
+    pf_cg_map_release(&map);
+    return PF_OK;
+}
+
+/* Free unknowns u [3 n_free] and the prescribed displacements as nodal values out [3 n_nodes]. */
+static void to_nodal(const cg_method *c, const double *u, double *out)
+{
+    memcpy(out, c->g, 3 * (size_t)c->cg.n_nodes * sizeof *out);
+    for (int32_t i = 0; i < c->map.n_free; ++i)
+        memcpy(out + 3 * (size_t)c->map.block_node[i], u + 3 * (size_t)i, 3 * sizeof *out);
+}
+
+static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *k, double *f)
+{
+    cg_method *c = m;
+    if (corotate) {
+        to_nodal(c, u, c->u_full);
+        pf_cg_rotations(&c->cg, c->mesh->x, c->u_full, c->rot);
+    }
+    pf_cg_assemble_stiffness(&c->cg, &c->map, corotate ? c->rot : NULL, c->mesh->x, c->g,
+                             c->scratch, k, f);
+}
+
+static void add_mass(const void *m, double alpha, pf_block_matrix *k)
+{
+    const cg_method *c = m;
+    pf_cg_add_mass(&c->cg, &c->map, c->lumped, alpha, k);
+}
+
+static void mass_mul(const void *m, double alpha, const double *x, double *y)
+{
+    const cg_method *c = m;
+    pf_cg_mass_mul(&c->cg, &c->map, c->lumped, alpha, x, y);
+}
+
+/* Tractions on the boundary faces the loads select, gravity and body forces, as nodal loads;
+ * the free rows are kept. */
+static void external_forces(const void *m, double *f)
+{
+    const cg_method *c = m;
+    const pf_scene *sc = c->scene;
+    const pf_mesh *mesh = c->mesh;
+    double *nodal = c->u_full; /* free at this point: used as the nodal load */
+    memset(nodal, 0, 3 * (size_t)mesh->n_nodes * sizeof *nodal);
+    const pf_boundary *bd = &c->bd;
+    for (int32_t q = 0; q < bd->n_faces; ++q) {
+        int32_t face = bd->face[q];
+        const uint32_t *idx = mesh->face_nodes + mesh->face_offsets[face];
+        int64_t n = mesh->face_offsets[face + 1] - mesh->face_offsets[face];
+        pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
+        for (int32_t k = 0; k < sc->n_loads; ++k)
+            if (pf_region_contains(&sc->loads[k].region, centroid))
+                pf_cg_add_traction(&c->cg, mesh, bd, q, sc->loads[k].traction, nodal);
+    }
+    pf_vec3 body = pf_v3_add(pf_v3_scale(sc->gravity, sc->density), sc->body_force);
+    if (body.x != 0 || body.y != 0 || body.z != 0)
+        pf_cg_add_body_force(&c->cg, body, nodal);
+    for (int32_t i = 0; i < c->map.n_free; ++i)
+        for (int d = 0; d < 3; ++d)
+            f[3 * (size_t)i + d] += nodal[3 * (size_t)c->map.block_node[i] + d];
+}
+
+/* The nodal map of method.h: weight 1 on a free node's own triple. A fixed node has no entry: no
+ * unknown moves it, so contact there has nothing to act on (its prescribed displacement is not
+ * seen by the contact search). */
+static pf_status build_nodal_map(cg_method *c, pf_error *err)
+{
+    int32_t nn = c->cg.n_nodes, nf = c->map.n_free;
+    c->map_offsets = pf_alloc_array((size_t)nn + 1, sizeof *c->map_offsets);
+    c->map_triple = pf_alloc_array((size_t)nf + 1, sizeof *c->map_triple);
+    c->map_w = pf_alloc_array((size_t)nf + 1, sizeof *c->map_w);
+    PF_CHECK(c->map_offsets && c->map_triple && c->map_w, err, PF_ERR_NOMEM,
+             "cannot allocate the nodal map of %d nodes", (int)nn);
+    int64_t q = 0;
+    c->map_offsets[0] = 0;
+    for (int32_t i = 0; i < nn; ++i) {
+        int32_t block = c->map.node_block[i];
+        if (block >= 0) {
+            c->map_triple[q] = block;
+            c->map_w[q] = 1;
+            ++q;
+        }
+        c->map_offsets[i + 1] = q;
+    }
+    return PF_OK;
+}
+
+static void nodal_map(const void *m, const int64_t **offsets, const int64_t **triple,
+                      const double **w)
+{
+    const cg_method *c = m;
+    *offsets = c->map_offsets;
+    *triple = c->map_triple;
+    *w = c->map_w;
+}
+
+/* (lambda + 2 mu) h, h the mean element size (half the nodes' bounding-box diagonal), times ten:
+ * the DG method's rule. */
+static double ground_stiffness(const void *m)
+{
+    const cg_method *c = m;
+    double h = 0;
+    for (int32_t e = 0; e < c->cg.n_elems; ++e)
+        h += c->cg.size[e];
+    h /= c->cg.n_elems > 0 ? c->cg.n_elems : 1;
+    return 10 * (c->cg.lambda + 2 * c->cg.mu) * h;
+}
+
+static int32_t element_of_dof(const void *m, int64_t k)
+{
+    const cg_method *c = m;
+    if (k < 0 || k >= 3 * (int64_t)c->map.n_free)
+        return -1;
+    return c->map.node_elem[c->map.block_node[k / 3]];
+}
+
+static void nodal_displacements(const void *m, const double *u, double *out)
+{
+    to_nodal(m, u, out);
+}
+
+static void von_mises(const void *m, const double *u, double *out)
+{
+    const cg_method *c = m;
+    to_nodal(c, u, c->u_full);
+    pf_cg_von_mises(&c->cg, c->u_full, out);
+}
+
+/* Kinetic energy 1/2 v^T M v, momentum sum_ab M_ab v_b and angular momentum
+ * sum_ab M_ab (x_a + u_a) x v_b (lumped: the diagonal), fixed nodes at rest. */
+static void momentum(const void *m, const double *u, const double *v, double *kinetic,
+                     pf_vec3 *linear, pf_vec3 *angular)
+{
+    const cg_method *c = m;
+    const pf_cg *cg = &c->cg;
+    const int32_t *block = c->map.node_block;
+    double ke = 0;
+    pf_vec3 p = {0, 0, 0}, l = {0, 0, 0};
+    if (c->lumped) {
+        for (int32_t i = 0; i < c->map.n_free; ++i) {
+            int32_t node = c->map.block_node[i];
+            double mi = cg->lumped[node];
+            pf_vec3 vi = pf_v3_load(v + 3 * (size_t)i);
+            pf_vec3 xi =
+                pf_v3_add(pf_v3_load(c->mesh->x + 3 * (size_t)node), pf_v3_load(u + 3 * (size_t)i));
+            ke += 0.5 * mi * pf_v3_dot(vi, vi);
+            p = pf_v3_add(p, pf_v3_scale(vi, mi));
+            l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xi, vi), mi));
+        }
+    } else {
+        for (int32_t e = 0; e < cg->n_elems; ++e) {
+            const int32_t *nodes;
+            int32_t k = pf_basis_elem_nodes(&cg->basis, e, &nodes);
+            const double *me = pf_cg_elem_mass(cg, e);
+            for (int32_t a = 0; a < k; ++a) {
+                int32_t i = block[nodes[a]];
+                pf_vec3 xa = pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]);
+                xa = pf_v3_add(xa, i >= 0 ? pf_v3_load(u + 3 * (size_t)i)
+                                          : pf_v3_load(c->g + 3 * (size_t)nodes[a]));
+                pf_vec3 va = i >= 0 ? pf_v3_load(v + 3 * (size_t)i) : pf_v3(0, 0, 0);
+                for (int32_t b = 0; b < k; ++b) {
+                    int32_t j = block[nodes[b]];
+                    if (j < 0)
+                        continue;
+                    pf_vec3 vb = pf_v3_load(v + 3 * (size_t)j);
+                    double mab = me[a * k + b];
+                    ke += 0.5 * mab * pf_v3_dot(va, vb);
+                    p = pf_v3_add(p, pf_v3_scale(vb, mab));
+                    l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+                }
+            }
+        }
+    }
+    *kinetic = ke;
+    *linear = p;
+    *angular = l;
+}
+
+/* u = A x + b at the free nodes (fixed nodes keep their prescribed displacement). */
+static void affine(const void *m, const double a[9], const double b[3], double *u)
+{
+    const cg_method *c = m;
+    for (int32_t i = 0; i < c->map.n_free; ++i) {
+        const double *x = c->mesh->x + 3 * (size_t)c->map.block_node[i];
+        for (int r = 0; r < 3; ++r)
+            u[3 * (size_t)i + r] =
+                a[3 * r] * x[0] + a[3 * r + 1] * x[1] + a[3 * r + 2] * x[2] + b[r];
+    }
+}
+
+static double max_node_jump(const void *m, const double *u)
+{
+    (void)m;
+    (void)u;
+    return 0;
+}
+
+static void destroy(void *m)
+{
+    cg_method *c = m;
+    if (!c)
+        return;
+    pf_cg_release(&c->cg);
+    pf_cg_map_release(&c->map);
+    pf_free(c->fixed);
+    pf_free(c->g);
+    pf_free(c->u_full);
+    pf_free(c->rot);
+    pf_free(c->scratch);
+    pf_boundary_release(&c->bd);
+    pf_free(c->map_offsets);
+    pf_free(c->map_triple);
+    pf_free(c->map_w);
+    pf_free(c);
+}
+
+static const pf_method_ops CG_OPS = {
+    .n_dofs = n_dofs,
+    .pattern = pattern,
+    .stiffness = stiffness,
+    .add_mass = add_mass,
+    .mass_mul = mass_mul,
+    .external_forces = external_forces,
+    .nodal_map = nodal_map,
+    .ground_stiffness = ground_stiffness,
+    .set_penalty = NULL,
+    .rigid_mode_shift = NULL,
+    .element_of_dof = element_of_dof,
+    .nodal_displacements = nodal_displacements,
+    .von_mises = von_mises,
+    .momentum = momentum,
+    .affine = affine,
+    .max_node_jump = max_node_jump,
+    .destroy = destroy,
+};
+
+/* Every node of a boundary face whose centroid lies in a fixed region is fixed to that region's
+ * displacement (the first region that selects the face); counts the faces fixed and loaded. */
+static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loaded_faces,
+                              pf_error *err)
+{
+    const pf_scene *sc = c->scene;
+    const pf_mesh *mesh = c->mesh;
+    *fixed_faces = *loaded_faces = 0;
+    for (int32_t f = 0; f < mesh->n_faces; ++f) {
+        if (mesh->face_elems[2 * f] >= 0 && mesh->face_elems[2 * f + 1] >= 0)
+            continue;
+        const uint32_t *idx = mesh->face_nodes + mesh->face_offsets[f];
+        int64_t n = mesh->face_offsets[f + 1] - mesh->face_offsets[f];
+        pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
+        for (int32_t k = 0; k < sc->n_fixed; ++k)
+            if (pf_region_contains(&sc->fixed[k].region, centroid)) {
+                for (int64_t q = 0; q < n; ++q) {
+                    if (c->fixed[idx[q]])
+                        continue;
+                    c->fixed[idx[q]] = 1;
+                    pf_v3_store(sc->fixed[k].displacement, c->g + 3 * (size_t)idx[q]);
+                }
+                ++*fixed_faces;
+                break;
+            }
+        for (int32_t k = 0; k < sc->n_loads; ++k)
+            if (pf_region_contains(&sc->loads[k].region, centroid)) {
+                ++*loaded_faces;
+                break;
+            }
+    }
+    (void)err;
+    return PF_OK;
+}
+
+void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic,
+                     double *basis_seconds)
+{
+    const cg_method *c = ctx;
+    *closed_form = c->cg.n_closed_form;
+    *harmonic = c->cg.n_elems - c->cg.n_closed_form;
+    *basis_seconds = c->cg.basis_seconds;
+}
+
+pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
+                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err)
+{
+    *ops = &CG_OPS;
+    *ctx = NULL;
+    cg_method *c = pf_calloc(1, sizeof *c);
+    PF_CHECK(c, err, PF_ERR_NOMEM, "cannot allocate the CG method");
+    c->scene = scene;
+    c->mesh = mesh;
+    c->lumped = scene->mass == PF_MASS_LUMPED;
+    pf_status st = pf_cg_create(&c->cg, mesh, scene->E, scene->nu, scene->density, NULL, err);
+    if (st >= 0) {
+        size_t nn = (size_t)mesh->n_nodes, ne = (size_t)mesh->n_elems;
+        c->fixed = pf_calloc(nn + 1, sizeof *c->fixed);
+        c->g = pf_calloc(3 * nn + 1, sizeof *c->g);
+        c->u_full = pf_calloc(3 * nn + 1, sizeof *c->u_full);
+        c->rot = pf_alloc_array(9 * ne + 1, sizeof *c->rot);
+        c->scratch = pf_alloc_array(pf_cg_scratch_size(&c->cg) + 1, sizeof *c->scratch);
+        st = c->fixed && c->g && c->u_full && c->rot && c->scratch
+                 ? PF_OK
+                 : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                "cannot allocate the CG state of %d nodes", (int)nn);
+    }
+    if (st >= 0)
+        st = select_nodes(c, fixed_faces, loaded_faces, err);
+    if (st >= 0 && scene->n_loads > 0)
+        st = pf_boundary_extract(mesh, &c->bd, err);
+    if (st >= 0) {
+        /* The unknowns: the map of the free nodes (the driver builds its own matrix from the
+         * same pattern). */
+        pf_block_matrix probe = {0};
+        st = pf_cg_pattern(&c->cg, c->fixed, &probe, &c->map, err);
+        pf_block_matrix_release(&probe);
+    }
+    if (st >= 0)
+        st = build_nodal_map(c, err);
+    if (st < 0) {
+        destroy(c);
+        return st;
+    }
+    *ctx = c;
+    return PF_OK;
+}

@@ -481,6 +481,34 @@ static int cantilever_table(void)
     return 0;
 }
 
+/* BZ's error against the IP limit as the penalty grows (the measurements behind the automatic
+ * BZ penalty, docs/scene.md): tip deflections of the cantilever for BZ of degree 1 and 2 on
+ * 4r x r x r hexes, r = 1, 2, 4, for eta = 2^k, k = 0..12, against the most refined IP degree-2
+ * run (r = 8; quick: r = 2). error is signed: > 0 softer than the limit, < 0 stiffer. */
+static int bz_penalty_table(void)
+{
+    machine_line("BZ cantilever tip against the IP degree-2 limit as eta grows");
+    if (header)
+        printf("flux,degree,r,elems,dofs,eta,tip,error\n");
+    cantilever_run ref = {.method = "IP2", .ip = true, .degree = 2, .r = quick ? 2 : 8};
+    if (cantilever(&ref))
+        return 1;
+    printf("IP,2,%d,%d,%lld,%g,%.6e,0\n", ref.r, (int)ref.elems, (long long)ref.dofs, ref.eta,
+           ref.tip);
+    for (int degree = 1; degree <= 2; ++degree)
+        for (int r = 1; r <= (quick ? 2 : 4); r *= 2)
+            for (int k = 0; k <= 12; ++k) {
+                cantilever_run run = {.method = "BZ", .ip = false, .degree = degree, .r = r,
+                                      .eta = ldexp(1, k)};
+                if (cantilever(&run))
+                    return 1;
+                printf("BZ,%d,%d,%d,%lld,%g,%.6e,%+.4e\n", degree, r, (int)run.elems,
+                       (long long)run.dofs, run.eta, run.tip, run.tip / ref.tip - 1);
+                fflush(stdout);
+            }
+    return 0;
+}
+
 /* ---- dynamic steps ----------------------------------------------------------------------- */
 
 static int step_row(int n, int degree)
@@ -565,6 +593,8 @@ int main(int argc, char **argv)
         return cantilever_table();
     if (strcmp(what, "step") == 0)
         return step_table();
-    fprintf(stderr, "usage: bench_dg table1|cantilever|step [--quick] [--sweep] [--no-header]\n");
+    if (strcmp(what, "bzpenalty") == 0)
+        return bz_penalty_table();
+    fprintf(stderr, "usage: bench_dg table1|cantilever|step|bzpenalty [--quick] [--sweep] [--no-header]\n");
     return 2;
 }

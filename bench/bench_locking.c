@@ -11,6 +11,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include <pf/fem.h>
@@ -79,7 +80,8 @@ static double bottom_sag(const pf_dg *dg, const double *u)
     return total / area;
 }
 
-static pf_status run(int n, int degree, int ip, double nu, pf_error *err)
+/* One solve; eta > 0 is used as given, eta = 0 searches (sec. 9.1). */
+static pf_status run(int n, int degree, int ip, double nu, double eta, pf_error *err)
 {
     double t0 = now();
     pf_mesh m = {0};
@@ -108,7 +110,8 @@ static pf_status run(int n, int degree, int ip, double nu, pf_error *err)
             fixed[fc->face] = (fc->elem[1] < 0 && fabs(fc->centroid.z - 1) < 1e-12) ? 0 : -1;
         }
         s = PF_ERR_NUMERIC;
-        for (terms.eta = 1; terms.eta < 1e6 && s == PF_ERR_NUMERIC; terms.eta *= 2) {
+        for (terms.eta = eta > 0 ? eta : 1; terms.eta < 1e6 && s == PF_ERR_NUMERIC;
+             terms.eta *= 2) {
             pf_dg_assemble_stiffness(&dg, &terms, NULL, NULL, &k, rhs);
             s = c ? PF_OK : pf_cholesky_create(&c, &k, err);
             if (s >= 0)
@@ -137,22 +140,35 @@ static pf_status run(int n, int degree, int ip, double nu, pf_error *err)
     return s;
 }
 
-int main(void)
+int main(int argc, char **argv)
 {
     pf_error err = {0};
-    printf("method,degree,nu,tets,unknowns,eta,sag,seconds\n");
     const double nus[2] = {0.3, 0.499};
-    for (int ip = 1; ip >= 0; --ip)
-        for (int degree = 1; degree <= 2; ++degree)
-            for (int v = 0; v < 2; ++v)
-                if (run(5, degree, ip, nus[v], &err) < 0) {
-                    fprintf(stderr, "%s\n", err.msg);
-                    return 1;
-                }
-    for (int v = 0; v < 2; ++v)
-        if (run(10, 2, 1, nus[v], &err) < 0) {
-            fprintf(stderr, "%s\n", err.msg);
-            return 1;
-        }
+    const char *what = argc > 1 ? argv[1] : "table";
+    printf("method,degree,nu,tets,unknowns,eta,sag,seconds\n");
+    pf_status s = PF_OK;
+    if (strcmp(what, "table") == 0) {
+        for (int ip = 1; ip >= 0 && s >= 0; --ip)
+            for (int degree = 1; degree <= 2 && s >= 0; ++degree)
+                for (int v = 0; v < 2 && s >= 0; ++v)
+                    s = run(5, degree, ip, nus[v], 0, &err);
+        for (int v = 0; v < 2 && s >= 0; ++v)
+            s = run(10, 2, 1, nus[v], 0, &err);
+    } else if (strcmp(what, "reference") == 0 && argc == 3 && atoi(argv[2]) > 0) {
+        for (int v = 0; v < 2 && s >= 0; ++v)
+            s = run(atoi(argv[2]), 2, 1, nus[v], 0, &err);
+    } else if (strcmp(what, "bz") == 0) {
+        for (int degree = 1; degree <= 2 && s >= 0; ++degree)
+            for (int v = 0; v < 2 && s >= 0; ++v)
+                for (int k = 0; k <= 12 && s >= 0; k += 2)
+                    s = run(5, degree, 0, nus[v], ldexp(1, k), &err);
+    } else {
+        fprintf(stderr, "usage: bench_locking [table | reference N | bz]\n");
+        return 2;
+    }
+    if (s < 0) {
+        fprintf(stderr, "bench_locking: %s\n", err.msg);
+        return 1;
+    }
     return 0;
 }

@@ -23,6 +23,8 @@
  *   solve_s. error: relative to the most refined IP degree-2 run (which prints 0); beam_error:
  *   relative to Timoshenko's beam value (not the 3-D limit).
  *
+ * bench_dg bzpenalty: the BZ cantilever tip against the IP limit as eta grows (below).
+ *
  * bench_dg step: dynamic, corotated steps of an n^3 hex cube (the default scene: dropped under
  *   gravity, Rayleigh damping, 5 substeps) against one numeric factorisation of the same step
  *   matrix. Columns: n,degree,dofs,steps,step_ms,assemble_ms,factor_ms,solve_ms,other_ms,cpu_ms,
@@ -35,7 +37,7 @@
  * file), --quick (small sizes only, a smoke test), --sweep (step: all but the largest case, for
  * repeating under many thread settings within minutes). The committed results come from
  *   bench_dg cantilever > dg_cantilever.csv;  bench_dg table1 > dg_table1.csv;
- *   bench_dg step > dg_step.csv;  then, for each setting S of the thread study,
+ *   bench_dg step > dg_step.csv;  bench_dg bzpenalty > dg_bz_penalty.csv;  then, for each setting S of the thread study,
  *   env S bench_dg table1 --no-header >> dg_table1.csv   (two settings)
  *   env S bench_dg step [--sweep] --no-header >> dg_step.csv
  * (about 4 minutes in all on the 2-core machine). */

@@ -6,6 +6,11 @@
  * which K is positive definite (sec. 9.1); BZ is definite for any eta, so it gets eta = 1 and is
  * shown for completeness only.
  *
+ * bench_locking [table]: the runs above (bench/results/locking.csv);
+ * bench_locking reference N: IP degree 2 on n = N (N^3 x 6 tets), both nu;
+ * bench_locking bz: BZ of degree 1 and 2 on 750 tets, both nu, eta = 2^k, k = 0..12
+ *   (bench/results/locking_bz.csv: the measurements behind the automatic BZ penalty).
+ *
  * CSV on stdout: method,degree,nu,tets,unknowns,eta,sag,seconds */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <math.h>
@@ -160,7 +165,7 @@ int main(int argc, char **argv)
     } else if (strcmp(what, "bz") == 0) {
         for (int degree = 1; degree <= 2 && s >= 0; ++degree)
             for (int v = 0; v < 2 && s >= 0; ++v)
-                for (int k = 0; k <= 12 && s >= 0; k += 2)
+                for (int k = 0; k <= 12 && s >= 0; ++k)
                     s = run(5, degree, 0, nus[v], ldexp(1, k), &err);
     } else {
         fprintf(stderr, "usage: bench_locking [table | reference N | bz]\n");

@@ -8,7 +8,8 @@
  *   g = u weakly on the whole boundary (IP), on hexes, tets and a sliced sphere (whose domain is
  *   the polyhedral surface itself). The L2 error must fall like h^(p+1).
  * - Locking (K09 fig. 9): a cube of 750 tets clamped at the top sags under its own weight; at
- *   nu = 0.499 DG must stay close to a converged reference, and the sag must be symmetric. */
+ *   nu = 0.3 and 0.499 DG must stay close to a converged reference, and the sag must be
+ *   symmetric, where the conforming-like solution (BZ, huge penalty) locks and is lopsided. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -555,17 +556,24 @@ static void l2_convergence_sliced_sphere(void **state)
 
 /* ---- locking ------------------------------------------------------------------------------ */
 
-/* Sag of the reference: IP degree 2 on the 10 x 10 x 10 x 6 = 6000-tet cube, nu = 0.499, from
- * bench/bench_locking (bench/results/locking.csv, row "ip,2,0.499,6000"). */
-static const double REFERENCE_SAG = -4.035172e-02;
+/* Sags of the reference at nu = 0.3 and 0.499: IP degree 2 on the cube refined once, 10^3 x 6 =
+ * 6000 tets (180,000 unknowns), too costly for ctest (24 s and 2.5 GB each), so computed by
+ *   bench_locking table   (bench/results/locking.csv, rows "ip,2,0.3,6000" and "ip,2,0.499,6000").
+ * The issue asks for the mesh refined twice (48,000 tets, 1.44 million unknowns); its Cholesky
+ * factor, growing like unknowns^(4/3) from the 2.5 GB measured here, would need about 40 GB, more
+ * than the machine has. How converged this one is: it differs from the 750-tet IP degree-2 sag by
+ * 0.10 % (nu = 0.3) and 0.78 % (nu = 0.499), so with errors at least halving per refinement the
+ * reference is within those of the limit, well inside the bounds below. */
+static const double REFERENCE_SAG[2] = {-4.638304e-02, -4.035172e-02};
 
 typedef struct sag_result {
     double mean;         /* mean u_z over the bottom face (negative: down) */
     double cell[5][5];   /* mean u_z over each bottom cell (i, j) */
 } sag_result;
 
-/* The cube of 5^3 x 6 tets, clamped (weak u = 0) on the top face, under gravity. */
-static void hanging_cube(int degree, bool ip, double nu, sag_result *r)
+/* The cube of 5^3 x 6 tets, clamped (weak u = 0) on the top face, under gravity; the penalty
+ * search starts at eta. */
+static void hanging_cube(int degree, bool ip, double nu, double eta, sag_result *r)
 {
     pf_error err = {0};
     pf_mesh m = {0};
@@ -584,7 +592,7 @@ static void hanging_cube(int degree, bool ip, double nu, sag_result *r)
     pf_block_matrix k;
     assert_int_equal(pf_dg_pattern(&dg, &k, &err), PF_OK);
     pf_cholesky *c = NULL;
-    assemble_definite(&dg, &terms, 1, &k, &c);
+    assemble_definite(&dg, &terms, eta, &k, &c);
     double *rhs = calloc((size_t)dg.n_dofs, sizeof *rhs);
     double *x = calloc((size_t)dg.n_dofs, sizeof *x);
     pf_dg_add_body_force(&dg, (pf_vec3){0, 0, -rho * gravity}, rhs);
@@ -635,23 +643,45 @@ static double asymmetry(const sag_result *r)
     return worst / fabs(r->mean);
 }
 
-static void no_locking_at_nu_0499(void **state)
+static void no_locking(void **state)
 {
     (void)state;
     size_t live = pf_alloc_live_bytes();
-    sag_result r1, r2;
-    hanging_cube(1, true, 0.499, &r1);
-    hanging_cube(2, true, 0.499, &r2);
-    printf("hanging cube, 750 tets, nu = 0.499: IP p=1 sag %.6e (asym %.3g), IP p=2 sag %.6e "
-           "(asym %.3g), reference %.6e\n",
-           r1.mean, asymmetry(&r1), r2.mean, asymmetry(&r2), REFERENCE_SAG);
-    assert_true(fabs(r2.mean - REFERENCE_SAG) <= 0.05 * fabs(REFERENCE_SAG));
-    assert_true(fabs(r1.mean - REFERENCE_SAG) <= 0.15 * fabs(REFERENCE_SAG));
-    /* The Kuhn split is not mirror-symmetric, so the per-cell sags of mirror cells differ by the
-     * discretisation error: measured 1.1 % of the mean sag for p = 2 and 6.3 % for p = 1; the
-     * bounds leave a factor of about 2 (a locking, mesh-driven solution is far more lopsided). */
-    assert_true(asymmetry(&r2) <= 0.02);
-    assert_true(asymmetry(&r1) <= 0.12);
+    const double nus[2] = {0.3, 0.499};
+    for (int v = 0; v < 2; ++v) {
+        sag_result r1, r2, cg;
+        hanging_cube(1, true, nus[v], 1, &r1);
+        hanging_cube(2, true, nus[v], 1, &r2);
+        hanging_cube(1, false, nus[v], 4096, &cg);
+        double ref = REFERENCE_SAG[v];
+        printf("hanging cube, 750 tets, nu = %g: IP p=1 sag %.6e (%+.2f %%, asym %.3g), IP p=2 "
+               "sag %.6e (%+.2f %%, asym %.3g); BZ p=1 eta 4096 (~CG) %.6e (%+.2f %%, asym "
+               "%.3g); reference %.6e\n",
+               nus[v], r1.mean, 100 * (r1.mean / ref - 1), asymmetry(&r1), r2.mean,
+               100 * (r2.mean / ref - 1), asymmetry(&r2), cg.mean, 100 * (cg.mean / ref - 1),
+               asymmetry(&cg), ref);
+        if (v == 0) {
+            /* nu = 0.3 locks nothing: measured -0.1 % for both degrees, asymmetry 2.8 % (p = 1)
+             * and 0.2 % (p = 2); the bounds leave a factor of about 2 over those and over the
+             * reference's own uncertainty (see REFERENCE_SAG) */
+            assert_true(fabs(r2.mean - ref) <= 0.01 * fabs(ref));
+            assert_true(fabs(r1.mean - ref) <= 0.01 * fabs(ref));
+            assert_true(asymmetry(&r2) <= 0.005);
+            assert_true(asymmetry(&r1) <= 0.06);
+        } else {
+            /* the issue's bounds at nu = 0.499 (measured -0.8 % and -6.6 %); the asymmetry is
+             * the discretisation error of the Kuhn split, which is not mirror-symmetric:
+             * measured 1.1 % (p = 2) and 6.3 % (p = 1), bounds a factor of about 2 above */
+            assert_true(fabs(r2.mean - ref) <= 0.05 * fabs(ref));
+            assert_true(fabs(r1.mean - ref) <= 0.15 * fabs(ref));
+            assert_true(asymmetry(&r2) <= 0.02);
+            assert_true(asymmetry(&r1) <= 0.12);
+            /* Both checks can fail: BZ of degree 1 with a huge penalty is nearly the conforming
+             * linear-tet solution, which locks (fig. 9): measured -44 % and asymmetry 66 %. */
+            assert_true(fabs(cg.mean - ref) > 0.3 * fabs(ref));
+            assert_true(asymmetry(&cg) > 0.3);
+        }
+    }
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
@@ -665,7 +695,7 @@ int main(void)
         cmocka_unit_test(l2_convergence_hexes),
         cmocka_unit_test(l2_convergence_tets),
         cmocka_unit_test(l2_convergence_sliced_sphere),
-        cmocka_unit_test(no_locking_at_nu_0499),
+        cmocka_unit_test(no_locking),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,13 +1,15 @@
 /* Locking (DG paper sec. 9.5, fig. 9): the unit cube of n^3 cubes x 6 tets (Kuhn split), clamped
  * by weak u = 0 on its top face, sagging under its own weight (E = 1e5, rho = 1000, g = 9.81).
  * The sag is the mean vertical displacement of the bottom face. Every method and degree at
- * nu = 0.3 and 0.499 on 750 tets, and the reference (IP degree 2 on 6000 tets) that
- * tests/test_dg_convergence.c compares with. The penalty is the smallest power of two from 1 at
+ * nu = 0.3 and 0.499 on 750 tets, IP degree 2 on 6000 tets, and (bench_locking reference 15:
+ * 230 s of CPU and 12 GB each) the reference on 20,250 tets that tests/test_dg_convergence.c
+ * compares with. The penalty is the smallest power of two from 1 at
  * which K is positive definite (sec. 9.1); BZ is definite for any eta, so it gets eta = 1 and is
  * shown for completeness only.
  *
  * bench_locking [table]: the runs above (bench/results/locking.csv);
- * bench_locking reference N: IP degree 2 on n = N (N^3 x 6 tets), both nu;
+ * bench_locking reference N: IP degree 2 on n = N (N^3 x 6 tets), both nu (N = 15: the last
+ *   two rows of bench/results/locking.csv, run under a load average of about 10);
  * bench_locking bz: BZ of degree 1 and 2 on 750 tets, both nu, eta = 2^k, k = 0..12
  *   (bench/results/locking_bz.csv: the measurements behind the automatic BZ penalty).
  *

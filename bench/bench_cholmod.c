@@ -14,7 +14,12 @@
  * ordering "block-*": the ordering of the element graph (one node per 12 x 12 block) expanded
  * to the unknowns and given to CHOLMOD. The committed bench/results/cholmod_dg.csv came from
  *   for s in "OMP_THREAD_LIMIT=1 OPENBLAS_NUM_THREADS=1" "OMP_THREAD_LIMIT=1 OPENBLAS_NUM_THREADS=2" ""; do
- *     env $s bench_cholmod dg; done   (header lines of the later runs dropped) */
+ *     env $s bench_cholmod dg; done   (header lines of the later runs dropped)
+ * What it shows: CHOLMOD's default already keeps METIS (2.86 GFlop; AMD 3.98, NESDIS 2.88, the
+ * element-graph orderings 2.92-3.98), and simplicial LL' is 30x slower than supernodal. The
+ * issue's 60 ms for factor + solve thus needs about 48 GFlop/s; one core gives 27 (104 ms at a
+ * load of 1.8, dg_table1.csv) and two OpenBLAS threads 35 (82 ms): CHOLMOD 3 parallelises only
+ * inside each supernode's BLAS calls, and the small supernodes near the leaves run serially. */
 #define _GNU_SOURCE /* dladdr */
 #include <dlfcn.h>
 #include <stdbool.h>

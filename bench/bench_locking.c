@@ -1,16 +1,24 @@
 /* Locking (DG paper sec. 9.5, fig. 9): the unit cube of n^3 cubes x 6 tets (Kuhn split), clamped
  * by weak u = 0 on its top face, sagging under its own weight (E = 1e5, rho = 1000, g = 9.81).
  * The sag is the mean vertical displacement of the bottom face. Every method and degree at
- * nu = 0.3 and 0.499 on 750 tets, and the reference (IP degree 2 on 6000 tets) that
- * tests/test_dg_convergence.c compares with. The penalty is the smallest power of two from 1 at
+ * nu = 0.3 and 0.499 on 750 tets, IP degree 2 on 6000 tets, and (bench_locking reference 15:
+ * 230 s of CPU and 12 GB each) the reference on 20,250 tets that tests/test_dg_convergence.c
+ * compares with. The penalty is the smallest power of two from 1 at
  * which K is positive definite (sec. 9.1); BZ is definite for any eta, so it gets eta = 1 and is
  * shown for completeness only.
+ *
+ * bench_locking [table]: the runs above (bench/results/locking.csv);
+ * bench_locking reference N: IP degree 2 on n = N (N^3 x 6 tets), both nu (N = 15: the last
+ *   two rows of bench/results/locking.csv, run under a load average of about 10);
+ * bench_locking bz: BZ of degree 1 and 2 on 750 tets, both nu, eta = 2^k, k = 0..12
+ *   (bench/results/locking_bz.csv: the measurements behind the automatic BZ penalty).
  *
  * CSV on stdout: method,degree,nu,tets,unknowns,eta,sag,seconds */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include <pf/fem.h>
@@ -79,7 +87,8 @@ static double bottom_sag(const pf_dg *dg, const double *u)
     return total / area;
 }
 
-static pf_status run(int n, int degree, int ip, double nu, pf_error *err)
+/* One solve; eta > 0 is used as given, eta = 0 searches (sec. 9.1). */
+static pf_status run(int n, int degree, int ip, double nu, double eta, pf_error *err)
 {
     double t0 = now();
     pf_mesh m = {0};
@@ -108,7 +117,8 @@ static pf_status run(int n, int degree, int ip, double nu, pf_error *err)
             fixed[fc->face] = (fc->elem[1] < 0 && fabs(fc->centroid.z - 1) < 1e-12) ? 0 : -1;
         }
         s = PF_ERR_NUMERIC;
-        for (terms.eta = 1; terms.eta < 1e6 && s == PF_ERR_NUMERIC; terms.eta *= 2) {
+        for (terms.eta = eta > 0 ? eta : 1; terms.eta < 1e6 && s == PF_ERR_NUMERIC;
+             terms.eta *= 2) {
             pf_dg_assemble_stiffness(&dg, &terms, NULL, NULL, &k, rhs);
             s = c ? PF_OK : pf_cholesky_create(&c, &k, err);
             if (s >= 0)
@@ -137,22 +147,35 @@ static pf_status run(int n, int degree, int ip, double nu, pf_error *err)
     return s;
 }
 
-int main(void)
+int main(int argc, char **argv)
 {
     pf_error err = {0};
-    printf("method,degree,nu,tets,unknowns,eta,sag,seconds\n");
     const double nus[2] = {0.3, 0.499};
-    for (int ip = 1; ip >= 0; --ip)
-        for (int degree = 1; degree <= 2; ++degree)
-            for (int v = 0; v < 2; ++v)
-                if (run(5, degree, ip, nus[v], &err) < 0) {
-                    fprintf(stderr, "%s\n", err.msg);
-                    return 1;
-                }
-    for (int v = 0; v < 2; ++v)
-        if (run(10, 2, 1, nus[v], &err) < 0) {
-            fprintf(stderr, "%s\n", err.msg);
-            return 1;
-        }
+    const char *what = argc > 1 ? argv[1] : "table";
+    printf("method,degree,nu,tets,unknowns,eta,sag,seconds\n");
+    pf_status s = PF_OK;
+    if (strcmp(what, "table") == 0) {
+        for (int ip = 1; ip >= 0 && s >= 0; --ip)
+            for (int degree = 1; degree <= 2 && s >= 0; ++degree)
+                for (int v = 0; v < 2 && s >= 0; ++v)
+                    s = run(5, degree, ip, nus[v], 0, &err);
+        for (int v = 0; v < 2 && s >= 0; ++v)
+            s = run(10, 2, 1, nus[v], 0, &err);
+    } else if (strcmp(what, "reference") == 0 && argc == 3 && atoi(argv[2]) > 0) {
+        for (int v = 0; v < 2 && s >= 0; ++v)
+            s = run(atoi(argv[2]), 2, 1, nus[v], 0, &err);
+    } else if (strcmp(what, "bz") == 0) {
+        for (int degree = 1; degree <= 2 && s >= 0; ++degree)
+            for (int v = 0; v < 2 && s >= 0; ++v)
+                for (int k = 0; k <= 12 && s >= 0; ++k)
+                    s = run(5, degree, 0, nus[v], ldexp(1, k), &err);
+    } else {
+        fprintf(stderr, "usage: bench_locking [table | reference N | bz]\n");
+        return 2;
+    }
+    if (s < 0) {
+        fprintf(stderr, "bench_locking: %s\n", err.msg);
+        return 1;
+    }
     return 0;
 }

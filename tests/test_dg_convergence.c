@@ -5,9 +5,11 @@
  *   equals the one pf_dg_assemble_stiffness builds for it; loads and L2 norms of polynomials on
  *   a box equal closed-form integrals of monomials over the box.
  * - Manufactured solution: u of degree 4 (not in the space), f = -div sigma(u) exactly,
- *   g = u weakly on the whole boundary (IP). The L2 error must fall like h^(p+1).
+ *   g = u weakly on the whole boundary (IP), on hexes, tets and a sliced sphere (whose domain is
+ *   the polyhedral surface itself). The L2 error must fall like h^(p+1).
  * - Locking (K09 fig. 9): a cube of 750 tets clamped at the top sags under its own weight; at
- *   nu = 0.499 DG must stay close to a converged reference, and the sag must be symmetric. */
+ *   nu = 0.3 and 0.499 DG must stay close to a converged reference, and the sag must be
+ *   symmetric, where the conforming-like solution (BZ, huge penalty) locks and is lopsided. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -19,8 +21,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include <pf/fem.h>
+#include <pf/mesh.h>
 
 /* ---- meshes ------------------------------------------------------------------------------- */
 
@@ -65,6 +69,27 @@ static void make_cube_tets(pf_mesh *m, int n)
     assert_int_equal(pf_mesh_from_tets(m, x, nn * nn * nn, tets, t, &err), PF_OK);
     free(x);
     free(tets);
+}
+
+typedef enum family { HEXES, TETS, SPHERE } family;
+static const char *const FAMILY_NAMES[] = {"hexes", "tets", "sliced sphere"};
+
+/* The sphere inscribed in the unit cube (centre (0.5, 0.5, 0.5), radius 0.5, where the
+ * manufactured field has the scale it has on the cube) as a closed polyhedral surface of 12 bands
+ * x 24 segments, sliced by a grid of res cells across (pf_mesh_slice): hexes inside, the exact
+ * polyhedra of the solid at the surface. The domain is that polyhedron for every res, so the
+ * geometry is exact and only the cells change; h = 1 / res, the grid's cell. */
+static void make_sliced_sphere(pf_mesh *m, int res)
+{
+    pf_error err = {0};
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 0.5, 12, 24, &err), PF_OK);
+    for (int64_t q = 0; q < 3 * (int64_t)s.n_verts; ++q)
+        s.x[q] += 0.5;
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.res = res;
+    assert_int_equal(pf_mesh_slice(m, &s, &p, NULL, &err), PF_OK);
+    pf_surface_release(&s);
 }
 
 /* ---- scalar polynomials of the global position (frame centre 0, scale 1) ------------------ */
@@ -206,14 +231,16 @@ static void polynomial_dirichlet_matches_affine_path(void **state)
     const double affine[12] = {0.01, 0.002, -0.003, 0.004, -0.02, 0.001,
                                0.0,  0.005, 0.015,  0.1,   -0.05, 0.02};
     const double zero[12] = {0};
-    for (int kind = 0; kind < 2; ++kind)
+    for (int kind = 0; kind < 3; ++kind)
         for (int degree = 1; degree <= 2; ++degree)
             for (int ip = 0; ip <= 1; ++ip) {
                 pf_mesh m = {0};
                 if (kind == 0)
                     make_cube_hexes(&m, 2);
-                else
+                else if (kind == 1)
                     make_cube_tets(&m, 1);
+                else
+                    make_sliced_sphere(&m, 3); /* tilted, many-sided boundary polygons */
                 pf_dg dg;
                 assert_int_equal(pf_dg_create(&dg, &m, degree, 1e5, 0.3, 1000, &err), PF_OK);
                 int32_t *fixed = malloc((size_t)m.n_faces * sizeof *fixed);
@@ -420,8 +447,9 @@ static void body_force_of(const poly u[3], double lambda, double mu, poly f[3])
     }
 }
 
-/* L2 error of IP with g = u on every boundary face; *eta carries the penalty from one mesh to
- * the next (it depends on the element shapes only, and every mesh of a family has the same). */
+/* L2 error of IP with g = u on every boundary face; *eta is where the penalty search starts and
+ * gets the penalty it found (sec. 9.1). The search depends on the element shapes only: a hex or
+ * tet family (every mesh the same shapes) carries it from one mesh to the next. */
 static double solve_manufactured(const pf_mesh *m, int degree, double *eta, double *rel)
 {
     pf_error err = {0};
@@ -461,64 +489,94 @@ static double solve_manufactured(const pf_mesh *m, int degree, double *eta, doub
     return e;
 }
 
-/* Runs a mesh family and checks the rate between the two finest meshes. */
-static void convergence_family(bool tets, int degree, const int *sizes, int count, double rate)
+/* Runs a mesh family (sizes: cells across) and checks the rate between the two finest meshes. */
+static void convergence_family(family fam, int degree, const int *sizes, int count, double rate)
 {
     size_t live = pf_alloc_live_bytes();
     double eta = 1, prev = 0, last_rate = 0;
-    printf("%s degree %d (IP)\n   n        h    L2 error   relative    rate   eta\n",
-           tets ? "tets" : "hexes", degree);
+    clock_t t0 = clock();
+    printf("%s degree %d (IP)\n   n  elems    L2 error   relative    rate   eta\n",
+           FAMILY_NAMES[fam], degree);
     for (int s = 0; s < count; ++s) {
         pf_mesh m = {0};
-        if (tets)
+        if (fam == TETS)
             make_cube_tets(&m, sizes[s]);
-        else
+        else if (fam == HEXES)
             make_cube_hexes(&m, sizes[s]);
+        else
+            make_sliced_sphere(&m, sizes[s]);
         double rel;
+        if (fam == SPHERE)
+            eta = 1; /* cut cells differ from mesh to mesh: search afresh */
         double e = solve_manufactured(&m, degree, &eta, &rel);
         if (s > 0)
             last_rate = log(prev / e) / log((double)sizes[s] / sizes[s - 1]);
-        printf("%4d %8.4f  %10.3e  %9.3e  %6.3f  %4g\n", sizes[s], 1.0 / sizes[s], e, rel,
+        printf("%4d %6d  %10.3e  %9.3e  %6.3f  %4g\n", sizes[s], (int)m.n_elems, e, rel,
                s > 0 ? last_rate : 0.0, eta);
         prev = e;
         pf_mesh_release(&m);
     }
+    printf("   (%.2f s of CPU)\n", (double)(clock() - t0) / CLOCKS_PER_SEC);
     if (!(last_rate >= rate))
-        fail_msg("%s degree %d: L2 rate %.3f below %.2f", tets ? "tets" : "hexes", degree,
-                 last_rate, rate);
+        fail_msg("%s degree %d: L2 rate %.3f below %.2f", FAMILY_NAMES[fam], degree, last_rate,
+                 rate);
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
-/* The issue's requirement: rates >= 1.8 (p = 1) and >= 2.7 (p = 2) between the finest two. */
+/* The issue's requirement: rates >= 1.8 (p = 1) and >= 2.7 (p = 2) between the finest two of
+ * four meshes. */
 static void l2_convergence_hexes(void **state)
 {
     (void)state;
-    const int p1[] = {2, 4, 8, 16}, p2[] = {2, 4, 8};
-    convergence_family(false, 1, p1, 4, 1.8);
-    convergence_family(false, 2, p2, 3, 2.7);
+    const int p1[] = {2, 4, 8, 16}, p2[] = {2, 4, 6, 8};
+    convergence_family(HEXES, 1, p1, 4, 1.8);
+    convergence_family(HEXES, 2, p2, 4, 2.7);
 }
 
 static void l2_convergence_tets(void **state)
 {
     (void)state;
     const int p1[] = {2, 4, 8}, p2[] = {1, 2, 4};
-    convergence_family(true, 1, p1, 3, 1.8);
-    convergence_family(true, 2, p2, 3, 2.7);
+    convergence_family(TETS, 1, p1, 3, 1.8);
+    convergence_family(TETS, 2, p2, 3, 2.7);
+}
+
+/* The cut cells at the surface are not nested from one res to the next, so the error does not
+ * fall as regularly as on hexes: measured rates 1.45, 2.29, 2.15 (p = 1) and 1.43, 1.66, 2.99
+ * (p = 2). The penalty is searched per mesh: a penalty carried over from a coarser mesh (64 for
+ * p = 1 against the 8 the finest needs) over-stiffens the jumps and stalls the p = 1 error near
+ * 30 % (sec. 9.1: eta must not be too high). About 1.2 s of CPU at -O2. */
+static void l2_convergence_sliced_sphere(void **state)
+{
+    (void)state;
+    const int p1[] = {2, 4, 6, 8}, p2[] = {2, 3, 4, 6};
+    convergence_family(SPHERE, 1, p1, 4, 1.8);
+    convergence_family(SPHERE, 2, p2, 4, 2.7);
 }
 
 /* ---- locking ------------------------------------------------------------------------------ */
 
-/* Sag of the reference: IP degree 2 on the 10 x 10 x 10 x 6 = 6000-tet cube, nu = 0.499, from
- * bench/bench_locking (bench/results/locking.csv, row "ip,2,0.499,6000"). */
-static const double REFERENCE_SAG = -4.035172e-02;
+/* Sags of the reference at nu = 0.3 and 0.499: IP degree 2 on the cube of 15^3 x 6 = 20,250
+ * tets (607,500 unknowns), far too costly for ctest (230 s of CPU and 12 GB each), so computed
+ * by
+ *   bench_locking reference 15   (bench/results/locking.csv, rows "ip,2,0.3,20250" and
+ *                                 "ip,2,0.499,20250").
+ * The issue asks for the mesh refined twice, 20^3 x 6 = 48,000 tets and 1.44 million unknowns:
+ * its Cholesky factor, growing like unknowns^1.29 as measured from 6000 tets (2.5 GB) to 20,250
+ * (12 GB), would need about 37 GB, more than the machine's 23. How converged this one is: it
+ * differs from the 6000-tet sag by 0.03 % (nu = 0.3) and 0.21 % (nu = 0.499), and that one from
+ * the 750-tet sag by 0.10 % and 0.78 %: the differences shrink about 3.5 times per step, so the
+ * reference lies within a few tenths of a percent of the limit, far inside the bounds below. */
+static const double REFERENCE_SAG[2] = {-4.639558e-02, -4.043720e-02};
 
 typedef struct sag_result {
     double mean;         /* mean u_z over the bottom face (negative: down) */
     double cell[5][5];   /* mean u_z over each bottom cell (i, j) */
 } sag_result;
 
-/* The cube of 5^3 x 6 tets, clamped (weak u = 0) on the top face, under gravity. */
-static void hanging_cube(int degree, bool ip, double nu, sag_result *r)
+/* The cube of 5^3 x 6 tets, clamped (weak u = 0) on the top face, under gravity; the penalty
+ * search starts at eta. */
+static void hanging_cube(int degree, bool ip, double nu, double eta, sag_result *r)
 {
     pf_error err = {0};
     pf_mesh m = {0};
@@ -537,7 +595,7 @@ static void hanging_cube(int degree, bool ip, double nu, sag_result *r)
     pf_block_matrix k;
     assert_int_equal(pf_dg_pattern(&dg, &k, &err), PF_OK);
     pf_cholesky *c = NULL;
-    assemble_definite(&dg, &terms, 1, &k, &c);
+    assemble_definite(&dg, &terms, eta, &k, &c);
     double *rhs = calloc((size_t)dg.n_dofs, sizeof *rhs);
     double *x = calloc((size_t)dg.n_dofs, sizeof *x);
     pf_dg_add_body_force(&dg, (pf_vec3){0, 0, -rho * gravity}, rhs);
@@ -588,23 +646,45 @@ static double asymmetry(const sag_result *r)
     return worst / fabs(r->mean);
 }
 
-static void no_locking_at_nu_0499(void **state)
+static void no_locking(void **state)
 {
     (void)state;
     size_t live = pf_alloc_live_bytes();
-    sag_result r1, r2;
-    hanging_cube(1, true, 0.499, &r1);
-    hanging_cube(2, true, 0.499, &r2);
-    printf("hanging cube, 750 tets, nu = 0.499: IP p=1 sag %.6e (asym %.3g), IP p=2 sag %.6e "
-           "(asym %.3g), reference %.6e\n",
-           r1.mean, asymmetry(&r1), r2.mean, asymmetry(&r2), REFERENCE_SAG);
-    assert_true(fabs(r2.mean - REFERENCE_SAG) <= 0.05 * fabs(REFERENCE_SAG));
-    assert_true(fabs(r1.mean - REFERENCE_SAG) <= 0.15 * fabs(REFERENCE_SAG));
-    /* The Kuhn split is not mirror-symmetric, so the per-cell sags of mirror cells differ by the
-     * discretisation error: measured 1.1 % of the mean sag for p = 2 and 6.3 % for p = 1; the
-     * bounds leave a factor of about 2 (a locking, mesh-driven solution is far more lopsided). */
-    assert_true(asymmetry(&r2) <= 0.02);
-    assert_true(asymmetry(&r1) <= 0.12);
+    const double nus[2] = {0.3, 0.499};
+    for (int v = 0; v < 2; ++v) {
+        sag_result r1, r2, cg;
+        hanging_cube(1, true, nus[v], 1, &r1);
+        hanging_cube(2, true, nus[v], 1, &r2);
+        hanging_cube(1, false, nus[v], 4096, &cg);
+        double ref = REFERENCE_SAG[v];
+        printf("hanging cube, 750 tets, nu = %g: IP p=1 sag %.6e (%+.2f %%, asym %.3g), IP p=2 "
+               "sag %.6e (%+.2f %%, asym %.3g); BZ p=1 eta 4096 (~CG) %.6e (%+.2f %%, asym "
+               "%.3g); reference %.6e\n",
+               nus[v], r1.mean, 100 * (r1.mean / ref - 1), asymmetry(&r1), r2.mean,
+               100 * (r2.mean / ref - 1), asymmetry(&r2), cg.mean, 100 * (cg.mean / ref - 1),
+               asymmetry(&cg), ref);
+        if (v == 0) {
+            /* nu = 0.3 locks nothing: measured -0.1 % for both degrees, asymmetry 2.8 % (p = 1)
+             * and 0.2 % (p = 2); the bounds leave a factor of about 2 over those and over the
+             * reference's own uncertainty (see REFERENCE_SAG) */
+            assert_true(fabs(r2.mean - ref) <= 0.01 * fabs(ref));
+            assert_true(fabs(r1.mean - ref) <= 0.01 * fabs(ref));
+            assert_true(asymmetry(&r2) <= 0.005);
+            assert_true(asymmetry(&r1) <= 0.06);
+        } else {
+            /* the issue's bounds at nu = 0.499 (measured -1.0 % and -6.8 %); the asymmetry is
+             * the discretisation error of the Kuhn split, which is not mirror-symmetric:
+             * measured 1.1 % (p = 2) and 6.3 % (p = 1), bounds a factor of about 2 above */
+            assert_true(fabs(r2.mean - ref) <= 0.05 * fabs(ref));
+            assert_true(fabs(r1.mean - ref) <= 0.15 * fabs(ref));
+            assert_true(asymmetry(&r2) <= 0.02);
+            assert_true(asymmetry(&r1) <= 0.12);
+            /* Both checks can fail: BZ of degree 1 with a huge penalty is nearly the conforming
+             * linear-tet solution, which locks (fig. 9): measured -44 % and asymmetry 66 %. */
+            assert_true(fabs(cg.mean - ref) > 0.3 * fabs(ref));
+            assert_true(asymmetry(&cg) > 0.3);
+        }
+    }
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
@@ -617,7 +697,8 @@ int main(void)
         cmocka_unit_test(bad_polynomial_arguments_are_refused),
         cmocka_unit_test(l2_convergence_hexes),
         cmocka_unit_test(l2_convergence_tets),
-        cmocka_unit_test(no_locking_at_nu_0499),
+        cmocka_unit_test(l2_convergence_sliced_sphere),
+        cmocka_unit_test(no_locking),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

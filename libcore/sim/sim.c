@@ -58,15 +58,32 @@ static pf_status factor_timed(pf_sim *s, int64_t *failed, pf_error *err)
     return st;
 }
 
+/* The automatic BZ penalty. BZ is positive definite for any eta > 0 (sec. 3.3), so the search
+ * below would stop at its first value, where BZ's glue is weak and the body 44-78 % too soft
+ * (degree 2). Its error against the consistent (IP) limit is signed: too soft at a low eta,
+ * too stiff at a high one, where it tends to the conforming solution in the continuous fields of
+ * its space (fig. 3). The default sits near the crossing, measured by bench_dg bzpenalty and
+ * bench_locking bz (docs/scene.md): degree 2 crosses at eta 16-45 on cantilever hexes and
+ * 12-110 on the tet cube, so 32, inside sec. 4.1's 10-100; degree 1 crosses at 1-2 on hexes
+ * (whose continuous degree-1 fields are nearly affine: eta 8 makes the beam 58-86 % too stiff)
+ * and 2-20 on tets, so it keeps the search's 1. */
+static double bz_default_penalty(int32_t degree)
+{
+    return degree >= 2 ? 32 : 1;
+}
+
 /* DG paper sec. 9.1: start low and double eta until the stiffness is positive definite (with a
  * tiny mass shift lifting a free body's rigid modes). */
 static pf_status choose_penalty(pf_sim *s, pf_error *err)
 {
     if (!s->ops->set_penalty)
         return PF_OK;
-    if (s->scene->penalty > 0) {
-        s->ops->set_penalty(s->method, s->scene->penalty);
-        s->stats.penalty = s->scene->penalty;
+    double given = s->scene->penalty;
+    if (given <= 0 && s->scene->flux == PF_FLUX_BZ)
+        given = bz_default_penalty(s->scene->degree);
+    if (given > 0) {
+        s->ops->set_penalty(s->method, given);
+        s->stats.penalty = given;
         return PF_OK;
     }
     double shift = s->ops->rigid_mode_shift(s->method);

@@ -57,4 +57,22 @@ expect 1 "truncated" "$bin/pf-sim" --input "$tmp/cut.pfs"
 expect 2 "" "$bin/pf-sim" --degree
 expect 2 "" "$bin/pf-sim" --nu 0.7 --input "$tmp/cube.pfs"
 expect 2 "" "$bin/pf-sim" --bogus
+
+# A run that diverges stops with exit 1 naming the frame and the element, and the frames before
+# it stay readable in a properly ended stream. Free fall under g = 3e5 with dt = 0.04 and one
+# substep (semi-implicit Euler: u_n = h^2 g n (n + 1) / 2) has moved 1440 after frame 2 and 2880
+# after frame 3, across the divergence bound of 1e3 model sizes (1732 for the unit cube).
+cat >"$tmp/diverge.json" <<'JSON'
+{"gravity": [0, 0, -3e5], "ground": false, "time": {"dt": 0.04, "frames": 10, "substeps": 1}}
+JSON
+expect 1 "frame 3, step 1: the simulation diverged (element " \
+  "$bin/pf-sim" "$tmp/diverge.json" --input "$tmp/cube.pfs"
+"$bin/pf-sim" "$tmp/diverge.json" --quiet <"$tmp/cube.pfs" >"$tmp/diverged.pfs" 2>/dev/null
+check "a diverged run exits 1" test $? = 1
+"$bin/pf-info" "$tmp/diverged.pfs" >"$tmp/diverged.txt" 2>&1
+check "pf-info reads the diverged stream" test $? = 0
+check "the frames before the divergence are written: 0, 1, 2" \
+  grep -q '^FRAM .*: 3 frames of mesh 0, time 0 \.\. 0\.08' "$tmp/diverged.txt"
+check "the stream ends with END_ counting those 3 frames" grep -q '^END_ .*, 3 frames$' "$tmp/diverged.txt"
+check "no truncation reported" bash -c "! grep -qi truncated '$tmp/diverged.txt'"
 finish

@@ -95,8 +95,9 @@ typedef struct pf_scene {
     pf_method method; /* default dg */
     int32_t degree;   /* dg: 1 or 2 (default 1) */
     pf_flux flux;     /* dg: ip (default) or bz */
-    double penalty;   /* dg: eta of eq. 20; 0 = automatic (default): the smallest power of two
-                         from 1 for which the stiffness matrix is positive definite */
+    double penalty;   /* dg: eta of eq. 20; 0 = automatic (default): ip, the smallest power of
+                         two from 1 for which the stiffness matrix is positive definite; bz
+                         (definite for any eta), 1 for degree 1 and 32 for degree 2 */
     bool corotation;  /* default true */
     pf_mass mass;     /* cg: consistent (default) or lumped */
 

@@ -502,7 +502,9 @@ static int32_t best_neighbour(const pf_mesh *m, int32_t *parent, const int32_t *
     return best < 0 ? -1 : cand[best];
 }
 
-/* Merges every group of volume below min_volume into its best neighbour, smallest first. */
+/* Merges every group of volume below min_volume into its best neighbour (DG paper sec. 9.4, which
+ * merges slivers into neighbours without prescribing an order): groups in index order, sweeps
+ * repeated until no group below min_volume has a neighbour left, so the result is deterministic. */
 static pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
                                int32_t *merged, int32_t *isolated, pf_error *err)
 {

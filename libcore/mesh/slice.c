@@ -202,10 +202,27 @@ static int compare_u32(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Faces mostly have a handful of nodes, where qsort's call overhead dominates: insertion sort
+ * for those, qsort for long ones (caps of coarse grids). */
+static void sort_u32(uint32_t *v, int64_t n)
+{
+    if (n > 32) {
+        qsort(v, (size_t)n, sizeof *v, compare_u32);
+        return;
+    }
+    for (int64_t i = 1; i < n; ++i) {
+        uint32_t x = v[i];
+        int64_t j = i;
+        for (; j > 0 && v[j - 1] > x; --j)
+            v[j] = v[j - 1];
+        v[j] = x;
+    }
+}
+
 /* Hash of a face's node set (sorted copy in key). */
 static uint64_t hash_face(uint32_t *key, int64_t n)
 {
-    qsort(key, (size_t)n, sizeof *key, compare_u32);
+    sort_u32(key, n);
     uint64_t h = mix((uint64_t)n);
     for (int64_t k = 0; k < n; ++k)
         h = mix(h ^ key[k]);
@@ -226,7 +243,7 @@ static bool same_node_set(const glue *g, int32_t f, const uint32_t *sorted, int6
     if (m != n)
         return false;
     memcpy(scratch, nodes, (size_t)n * sizeof *scratch);
-    qsort(scratch, (size_t)n, sizeof *scratch, compare_u32);
+    sort_u32(scratch, n);
     return memcmp(scratch, sorted, (size_t)n * sizeof *scratch) == 0;
 }
 

@@ -1,12 +1,14 @@
 /* Slicing speed: pf_mesh_slice on generated spheres and tori against triangle count and grid
- * resolution (cells along the longest side). One thread. The target of the meshing issue:
- * a 100k-triangle surface at 64 cells in under 2 s.
+ * resolution (cells along the longest side), and on the Stanford bunny (data/models, a scanned
+ * surface). One thread. The target of the meshing issue: a 100k-triangle surface at 64 cells in
+ * under 2 s.
  *
  * CSV on stdout: shape,triangles,res,elements,hexes,polyhedra,merged,splits,seconds,
  * elements_per_second (elements / seconds; the best of three runs). */
 #include <stdio.h>
 #include <string.h>
 
+#include <pf/io.h>
 #include <pf/mesh.h>
 
 static int run(const char *shape, const pf_surface *s, int32_t res)
@@ -58,5 +60,12 @@ int main(int argc, char **argv)
             failed |= run("torus", &s, resolutions[r]);
         pf_surface_release(&s);
     }
+    pf_surface bunny = {0};
+    pf_error err = {0};
+    if (pf_import_surface(PF_MODELS_DIR "/bunny.obj", &bunny, &err) != PF_OK)
+        return fprintf(stderr, "bench_slice: %s\n", err.msg), 1;
+    for (int r = quick ? 2 : 0; r < 3; ++r)
+        failed |= run("bunny", &bunny, resolutions[r]);
+    pf_surface_release(&bunny);
     return failed;
 }

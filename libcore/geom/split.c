@@ -889,16 +889,31 @@ static double node_extent(const pf_polyhedron *p)
     return pf_v3_dist(pf_v3_load(lo), pf_v3_load(hi));
 }
 
+/* Whether every node the faces use is at the same point (the bounding box has no extent). */
+static bool all_nodes_equal(const pf_polyhedron *p)
+{
+    int64_t k0 = p->face_offsets[0], k1 = p->face_offsets[p->n_faces];
+    const double *first = p->x + 3 * (size_t)p->face_nodes[k0];
+    for (int64_t k = k0 + 1; k < k1; ++k) {
+        const double *q = p->x + 3 * (size_t)p->face_nodes[k];
+        if (q[0] != first[0] || q[1] != first[1] || q[2] != first[2])
+            return false;
+    }
+    return true;
+}
+
 pf_status pf_poly_split(const pf_polyhedron *p, int32_t n_nodes, const pf_plane *plane,
                         const pf_split_params *params, pf_split *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);
     PF_TRY(check_input(p, n_nodes, plane, err));
     pf_split_params prm = params ? *params : pf_split_params_default();
-    double diag = node_extent(p);
+    /* the extent sets a relative tolerance; with an absolute one, only its existence matters */
+    double diag = prm.tol > 0 ? 0 : node_extent(p);
+    bool extent = prm.tol > 0 ? !all_nodes_equal(p) : diag > 0;
     double rel = prm.rel_tol > 0 ? prm.rel_tol : 1e-10;
     work w = {.p = p, .n_in = n_nodes, .pl = *plane, .tol = prm.tol > 0 ? prm.tol : rel * diag};
-    PF_CHECK(diag > 0 && isfinite(w.tol), err, PF_ERR_INVALID,
+    PF_CHECK(extent && isfinite(w.tol), err, PF_ERR_INVALID,
              "split: the polyhedron has no extent");
     pf_status s = run(&w, prm.assume_closed, out, err);
     work_release(&w);

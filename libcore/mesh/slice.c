@@ -468,7 +468,17 @@ static pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
     memcpy(m->face_nodes, g->face_nodes.data, (size_t)n_face_nodes * sizeof *m->face_nodes);
     memcpy(m->elem_offsets, g->elem_offsets.data, ((size_t)g->n_elems + 1) * sizeof(int64_t));
     memcpy(m->elem_faces, g->elem_faces.data, (size_t)n_elem_faces * sizeof(uint32_t));
-    return pf_mesh_derive(m, err);
+    /* the adjacency merging needs, as pf_mesh_derive would compute it (glue_face made every face's
+     * first use outward and its second reversed); element kinds are left to the merged mesh */
+    m->face_elems = pf_alloc_array(2 * (size_t)g->n_faces + 1, sizeof *m->face_elems);
+    PF_CHECK(m->face_elems, err, PF_ERR_NOMEM, "out of memory slicing");
+    for (int64_t i = 0; i < 2 * (int64_t)g->n_faces; ++i)
+        m->face_elems[i] = -1;
+    for (int32_t e = 0; e < g->n_elems; ++e)
+        for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k)
+            m->face_elems[2 * PF_FACE_INDEX(m->elem_faces[k]) +
+                          ((m->elem_faces[k] & PF_FACE_REVERSED) ? 1 : 0)] = e;
+    return PF_OK;
 }
 
 static int32_t find_root(int32_t *parent, int32_t e)

@@ -19,9 +19,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include <pf/integrate.h>
+
+#include "machine.h"
 
 #define COUNT PF_MOMENT_MAX_COUNT
 #define DMAX  PF_MOMENT_MAX_DEGREE
@@ -291,31 +292,9 @@ static double local_radius(const soup *s, const pf_frame *fr)
 
 static void machine_line(void)
 {
-    char model[256] = "unknown cpu";
-    FILE *f = fopen("/proc/cpuinfo", "r");
-    if (f) {
-        char line[512];
-        while (fgets(line, sizeof line, f))
-            if (strncmp(line, "model name", 10) == 0) {
-                const char *colon = strchr(line, ':');
-                if (colon) {
-                    snprintf(model, sizeof model, "%s", colon + 2);
-                    model[strcspn(model, "\n")] = 0;
-                }
-                break;
-            }
-        fclose(f);
-    }
-    printf("# cpu: %s, %ld cores online; compiler: %s; single thread\n", model,
-           sysconf(_SC_NPROCESSORS_ONLN),
-#if defined(__GNUC__) && !defined(__clang__)
-           "gcc " __VERSION__
-#elif defined(__VERSION__)
-           __VERSION__
-#else
-           "unknown"
-#endif
-    );
+    char machine[512];
+    bench_describe_machine(machine, sizeof machine);
+    printf("# %s; single thread\n", machine);
 }
 
 static double sink; /* keeps the timed calls observable */

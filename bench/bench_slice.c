@@ -4,12 +4,15 @@
  * under 2 s.
  *
  * CSV on stdout: shape,triangles,res,elements,hexes,polyhedra,merged,splits,seconds,
- * elements_per_second (elements / seconds; the best of three runs). */
+ * elements_per_second (elements / seconds; the best of three runs), after two comment lines,
+ * the second the machine and its load. */
 #include <stdio.h>
 #include <string.h>
 
 #include <pf/io.h>
 #include <pf/mesh.h>
+
+#include "machine.h"
 
 static int run(const char *shape, const pf_surface *s, int32_t res)
 {
@@ -41,6 +44,9 @@ int main(int argc, char **argv)
 {
     bool quick = argc > 1 && strcmp(argv[1], "--quick") == 0;
     printf("# pf_mesh_slice, one thread; best of 3 runs\n");
+    char machine[512]; /* wall-clock times on a shared machine depend on its load */
+    bench_describe_machine(machine, sizeof machine);
+    printf("# %s\n", machine);
     printf("shape,triangles,res,elements,hexes,polyhedra,merged,splits,seconds,"
            "elements_per_second\n");
     static const int32_t bands[] = {16, 50, 158};      /* 1k, 10k, 100k triangles */

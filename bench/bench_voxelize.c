@@ -9,13 +9,15 @@
  *
  * CSV on stdout: surface,triangles,test,res,cells,voxels,seconds,cells_per_second (grid cells
  * classified / seconds, the best of three runs, one when a run takes over 2 s; seconds include
- * building the hex mesh).
+ * building the hex mesh), after two comment lines, the second the machine and its load.
  * --quick: one resolution per series. */
 #include <stdio.h>
 #include <string.h>
 
 #include <pf/io.h>
 #include <pf/mesh.h>
+
+#include "machine.h"
 
 static int run(const char *name, const pf_surface *s, pf_inside_method test, int32_t res)
 {
@@ -55,6 +57,9 @@ int main(int argc, char **argv)
 {
     bool quick = argc > 1 && strcmp(argv[1], "--quick") == 0;
     printf("# pf_mesh_voxelize, inside mode, one thread; best of 3 runs (1 when over 2 s)\n");
+    char machine[512]; /* wall-clock times on a shared machine depend on its load */
+    bench_describe_machine(machine, sizeof machine);
+    printf("# %s\n", machine);
     printf("surface,triangles,test,res,cells,voxels,seconds,cells_per_second\n");
     static const int32_t ray_res[] = {16, 32, 64, 128};
     static const int32_t winding_res[] = {8, 16, 32};

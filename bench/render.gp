@@ -8,9 +8,9 @@ set datafile separator ','
 set key top right
 set logscale xy
 set xlabel 'triangles'
-set ylabel 'frames per second (render + geometry)'
+set ylabel 'frames per second (geometry + render + PNG)'
 set grid
 set title 'pf-render on llvmpipe (OSMesa), 4x MSAA, shadowed ground'
-plot for [size in "640 1280 1920"] in skip 1 using 1:($2 == size + 0 ? $8 : 1/0) \
+plot for [size in "640 1280 1920"] in skip 2 using 1:($2 == size + 0 ? $10 : 1/0) \
      with linespoints title size == "640" ? '640x360' : size == "1280" ? '1280x720' : '1920x1080', \
      10 with lines dashtype 2 lc rgb 'gray' title 'target at 1280x720, 100k triangles'

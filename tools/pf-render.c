@@ -289,7 +289,7 @@ typedef struct scene {
     bool have_weights;
     pf_stress_data stress; /* the latest STRS */
     bool have_stress;
-    double *x; /* [3 surface.n_verts] displaced surface */
+    double *x;          /* [3 surface.n_verts] displaced surface */
     pf_scene sim_scene; /* the simulation's scene (SCEN), for its ground plane */
     bool have_sim_scene;
 } scene;
@@ -656,15 +656,19 @@ static pf_status build_geometry(render *rd, const pf_frame_data *f, bool *legend
     return pf_render_add_boundary(&rd->geom, &s->mesh, &rd->boundary, u, &p, err);
 }
 
-/* The auto camera on a pipe: the first frame's box grown by a quarter of its size on every side
- * but the bottom (room for the motion to come), down to the simulated ground when the stream's
- * scene has one (else the ground stays under the first frame), fixed from then on. */
-static void ensure_view(render *rd)
+/* The view, fixed at the first frame of the stream (u: its displacements; NULL: the rest shape).
+ * The auto camera frames the survey's box when the input is a file (the whole animation); on a
+ * pipe, the first frame's box grown by a quarter of its size on every side but the bottom (room
+ * for the motion to come), down to the simulated ground when the stream's scene has one (else the
+ * ground stays under the first frame). The first frame of the stream, not of --frames, so that
+ * every range of a shot is seen through the same camera. */
+static void ensure_view(render *rd, const double *u)
 {
     if (rd->view_ready)
         return;
     double aspect = (double)rd->o->width / rd->o->height;
-    pf_vec3 lo = rd->geom.lo, hi = rd->geom.hi;
+    pf_vec3 lo, hi;
+    frame_bounds(&rd->s, rd->o->mode, u, &lo, &hi);
     if (rd->sv.have_box) {
         lo = rd->sv.lo;
         hi = rd->sv.hi;
@@ -691,7 +695,7 @@ static pf_status render_frame(render *rd, const pf_frame_data *f, pf_error *err)
 {
     bool legend;
     PF_TRY(build_geometry(rd, f, &legend, err));
-    ensure_view(rd);
+    ensure_view(rd, f ? f->u : NULL);
     PF_TRY(pf_renderer_draw(rd->renderer, &rd->geom, &rd->view, rd->rgb, err));
     if (legend)
         pf_render_draw_legend(rd->rgb, rd->o->width, rd->o->height, rd->sv.stress_lo,
@@ -730,9 +734,16 @@ static pf_status flush_pending(render *rd, pf_error *err)
 static pf_status on_frame(render *rd, const pf_chunk *c, pf_error *err)
 {
     PF_TRY(flush_pending(rd, err));
+    uint32_t index;
+    PF_TRY(pf_stream_frame_index(c, &index, err));
+    /* frames out of range are not decoded, but for the first one, which fixes the camera */
+    if (!in_range(rd->o, index) && rd->view_ready)
+        return PF_OK;
     pf_frame_data f = {0};
     PF_TRY(pf_stream_decode_frame(c, &f, err));
     pf_status s = check_frame(&rd->s, c, &f, err);
+    if (s == PF_OK)
+        ensure_view(rd, f.u);
     if (s == PF_OK && in_range(rd->o, f.index)) {
         /* in stress mode a frame waits for its STRS, which may follow it */
         bool wait =

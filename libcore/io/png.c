@@ -58,11 +58,15 @@ static bool write_png(FILE *f, const uint8_t *pixels, int32_t width, int32_t hei
                  channels == 4 ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
-    png_set_compression_level(png, 6);
+    /* Rendered frames are mostly flat background and smooth shading: zlib level 2 without row
+     * filters writes a 1280x720 frame about 4x faster than level 6 with Paeth filtering, for
+     * about 15 % more bytes (measured on pf-render frames). PNG writing is a third of a frame's
+     * time at 100k triangles, so speed wins. */
+    png_set_compression_level(png, 2);
     png_set_compression_strategy(png, Z_DEFAULT_STRATEGY);
     png_set_compression_window_bits(png, 15);
     png_set_compression_mem_level(png, 8);
-    png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_PAETH);
+    png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
     png_write_info(png, info);
     size_t stride = (size_t)width * (size_t)channels;
     for (int32_t y = 0; y < height; ++y)

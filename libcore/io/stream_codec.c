@@ -496,6 +496,18 @@ pf_status pf_stream_encode_frame(const pf_frame_data *f, pf_buffer *out, pf_erro
     return PF_OK;
 }
 
+pf_status pf_stream_frame_index(const pf_chunk *c, uint32_t *index, pf_error *err)
+{
+    cursor k;
+    PF_TRY(begin(c, "FRAM", &k, err));
+    const unsigned char *hp = NULL;
+    PF_TRY(take(&k, 1, sizeof(fram_head), &hp, "header", err));
+    fram_head h;
+    memcpy(&h, hp, sizeof h);
+    *index = le_get_u32(h.index);
+    return PF_OK;
+}
+
 pf_status pf_stream_decode_frame(const pf_chunk *c, pf_frame_data *f, pf_error *err)
 {
     memset(f, 0, sizeof *f);

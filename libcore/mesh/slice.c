@@ -17,22 +17,16 @@
 #include <pf/mesh.h>
 #include <pf/split.h>
 
+#include "mesh_internal.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 /* ---- a piece: one closed polyhedron with its own nodes ------------------------------------ */
 
-typedef struct piece {
-    int32_t n_nodes;
-    double *x;
-    double lo[3], hi[3]; /* bounding box of the nodes */
-    int32_t n_faces;
-    int64_t *face_offsets;
-    uint32_t *face_nodes;
-} piece;
 
-static void piece_release(piece *p)
+void piece_release(piece *p)
 {
     pf_free(p->x);
     pf_free(p->face_offsets);
@@ -40,13 +34,13 @@ static void piece_release(piece *p)
     memset(p, 0, sizeof *p);
 }
 
-static pf_polyhedron piece_view(const piece *p)
+pf_polyhedron piece_view(const piece *p)
 {
     return (pf_polyhedron){p->x, p->n_faces, p->face_offsets, p->face_nodes};
 }
 
 /* The bounding box, kept with the piece: every level of the cut asks for it. */
-static void update_bounds(piece *p)
+void update_bounds(piece *p)
 {
     for (int c = 0; c < 3; ++c)
         p->lo[c] = p->hi[c] = p->n_nodes ? p->x[c] : 0;
@@ -61,7 +55,7 @@ static void update_bounds(piece *p)
 }
 
 /* Piece k of a split, with only the nodes its faces use. */
-static pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out,
+pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out,
                                pf_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -97,26 +91,6 @@ static pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, pie
 
 /* ---- gluing: nodes by exact coordinates, faces by node sets ------------------------------- */
 
-typedef struct glue {
-    /* nodes */
-    int32_t n_nodes, cap_nodes;
-    double *x;
-    int64_t node_slots; /* power of two */
-    int32_t *node_table; /* -1 empty */
-    /* faces: CSR, and a hash of their sorted node lists */
-    int32_t n_faces, cap_faces;
-    int64_t *face_offsets;
-    pf_buffer face_nodes; /* uint32 */
-    int64_t face_slots;
-    int32_t *face_table;
-    int32_t *face_uses; /* [cap_faces] elements using the face so far */
-    /* elements */
-    int32_t n_elems;
-    pf_buffer elem_faces;   /* uint32 face | reversed */
-    pf_buffer elem_offsets; /* int64 */
-    int64_t longest_face;   /* nodes of the longest glued face */
-    uint32_t *scratch;      /* [3 longest_face]: a face, its sorted copy, a compared face */
-} glue;
 
 static uint64_t mix(uint64_t h)
 {
@@ -307,7 +281,7 @@ static pf_status glue_face(glue *g, const uint32_t *nodes, int64_t n, uint32_t *
     return PF_OK;
 }
 
-static void glue_release(glue *g)
+void glue_release(glue *g)
 {
     pf_free(g->x);
     pf_free(g->node_table);
@@ -336,7 +310,7 @@ static pf_status ensure_scratch(glue *g, int64_t n, pf_error *err)
 }
 
 /* Adds a finished piece as one element. */
-static pf_status glue_piece(glue *g, const piece *p, pf_error *err)
+pf_status glue_piece(glue *g, const piece *p, pf_error *err)
 {
     int64_t longest = 0;
     for (int32_t f = 0; f < p->n_faces; ++f)
@@ -458,7 +432,8 @@ static pf_status slice_axis(slicer *sl, piece *p, int axis, int32_t lo, int32_t 
 
 /* ---- the glued mesh and sliver merging ------------------------------------------------------- */
 
-static pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
+/* The glued arrays copied into m, nothing derived. */
+static pf_status glue_copy(const glue *g, pf_mesh *m, pf_error *err)
 {
     int64_t n_face_nodes = g->face_offsets ? g->face_offsets[g->n_faces] : 0;
     int64_t n_elem_faces = (int64_t)(g->elem_faces.size / sizeof(uint32_t));
@@ -468,8 +443,21 @@ static pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
     memcpy(m->face_nodes, g->face_nodes.data, (size_t)n_face_nodes * sizeof *m->face_nodes);
     memcpy(m->elem_offsets, g->elem_offsets.data, ((size_t)g->n_elems + 1) * sizeof(int64_t));
     memcpy(m->elem_faces, g->elem_faces.data, (size_t)n_elem_faces * sizeof(uint32_t));
-    /* the adjacency merging needs, as pf_mesh_derive would compute it (glue_face made every face's
-     * first use outward and its second reversed); element kinds are left to the merged mesh */
+    return PF_OK;
+}
+
+pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
+{
+    PF_TRY(glue_copy(g, m, err));
+    return pf_mesh_derive(m, err);
+}
+
+/* The glued mesh with only the adjacency sliver merging needs (face_elems as pf_mesh_derive
+ * computes it: glue_face made every face's first use outward, its second reversed); the kinds
+ * of the pieces are never asked for, only those of the merged mesh. */
+static pf_status glue_to_unmerged(const glue *g, pf_mesh *m, pf_error *err)
+{
+    PF_TRY(glue_copy(g, m, err));
     m->face_elems = pf_alloc_array(2 * (size_t)g->n_faces + 1, sizeof *m->face_elems);
     PF_CHECK(m->face_elems, err, PF_ERR_NOMEM, "out of memory slicing");
     for (int64_t i = 0; i < 2 * (int64_t)g->n_faces; ++i)
@@ -532,7 +520,7 @@ static int32_t best_neighbour(const pf_mesh *m, int32_t *parent, const int32_t *
 /* Merges every group of volume below min_volume into its best neighbour (DG paper sec. 9.4, which
  * merges slivers into neighbours without prescribing an order): groups in index order, sweeps
  * repeated until no group below min_volume has a neighbour left, so the result is deterministic. */
-static pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
+pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
                                int32_t *merged, int32_t *isolated, pf_error *err)
 {
     int32_t ne = m->n_elems;
@@ -575,7 +563,7 @@ static pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *par
 }
 
 /* The mesh with every group one element: faces inside a group dropped, nodes compacted. */
-static pf_status rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err)
+pf_status rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err)
 {
     int32_t ne = m->n_elems, nf = m->n_faces;
     int32_t *elem_id = pf_alloc_array((size_t)ne, sizeof *elem_id);
@@ -660,7 +648,7 @@ pf_slice_params pf_slice_params_default(void)
     return (pf_slice_params){.grid = pf_voxelize_params_default(), .merge = 0.05};
 }
 
-static pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
+pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
 {
     memset(p, 0, sizeof *p);
     p->n_nodes = s->n_verts;
@@ -711,7 +699,7 @@ pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *
     if (st >= 0)
         st = slice_range(&sl, &whole, 0, err);
     if (st >= 0)
-        st = glue_to_mesh(&sl.glue, &glued, err);
+        st = glue_to_unmerged(&sl.glue, &glued, err);
     stats->splits = sl.splits;
     stats->pieces = sl.glue.n_elems;
     glue_release(&sl.glue);

@@ -1,6 +1,8 @@
 /* Voxelization: the grid cells inside a surface (or overlapping it) as a hex mesh. */
 #include <pf/mesh.h>
 
+#include "mesh_internal.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -145,7 +147,7 @@ pf_status pf_surface_classify_cells_by(const pf_surface *s, const pf_grid *grid,
 /* Separating-axis test of a triangle against an axis-aligned box, strict: touching is not
  * overlapping (a triangle lying in a cell face plane overlaps neither cell by itself). Axes: the
  * three box normals, the triangle normal, and the nine cross products of edges. */
-static int triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half)
+int triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half)
 {
     pf_vec3 v[3] = {pf_v3_sub(t0, centre), pf_v3_sub(t1, centre), pf_v3_sub(t2, centre)};
     pf_vec3 e[3] = {pf_v3_sub(v[1], v[0]), pf_v3_sub(v[2], v[1]), pf_v3_sub(v[0], v[2])};

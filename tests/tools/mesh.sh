@@ -1,4 +1,4 @@
-# pf-slice and pf-voxelize: exact volume through the pipe, counts, bad input.
+# pf-slice, pf-voxelize and pf-octree: exact volume through the pipe, counts, bad input.
 . "$(dirname "$0")/lib.sh"
 
 # A sphere sliced at 10 cells: the MESH volume equals the SURF's enclosed volume (1e-9).
@@ -17,6 +17,32 @@ check "polyhedra at the surface" bash -c "grep '\"chunk\":\"MESH\"' '$tmp/info.j
 check "64 elements of the cube" grep -q '"elements":64,' "$tmp/cube.json"
 "$bin/pf-voxelize" --res 4 --quiet "$data/cube.obj" | "$bin/pf-info" --json - >"$tmp/vox.json"
 check "voxelized cube: 64 hexes" grep -q '"hexes":64' "$tmp/vox.json"
+
+# pf-octree: with --slice the volume is exact; without, the cells inside. Counts grow about 4x per
+# level (the surface's area), not 8x (its volume): the library test justifies the window.
+"$bin/pf-octree" --depth 4 --slice --quiet "$tmp/sphere.pfs" | "$bin/pf-info" --json - >"$tmp/oct.json"
+surf=$(grep '"chunk":"SURF"' "$tmp/oct.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+mesh=$(grep '"chunk":"MESH"' "$tmp/oct.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+check "octree volume $mesh equals the surface's $surf" \
+  awk -v a="$mesh" -v b="$surf" 'BEGIN { e = a / b - 1; exit !(e < 1e-9 && e > -1e-9) }'
+check "the octree mesh is valid" grep -q '"valid":true' "$tmp/oct.json"
+expect 0 "ray-crossing test" "$bin/pf-octree" --depth 4 "$tmp/sphere.pfs"
+expect 0 "cell faces split" "$bin/pf-octree" --depth 4 "$tmp/sphere.pfs"
+count() { "$bin/pf-octree" --depth "$1" --quiet "$tmp/sphere.pfs" | "$bin/pf-info" --json - |
+  grep '"chunk":"MESH"' | grep -o '"elements":[0-9]*' | cut -d: -f2; }
+n5=$(count 5) n6=$(count 6)
+check "octree elements $n5 -> $n6 grow like the area" \
+  awk -v a="$n5" -v b="$n6" 'BEGIN { r = b / a; exit !(r > 3.5 && r < 4.7) }'
+# The unit cube fills its bounding cube, its faces on the root's planes: every cell is whole.
+"$bin/pf-octree" --depth 3 --slice --quiet "$data/cube.obj" | "$bin/pf-info" --json - >"$tmp/ocube.json"
+check "sliced octree of the cube: 8 cells of depth 2 and 448 of depth 3, volume 1" \
+  grep -q '"elements":456,.*"volume":1,' "$tmp/ocube.json"
+check "the cube's octree mesh is valid" grep -q '"valid":true' "$tmp/ocube.json"
+expect 0 "winding-number test" "$bin/pf-octree" --depth 3 "$data/open_box.obj"
+expect 1 "closed" "$bin/pf-octree" --slice "$data/open_box.obj"
+expect 2 "" "$bin/pf-octree" --depth 0 "$data/cube.obj"
+expect 2 "" "$bin/pf-octree" --depth 3 --min-depth 4 "$data/cube.obj"
+expect 2 "" "$bin/pf-octree" --merge 0.1 "$data/cube.obj"
 
 # Bad input and usage.
 expect 1 "closed" "$bin/pf-slice" "$data/open_box.obj"

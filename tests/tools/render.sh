@@ -54,6 +54,13 @@ if ! cat "$tmp/beam.pfs" | "$bin/pf-render" --quiet --size 160x120 --out "$tmp/p
   [ "$(ls "$tmp/pipe" | wc -l)" != 2 ]; then
   echo "FAIL: pf-render on a pipe: $(cat "$tmp/err")"; failures=$((failures + 1))
 fi
+# a render farm's range on a pipe: the camera is still the stream's first frame's
+checks=$((checks + 1))
+if ! cat "$tmp/beam.pfs" | "$bin/pf-render" --quiet --size 160x120 --frames 1 --out "$tmp/pipe1" \
+  2>"$tmp/err" || ! cmp -s "$tmp/pipe1/frame_00001.png" "$tmp/pipe/frame_00001.png"; then
+  echo "FAIL: --frames 1 on a pipe differs from frame 1 of the whole pipe: $(cat "$tmp/err")"
+  failures=$((failures + 1))
+fi
 # an explicit camera
 expect 0 "" "$bin/pf-render" --quiet --size 160x120 --out "$tmp/cam" \
   --camera '{"eye": [2, -6, 3], "target": [2, 0.5, 0.5], "fov": 30}' "$tmp/box.pfs"

@@ -190,6 +190,10 @@ pf_status pf_stream_decode_mesh(const pf_chunk *c, pf_mesh *m, pf_error *err);
 pf_status pf_stream_decode_surface(const pf_chunk *c, pf_surface *s, pf_error *err);
 pf_status pf_stream_decode_weights(const pf_chunk *c, pf_weights *w, pf_error *err);
 pf_status pf_stream_decode_frame(const pf_chunk *c, pf_frame_data *f, pf_error *err);
+/* The index of a FRAM chunk from its header alone, without decoding its displacements: a reader
+ * that wants a range of frames skips the others cheaply. Checks the tag, version and header
+ * size only (pf_stream_decode_frame checks the rest). */
+pf_status pf_stream_frame_index(const pf_chunk *c, uint32_t *index, pf_error *err);
 pf_status pf_stream_decode_stress(const pf_chunk *c, pf_stress_data *s, pf_error *err);
 pf_status pf_stream_decode_end(const pf_chunk *c, pf_end_data *d, pf_error *err);
 

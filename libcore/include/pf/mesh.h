@@ -236,6 +236,63 @@ typedef struct pf_slice_stats {
 pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *params,
                         pf_slice_stats *stats, pf_error *err);
 
+/* ---- adaptive octree (harmonic paper sec. 7, fig. 4) --------------------------------------------
+ * An octree over the bounding cube of a surface (the cube of the bounding box's longest side,
+ * centred on the box): the root has depth 0, a cell of depth k has edge size / 2^k. Every cell is
+ * refined to min_depth; beyond, a cell is refined while the surface comes within 4e-10 of the
+ * model's size (4 times the cutting tolerance) of its closed box (triangle-box separating-axis
+ * test), down to depth, so the cells the
+ * surface crosses all have depth `depth` and the others are as coarse as min_depth allows; no 2:1
+ * balance. The elements are the leaves inside: leaves whose centre is inside the surface, or with
+ * slice, the exact solid part of every surface leaf (one element per connected piece, cut as in
+ * pf_mesh_slice, sliver merging included) and the leaves wholly inside.
+ *
+ * Conformity at face level without hanging nodes: where a cell's face meets several smaller
+ * leaves, it is split into exactly their faces (coplanar), and every face lists every mesh node
+ * lying on its edges, so a large cell becomes a polyhedron with extra nodes and no node lies
+ * inside an edge of a face it is not a vertex of. Nodes are shared exactly: lattice points of the
+ * finest level are computed by one formula, origin + i * (size / 2^depth). */
+#define PF_OCTREE_MAX_DEPTH 12
+
+typedef struct pf_octree_params {
+    int32_t depth;     /* depth of the surface cells, 1 .. PF_OCTREE_MAX_DEPTH (default 5: 32
+                          finest cells along the bounding cube, pf-slice's default grid) */
+    int32_t min_depth; /* every leaf at least this deep, 0 .. depth (default 2) */
+    bool slice;        /* cut the surface cells exactly (closed surfaces only) */
+    double merge;      /* with slice: merge pieces below merge * (finest cell volume), [0, 1)
+                          (default 0.05, as pf_mesh_slice) */
+} pf_octree_params;
+
+pf_octree_params pf_octree_params_default(void);
+
+typedef struct pf_octree_stats {
+    pf_vec3 origin;          /* lowest corner of the root cube */
+    double size;             /* root cube edge (model units) */
+    double h;                /* finest cell edge, size / 2^depth */
+    int32_t leaves;          /* octree leaves, inside or not */
+    int32_t surface_leaves;  /* leaves the surface comes near (all at full depth) */
+    int32_t cells_by_depth[PF_OCTREE_MAX_DEPTH + 1]; /* whole-cell elements per depth (before
+                                                        sliver merging) */
+    int32_t split_faces;     /* cell faces split into several neighbour faces */
+    pf_inside_method method; /* centre test without slice (rays: closed, winding: open) */
+    int64_t splits;          /* plane splits (slice) */
+    int32_t pieces;          /* elements before merging (slice) */
+    int32_t merged;          /* slivers merged into a neighbour (slice) */
+    int32_t isolated_slivers; /* pieces below the threshold touching no other piece (kept) */
+    int32_t kinds[PF_ELEM_KIND_COUNT];
+    double seconds;
+} pf_octree_stats;
+
+/* Builds the octree mesh of s into m (derived; m is overwritten). params may be NULL for the
+ * defaults, stats may be NULL. Without slice, s may be open (winding-number centre test); with
+ * slice it must be closed, manifold and outward (PF_ERR_INVALID otherwise, saying what is wrong).
+ * Statuses: PF_ERR_INVALID for parameters out of range, a surface without triangles or with a
+ * non-finite coordinate, or no leaf inside; PF_ERR_NUMERIC when the geometry is too degenerate
+ * for a consistent cut at the model's tolerance (1e-10 of its size); PF_ERR_TOO_LARGE when the
+ * mesh would exceed the 32-bit counts; PF_ERR_NOMEM. */
+pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
+                         pf_octree_stats *stats, pf_error *err);
+
 /* Summary statistics, as printed by pf-info. */
 typedef struct pf_mesh_stats {
     int32_t n_nodes, n_faces, n_elems, n_boundary_faces;

@@ -1,0 +1,74 @@
+/* Internal to libcore/mesh: the pieces, gluing and sliver merging of the slicer (slice.c), shared
+ * with the octree builder (octree.c), and the triangle-box test of the voxelizer (voxelize.c). */
+#ifndef PF_MESH_INTERNAL_H
+#define PF_MESH_INTERNAL_H
+
+#include <pf/mesh.h>
+#include <pf/split.h>
+
+/* One closed polyhedron with its own nodes, all arrays owned (pf_alloc). */
+typedef struct piece {
+    int32_t n_nodes;
+    double *x;           /* [3 n_nodes] */
+    double lo[3], hi[3]; /* bounding box of the nodes (update_bounds) */
+    int32_t n_faces;
+    int64_t *face_offsets; /* [n_faces + 1] */
+    uint32_t *face_nodes;  /* outward, counter-clockwise seen from outside */
+} piece;
+
+void piece_release(piece *p);
+/* A borrowed pf_polyhedron view of p. */
+pf_polyhedron piece_view(const piece *p);
+void update_bounds(piece *p);
+/* Piece k of a split with only the nodes its faces use; remap [s->n_nodes] must be all -1 and is
+ * left so. */
+pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out, pf_error *err);
+/* The closed surface s as one piece (its triangles the faces). */
+pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err);
+
+/* Builds a mesh from closed pieces: nodes merged by exact coordinates (-0 = +0), faces by their
+ * node sets; a face met a second time is used reversed, a third time is an error. Zero-initialise
+ * before the first glue_piece. */
+typedef struct glue {
+    /* nodes */
+    int32_t n_nodes, cap_nodes;
+    double *x;
+    int64_t node_slots;  /* power of two */
+    int32_t *node_table; /* -1 empty */
+    /* faces: CSR, and a hash of their sorted node lists */
+    int32_t n_faces, cap_faces;
+    int64_t *face_offsets;
+    pf_buffer face_nodes; /* uint32 */
+    int64_t face_slots;
+    int32_t *face_table;
+    int32_t *face_uses; /* [cap_faces] elements using the face so far */
+    /* elements */
+    int32_t n_elems;
+    pf_buffer elem_faces;   /* uint32 face | reversed */
+    pf_buffer elem_offsets; /* int64 */
+    int64_t longest_face;   /* nodes of the longest glued face */
+    uint32_t *scratch;      /* [3 longest_face]: a face, its sorted copy, a compared face */
+} glue;
+
+/* Adds p (read only) as one element. PF_ERR_NUMERIC when a face would get a third user. */
+pf_status glue_piece(glue *g, const piece *p, pf_error *err);
+void glue_release(glue *g);
+/* The glued mesh, derived. */
+pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err);
+
+/* Sliver merging (DG paper sec. 9.4) on a derived mesh: parent[n_elems] receives a union-find
+ * forest in which every group below min_volume (model units cubed) is joined to the neighbouring
+ * group sharing the most face area with it, groups in index order (sweeps repeated until none
+ * below min_volume has a neighbour left); *merged counts the joins, *isolated the groups left
+ * below min_volume because they touch no other element. */
+pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent, int32_t *merged,
+                        int32_t *isolated, pf_error *err);
+/* out: m with every group of parent one element (faces inside a group dropped, nodes compacted),
+ * derived. parent is path-compressed in place. */
+pf_status rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err);
+
+/* Separating-axis test of the triangle (t0, t1, t2) against the cube of the given centre and half
+ * edge, strict: touching is not overlapping. 1 when they overlap. */
+int triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half);
+
+#endif

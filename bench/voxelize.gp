@@ -12,10 +12,10 @@ set key outside right
 set logscale xy
 set xtics (8, 16, 32, 64, 128)
 set xlabel 'cells along the longest side'
-set ylabel 'cells per second'
+set ylabel 'cells per CPU second'
 set grid
 set title 'pf\_mesh\_voxelize, inside mode, one thread'
 series = "sphere,960,rays sphere,9800,rays bunny,3674,rays bunny-open,3673,winding sphere-open,959,winding"
 key(r) = strcol(1).','.strcol(2).','.strcol(3)
 # columns 1-3 are strings: select a series by comparing them, others become undefined points
-plot for [s in series] csv skip 3 using 4:(key(0) eq s ? $8 : 1/0) with linespoints title s
+plot for [s in series] csv skip 3 using 4:(key(0) eq s ? $9 : 1/0) with linespoints title s

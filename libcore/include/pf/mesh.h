@@ -214,7 +214,7 @@ pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_pa
  * the solid inside it, so the mesh's boundary is the surface. Pieces below merge * h^3 are merged
  * into the neighbour sharing the most face area with them (sec. 9.4). */
 typedef struct pf_slice_params {
-    pf_voxelize_params grid; /* res / cell / origin (mode unused) */
+    pf_voxelize_params grid; /* res / cell / origin (mode and inside unused) */
     double merge;            /* sliver threshold, fraction of a cell's volume (default 0.05) */
 } pf_slice_params;
 

@@ -55,7 +55,10 @@ static int run(const char *name, const pf_surface *s, pf_inside_method test, int
 }
 
 /* The surface without its last triangle: open, with one small hole. */
-static void drop_last_triangle(pf_surface *s) { s->n_tris--; }
+static void drop_last_triangle(pf_surface *s)
+{
+    s->n_tris--;
+}
 
 int main(int argc, char **argv)
 {

@@ -1,7 +1,9 @@
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include "machine.h"
 
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 static void cpu_model(char *out, size_t n)
@@ -48,4 +50,12 @@ void bench_describe_machine(char *out, size_t n)
 #endif
     snprintf(out, n, "cpu: %s, %ld cores online, load average %.2f at start; compiler: %s", model,
              sysconf(_SC_NPROCESSORS_ONLN), load_average(), compiler);
+}
+
+double bench_cpu_seconds(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
+        return -1;
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }

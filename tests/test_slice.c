@@ -200,6 +200,76 @@ static void refuses_open_surfaces(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* FNV-1a over bytes, chained. */
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *c = data;
+    for (size_t i = 0; i < n; ++i) {
+        h ^= c[i];
+        h *= 1099511628211ull;
+    }
+    return h;
+}
+
+/* Hash of every array of a mesh: node coordinates bit for bit, faces and elements in order. */
+static uint64_t mesh_hash(const pf_mesh *m)
+{
+    uint64_t h = 1469598103934665603ull;
+    h = fnv1a(h, m->x, 3 * (size_t)m->n_nodes * sizeof *m->x);
+    h = fnv1a(h, m->face_offsets, ((size_t)m->n_faces + 1) * sizeof *m->face_offsets);
+    h = fnv1a(h, m->face_nodes, (size_t)m->face_offsets[m->n_faces] * sizeof *m->face_nodes);
+    h = fnv1a(h, m->elem_offsets, ((size_t)m->n_elems + 1) * sizeof *m->elem_offsets);
+    h = fnv1a(h, m->elem_faces, (size_t)m->elem_offsets[m->n_elems] * sizeof *m->elem_faces);
+    return h;
+}
+
+/* The mesh of two fixed cases, pinned bit for bit (counts, then a hash of every array): a change
+ * that only makes slicing faster must leave them as they are. The slicer is deterministic (one
+ * global plane order, -ffp-contract=off, no threads), so the hash is exact, not approximate. A
+ * deliberate change of the output (another merge rule, node order) updates these numbers. */
+static void pins_the_output_of_fixed_cases(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    static const struct {
+        const char *name;
+        int32_t res, nodes, faces, elems, merged;
+        int64_t splits;
+        uint64_t hash;
+    } cases[] = {
+        {"sphere", 8, 2917, 4868, 360, 48, 407, 0x23db1d8b9e17a5e8ull},
+        {"torus", 6, 1984, 3248, 56, 8, 61, 0x3a7ec00019c04a73ull},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
+        pf_error err = {0};
+        pf_surface s = {0};
+        if (c == 0)
+            assert_int_equal(pf_surface_make_sphere(&s, 1, 24, 48, &err), PF_OK);
+        else
+            assert_int_equal(pf_surface_make_torus(&s, 1, 0.35, 48, 24, &err), PF_OK);
+        pf_slice_params p = pf_slice_params_default();
+        p.grid.res = cases[c].res;
+        pf_mesh m = {0};
+        pf_slice_stats st;
+        if (pf_mesh_slice(&m, &s, &p, &st, &err) != PF_OK)
+            fail_msg("%s: %s", cases[c].name, err.msg);
+        uint64_t h = mesh_hash(&m);
+        printf("%-8s res %d: %d nodes, %d faces, %d elements, %d merged, %lld splits, hash "
+               "%016llx\n",
+               cases[c].name, (int)cases[c].res, (int)m.n_nodes, (int)m.n_faces, (int)m.n_elems,
+               (int)st.merged, (long long)st.splits, (unsigned long long)h);
+        assert_int_equal(m.n_nodes, cases[c].nodes);
+        assert_int_equal(m.n_faces, cases[c].faces);
+        assert_int_equal(m.n_elems, cases[c].elems);
+        assert_int_equal(st.merged, cases[c].merged);
+        assert_int_equal(st.splits, cases[c].splits);
+        assert_true(h == cases[c].hash);
+        pf_mesh_release(&m);
+        pf_surface_release(&s);
+    }
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -207,6 +277,7 @@ int main(void)
         cmocka_unit_test(slices_a_grid_aligned_cube),
         cmocka_unit_test(slices_thin_and_separate_bodies),
         cmocka_unit_test(refuses_open_surfaces),
+        cmocka_unit_test(pins_the_output_of_fixed_cases),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -149,6 +149,13 @@ bool pf_cli_file_is_stream(const char *path)
     return is_stream;
 }
 
+void pf_cli_prefix_surface_error(const char *path, pf_error *err)
+{
+    bool from_stdin = !path || strcmp(path, "-") == 0;
+    pf_error_prefix(err, "%s%s", from_stdin ? "stdin" : path,
+                    from_stdin || pf_cli_file_is_stream(path) ? ": chunk SURF" : "");
+}
+
 FILE *pf_cli_binary_stdout(const pf_cli *cli)
 {
     if (isatty(fileno(stdout)))

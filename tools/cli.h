@@ -65,6 +65,10 @@ void pf_cli_close_input(FILE *f);
 /* True when the file at path opens and starts with the pf stream signature. */
 bool pf_cli_file_is_stream(const char *path);
 
+/* Prepends the input a surface read by pf_cli_read_surface came from to err's message ("bunny.obj",
+ * "stdin: chunk SURF", "in.pfs: chunk SURF"), for errors found in the surface after reading it. */
+void pf_cli_prefix_surface_error(const char *path, pf_error *err);
+
 /* Binary output to stdout: refuses (exit 2) when stdout is a terminal. */
 FILE *pf_cli_binary_stdout(const pf_cli *cli);
 

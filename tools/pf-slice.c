@@ -67,8 +67,11 @@ int main(int argc, char **argv)
     if (st >= 0)
         st = pf_cli_read_surface(path, &surface, w, &err);
     pf_slice_stats stats;
-    if (st >= 0)
+    if (st >= 0) {
         st = pf_mesh_slice(&mesh, &surface, &p, &stats, &err);
+        if (st < 0)
+            pf_cli_prefix_surface_error(path, &err);
+    }
     if (st >= 0)
         st = pf_mesh_validate(&mesh, NULL, &err);
     if (st >= 0)

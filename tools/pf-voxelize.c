@@ -7,7 +7,7 @@
 
 static const char USAGE[] =
     "Usage: pf-voxelize [SURFACE | -] [--res N | --cell H] [--origin X,Y,Z]\n"
-    "                   [--mode inside|overlap] [--quiet]\n"
+    "                   [--mode inside|overlap] [--inside auto|rays|winding] [--quiet]\n"
     "\n"
     "Writes a pf stream with the surface (SURF, for embedding and rendering later) and a hex mesh\n"
     "(MESH) of the grid cells of the solid, to stdout.\n"
@@ -19,20 +19,24 @@ static const char USAGE[] =
     "  --origin X,Y,Z a grid point (default: the grid is centred on the bounding box)\n"
     "  --mode inside  cells whose centre is inside the surface (default)\n"
     "  --mode overlap those and every cell a triangle passes through\n"
+    "  --inside T     the inside test: auto (default: rays for a closed surface, else winding),\n"
+    "                 rays or winding\n"
     "  --quiet        no report on stderr\n"
     "\n"
-    "Inside test: for a closed surface, signed ray crossings (Embree) along grid rows in x, y and\n"
-    "z, a cell being inside where at least two of the three directions say so, so that small\n"
-    "defects do not leak along a row; for an open surface (holes), the generalised winding number\n"
-    "(inside where it is >= 1/2), slower but robust to holes. The report says which was used.\n";
+    "Inside tests: rays counts signed ray crossings (Embree) along grid rows in x, y and z, a cell\n"
+    "being inside where at least two of the three directions say so, so that a small defect (a\n"
+    "hole smaller than a cell, a few rows through it) does not leak along a row; winding is the\n"
+    "generalised winding number (inside where it is >= 1/2), robust to holes of any size but\n"
+    "O(triangles) per cell. The report says which was used.\n";
 
-enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MODE, OPT_QUIET };
+enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MODE, OPT_INSIDE, OPT_QUIET };
 
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {{"res", true, OPT_RES},       {"cell", true, OPT_CELL},
                                             {"origin", true, OPT_ORIGIN}, {"mode", true, OPT_MODE},
-                                            {"quiet", false, OPT_QUIET},  {NULL, false, 0}};
+                                            {"inside", true, OPT_INSIDE}, {"quiet", false, OPT_QUIET},
+                                            {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-voxelize", USAGE, argc, argv);
     pf_voxelize_params p = pf_voxelize_params_default();
@@ -50,6 +54,16 @@ int main(int argc, char **argv)
                 p.mode = PF_VOXEL_OVERLAP;
             else
                 pf_cli_usage_error(&cli, "--mode is inside or overlap, not '%s'", value);
+            break;
+        case OPT_INSIDE:
+            if (strcmp(value, "auto") == 0)
+                p.inside = PF_INSIDE_AUTO;
+            else if (strcmp(value, "rays") == 0)
+                p.inside = PF_INSIDE_RAYS;
+            else if (strcmp(value, "winding") == 0)
+                p.inside = PF_INSIDE_WINDING;
+            else
+                pf_cli_usage_error(&cli, "--inside is auto, rays or winding, not '%s'", value);
             break;
         case OPT_QUIET: quiet = true; break;
         default:
@@ -73,8 +87,11 @@ int main(int argc, char **argv)
     pf_grid grid = {0};
     pf_inside_method method = PF_INSIDE_RAYS;
     double t0 = pf_time_seconds();
-    if (st >= 0)
+    if (st >= 0) {
         st = pf_mesh_voxelize(&mesh, &surface, &p, &grid, &method, &err);
+        if (st < 0)
+            pf_cli_prefix_surface_error(path, &err);
+    }
     double seconds = pf_time_seconds() - t0;
     if (st >= 0)
         st = pf_stream_write_surface(w, &surface, &err);

@@ -58,8 +58,9 @@ pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err);
 
 /* Sliver merging (DG paper sec. 9.4) on a derived mesh: parent[n_elems] receives a union-find
  * forest in which every group below min_volume (model units cubed) is joined to the neighbouring
- * group sharing the most face area with it, smallest first; *merged counts the joins, *isolated
- * the groups left below min_volume because they touch no other element. */
+ * group sharing the most face area with it, groups in index order (sweeps repeated until none
+ * below min_volume has a neighbour left); *merged counts the joins, *isolated the groups left
+ * below min_volume because they touch no other element. */
 pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent, int32_t *merged,
                         int32_t *isolated, pf_error *err);
 /* out: m with every group of parent one element (faces inside a group dropped, nodes compacted),

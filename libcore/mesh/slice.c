@@ -176,10 +176,27 @@ static int compare_u32(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Faces mostly have a handful of nodes, where qsort's call overhead dominates: insertion sort
+ * for those, qsort for long ones (caps of coarse grids). */
+static void sort_u32(uint32_t *v, int64_t n)
+{
+    if (n > 32) {
+        qsort(v, (size_t)n, sizeof *v, compare_u32);
+        return;
+    }
+    for (int64_t i = 1; i < n; ++i) {
+        uint32_t x = v[i];
+        int64_t j = i;
+        for (; j > 0 && v[j - 1] > x; --j)
+            v[j] = v[j - 1];
+        v[j] = x;
+    }
+}
+
 /* Hash of a face's node set (sorted copy in key). */
 static uint64_t hash_face(uint32_t *key, int64_t n)
 {
-    qsort(key, (size_t)n, sizeof *key, compare_u32);
+    sort_u32(key, n);
     uint64_t h = mix((uint64_t)n);
     for (int64_t k = 0; k < n; ++k)
         h = mix(h ^ key[k]);
@@ -200,7 +217,7 @@ static bool same_node_set(const glue *g, int32_t f, const uint32_t *sorted, int6
     if (m != n)
         return false;
     memcpy(scratch, nodes, (size_t)n * sizeof *scratch);
-    qsort(scratch, (size_t)n, sizeof *scratch, compare_u32);
+    sort_u32(scratch, n);
     return memcmp(scratch, sorted, (size_t)n * sizeof *scratch) == 0;
 }
 
@@ -415,7 +432,8 @@ static pf_status slice_axis(slicer *sl, piece *p, int axis, int32_t lo, int32_t 
 
 /* ---- the glued mesh and sliver merging ------------------------------------------------------- */
 
-pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
+/* The glued arrays copied into m, nothing derived. */
+static pf_status glue_copy(const glue *g, pf_mesh *m, pf_error *err)
 {
     int64_t n_face_nodes = g->face_offsets ? g->face_offsets[g->n_faces] : 0;
     int64_t n_elem_faces = (int64_t)(g->elem_faces.size / sizeof(uint32_t));
@@ -425,7 +443,30 @@ pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
     memcpy(m->face_nodes, g->face_nodes.data, (size_t)n_face_nodes * sizeof *m->face_nodes);
     memcpy(m->elem_offsets, g->elem_offsets.data, ((size_t)g->n_elems + 1) * sizeof(int64_t));
     memcpy(m->elem_faces, g->elem_faces.data, (size_t)n_elem_faces * sizeof(uint32_t));
+    return PF_OK;
+}
+
+pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
+{
+    PF_TRY(glue_copy(g, m, err));
     return pf_mesh_derive(m, err);
+}
+
+/* The glued mesh with only the adjacency sliver merging needs (face_elems as pf_mesh_derive
+ * computes it: glue_face made every face's first use outward, its second reversed); the kinds
+ * of the pieces are never asked for, only those of the merged mesh. */
+static pf_status glue_to_unmerged(const glue *g, pf_mesh *m, pf_error *err)
+{
+    PF_TRY(glue_copy(g, m, err));
+    m->face_elems = pf_alloc_array(2 * (size_t)g->n_faces + 1, sizeof *m->face_elems);
+    PF_CHECK(m->face_elems, err, PF_ERR_NOMEM, "out of memory slicing");
+    for (int64_t i = 0; i < 2 * (int64_t)g->n_faces; ++i)
+        m->face_elems[i] = -1;
+    for (int32_t e = 0; e < g->n_elems; ++e)
+        for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k)
+            m->face_elems[2 * PF_FACE_INDEX(m->elem_faces[k]) +
+                          ((m->elem_faces[k] & PF_FACE_REVERSED) ? 1 : 0)] = e;
+    return PF_OK;
 }
 
 static int32_t find_root(int32_t *parent, int32_t e)
@@ -476,7 +517,9 @@ static int32_t best_neighbour(const pf_mesh *m, int32_t *parent, const int32_t *
     return best < 0 ? -1 : cand[best];
 }
 
-/* Merges every group of volume below min_volume into its best neighbour, smallest first. */
+/* Merges every group of volume below min_volume into its best neighbour (DG paper sec. 9.4, which
+ * merges slivers into neighbours without prescribing an order): groups in index order, sweeps
+ * repeated until no group below min_volume has a neighbour left, so the result is deterministic. */
 pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
                                int32_t *merged, int32_t *isolated, pf_error *err)
 {
@@ -656,7 +699,7 @@ pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *
     if (st >= 0)
         st = slice_range(&sl, &whole, 0, err);
     if (st >= 0)
-        st = glue_to_mesh(&sl.glue, &glued, err);
+        st = glue_to_unmerged(&sl.glue, &glued, err);
     stats->splits = sl.splits;
     stats->pieces = sl.glue.n_elems;
     glue_release(&sl.glue);

@@ -8,7 +8,7 @@
 
 pf_voxelize_params pf_voxelize_params_default(void)
 {
-    return (pf_voxelize_params){.res = 32, .mode = PF_VOXEL_INSIDE};
+    return (pf_voxelize_params){.res = 32, .mode = PF_VOXEL_INSIDE, .inside = PF_INSIDE_AUTO};
 }
 
 pf_status pf_grid_fit(pf_vec3 lo, pf_vec3 hi, const pf_voxelize_params *p, pf_grid *grid,
@@ -118,9 +118,18 @@ static pf_status classify_by_rays(const pf_surface *s, const pf_grid *g, uint8_t
 pf_status pf_surface_classify_cells(const pf_surface *s, const pf_grid *grid, uint8_t *inside,
                                     pf_inside_method *method, pf_error *err)
 {
+    return pf_surface_classify_cells_by(s, grid, PF_INSIDE_AUTO, inside, method, err);
+}
+
+pf_status pf_surface_classify_cells_by(const pf_surface *s, const pf_grid *grid,
+                                       pf_inside_method want, uint8_t *inside,
+                                       pf_inside_method *method, pf_error *err)
+{
+    PF_CHECK(want == PF_INSIDE_AUTO || want == PF_INSIDE_RAYS || want == PF_INSIDE_WINDING, err,
+             PF_ERR_INVALID, "unknown inside test %d", (int)want);
     pf_surface_stats st;
     PF_TRY(pf_surface_compute_stats(s, &st, err));
-    if (st.closed) {
+    if (want == PF_INSIDE_RAYS || (want == PF_INSIDE_AUTO && st.closed)) {
         *method = PF_INSIDE_RAYS;
         return classify_by_rays(s, grid, inside, err);
     }
@@ -268,8 +277,8 @@ pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_pa
     uint8_t *selected = pf_alloc(cells);
     PF_CHECK(selected, err, PF_ERR_NOMEM, "out of memory for a %d x %d x %d grid", (int)g.n[0],
              (int)g.n[1], (int)g.n[2]);
-    pf_inside_method method;
-    pf_status status = pf_surface_classify_cells(s, &g, selected, &method, err);
+    pf_inside_method method = p->inside;
+    pf_status status = pf_surface_classify_cells_by(s, &g, p->inside, selected, &method, err);
     if (status == PF_OK && p->mode == PF_VOXEL_OVERLAP)
         mark_overlapping_cells(s, &g, selected);
     if (status == PF_OK)

@@ -52,4 +52,32 @@ expect 1 "empty.msh" "$bin/pf-slice" "$data/empty.msh"
 expect 1 "no SURF" "$bin/pf-slice" "$tmp/box.pfs"
 expect 2 "" "$bin/pf-slice" --merge 2 "$data/cube.obj"
 expect 2 "" "$bin/pf-slice" --res 0 "$data/cube.obj"
+
+# The Stanford bunny, a scanned surface, through the pipe at 16 and 32 cells: the sliced volume is
+# the surface's (1e-9, as above) and the mesh valid; the voxels (cells whose centre is inside) are
+# a valid mesh, and fewer than the cells overlapping the surface, which cover the solid.
+models=$data/../../data/models
+for res in 16 32; do
+  "$bin/pf-slice" --res $res --quiet "$models/bunny.obj" | "$bin/pf-info" --json - >"$tmp/bunny.json"
+  surf=$(grep '"chunk":"SURF"' "$tmp/bunny.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+  mesh=$(grep '"chunk":"MESH"' "$tmp/bunny.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+  check "bunny at $res: sliced volume $mesh equals the surface's $surf" \
+    awk -v a="$mesh" -v b="$surf" 'BEGIN { e = a / b - 1; exit !(e < 1e-9 && e > -1e-9) }'
+  check "bunny at $res: the sliced mesh is valid" grep -q '"valid":true' "$tmp/bunny.json"
+  "$bin/pf-voxelize" --res $res --quiet "$models/bunny.obj" | "$bin/pf-info" --json - >"$tmp/bvox.json"
+  "$bin/pf-voxelize" --res $res --mode overlap --quiet "$models/bunny.obj" |
+    "$bin/pf-info" --json - >"$tmp/bover.json"
+  inside=$(grep '"chunk":"MESH"' "$tmp/bvox.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+  over=$(grep '"chunk":"MESH"' "$tmp/bover.json" | grep -o '"volume":[^,]*' | cut -d: -f2)
+  check "bunny at $res: voxels valid" grep -q '"valid":true' "$tmp/bvox.json"
+  check "bunny at $res: voxel volume $inside < overlap $over, which exceeds the solid's $surf" \
+    awk -v i="$inside" -v o="$over" -v s="$surf" 'BEGIN { exit !(i < o && o > s) }'
+done
+# Both inside tests decide the same predicate (cell centre inside) independently: same cells.
+rays=$("$bin/pf-voxelize" --res 8 --inside rays "$models/bunny.obj" 2>&1 >/dev/null | grep -o '[0-9]* hexes')
+winding=$("$bin/pf-voxelize" --res 8 --inside winding "$models/bunny.obj" 2>&1 >/dev/null | grep -o '[0-9]* hexes')
+check "bunny at 8: rays ($rays) and winding number ($winding) agree" test -n "$rays" -a "$rays" = "$winding"
+expect 2 "--inside" "$bin/pf-voxelize" --inside sometimes "$data/cube.obj"
+# An error found in the surface names the file it came from.
+expect 1 "open_box.obj: slicing needs a closed" "$bin/pf-slice" "$data/open_box.obj"
 finish

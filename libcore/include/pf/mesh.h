@@ -177,6 +177,8 @@ typedef enum pf_inside_method {
     PF_INSIDE_RAYS = 0,    /* closed surfaces: signed crossings along grid rows in x, y and z
                               (Embree), inside where at least two of the three agree */
     PF_INSIDE_WINDING = 1, /* open surfaces: generalised winding number >= 1/2 */
+    PF_INSIDE_AUTO = 2,    /* a choice only: rays when the surface is closed, else the winding
+                              number */
 } pf_inside_method;
 
 typedef struct pf_voxelize_params {
@@ -185,6 +187,10 @@ typedef struct pf_voxelize_params {
     bool has_origin;     /* grid origin given; else the grid is centred on the bounding box */
     pf_vec3 origin;
     pf_voxel_mode mode;
+    /* inside test (default PF_INSIDE_AUTO). PF_INSIDE_RAYS on an open surface is allowed: the
+     * two-of-three vote absorbs a hole smaller than a cell that a few rows pass through; the
+     * winding number is exact for holes of any size but costs O(triangles) per cell. */
+    pf_inside_method inside;
 } pf_voxelize_params;
 
 pf_voxelize_params pf_voxelize_params_default(void);
@@ -198,9 +204,15 @@ pf_status pf_grid_fit(pf_vec3 lo, pf_vec3 hi, const pf_voxelize_params *p, pf_gr
  * *method says which. */
 pf_status pf_surface_classify_cells(const pf_surface *s, const pf_grid *grid, uint8_t *inside,
                                     pf_inside_method *method, pf_error *err);
+/* As pf_surface_classify_cells, with the test chosen by want (PF_INSIDE_AUTO: by the surface);
+ * *method says which ran. PF_ERR_INVALID for another value of want. */
+pf_status pf_surface_classify_cells_by(const pf_surface *s, const pf_grid *grid,
+                                       pf_inside_method want, uint8_t *inside,
+                                       pf_inside_method *method, pf_error *err);
 
-/* A hex mesh of the selected grid cells. Nodes not used by a cell are dropped. *grid and *method
- * report what was used (either may be NULL). PF_ERR_INVALID when no cell is selected. */
+/* A hex mesh of the selected grid cells (inside test p->inside). Nodes not used by a cell are
+ * dropped. *grid and *method report what was used (either may be NULL). PF_ERR_INVALID when no
+ * cell is selected. */
 pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_params *p,
                            pf_grid *grid, pf_inside_method *method, pf_error *err);
 
@@ -210,7 +222,7 @@ pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_pa
  * the solid inside it, so the mesh's boundary is the surface. Pieces below merge * h^3 are merged
  * into the neighbour sharing the most face area with them (sec. 9.4). */
 typedef struct pf_slice_params {
-    pf_voxelize_params grid; /* res / cell / origin (mode unused) */
+    pf_voxelize_params grid; /* res / cell / origin (mode and inside unused) */
     double merge;            /* sliver threshold, fraction of a cell's volume (default 0.05) */
 } pf_slice_params;
 

@@ -28,6 +28,8 @@
 #include <pf/basis.h>
 #include <pf/mesh.h>
 
+#include "test_surfaces.h"
+
 #include "mesh/mesh_internal.h"
 
 /* ---- no T-junctions ------------------------------------------------------------------------- */
@@ -408,6 +410,34 @@ static void slices_sphere_and_torus(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* As pf-slice's acceptance: a plate thinner than the finest cell and two separate bodies in one
+ * surface, as cells (each inside leaf present, conforming) and sliced (volume and area exact). */
+static void thin_and_separate_bodies(void **state)
+{
+    (void)state;
+    int64_t live = pf_alloc_live_bytes();
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_octree_params p = pf_octree_params_default();
+    p.depth = 4, p.min_depth = 2;
+    add_box(&s, (pf_vec3){-1, -1, -0.02}, (pf_vec3){1.3, 1.1, 0.03});
+    p.slice = true;
+    check_sliced("thin plate", &s, p, false);
+    pf_surface_release(&s);
+
+    pf_surface sphere = {0};
+    assert_int_equal(pf_surface_make_sphere(&sphere, 0.5, 12, 24, &err), PF_OK);
+    add_box(&s, (pf_vec3){0, 0, 0}, (pf_vec3){1, 0.7, 0.4});
+    translate(&sphere, (pf_vec3){2.1, 0.3, 0.2});
+    append(&s, &sphere);
+    check_sliced("two bodies", &s, p, true);
+    p.slice = false;
+    check_cells("two bodies", &s, p, true);
+    pf_surface_release(&sphere);
+    pf_surface_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 /* Element counts against depth at fixed min depth 2: the leaves near the surface number about
  * area / h^2, and the coarser leaves inside form a graded layer whose cells of each depth k also
  * number about area / h_k^2, so the count grows by 4 per level once the finest cells resolve the
@@ -541,6 +571,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(cells_of_sphere_and_torus),
         cmocka_unit_test(slices_sphere_and_torus),
+        cmocka_unit_test(thin_and_separate_bodies),
         cmocka_unit_test(counts_grow_as_the_area),
         cmocka_unit_test(harmonic_basis_on_octree_cells),
         cmocka_unit_test(t_junction_check_finds_hanging_nodes),

@@ -32,42 +32,7 @@ static double now(void)
 
 static pf_status make_cube_tets(pf_mesh *m, int n, pf_error *err)
 {
-    int nn = n + 1;
-    double *x = malloc(3 * (size_t)nn * nn * nn * sizeof *x);
-    uint32_t *tets = malloc(4 * 6 * (size_t)n * n * n * sizeof *tets);
-    if (!x || !tets) {
-        free(x);
-        free(tets);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
-    }
-    for (int k = 0; k < nn; ++k)
-        for (int j = 0; j < nn; ++j)
-            for (int i = 0; i < nn; ++i) {
-                size_t q = (size_t)(k * nn + j) * nn + i;
-                x[3 * q] = (double)i / n;
-                x[3 * q + 1] = (double)j / n;
-                x[3 * q + 2] = (double)k / n;
-            }
-    static const int kuhn[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6},
-                                   {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
-    int t = 0;
-    for (int k = 0; k < n; ++k)
-        for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) {
-                uint32_t c[8];
-                uint32_t base = (uint32_t)((k * nn + j) * nn + i);
-                c[0] = base, c[1] = base + 1, c[2] = base + 1 + (uint32_t)nn;
-                c[3] = base + (uint32_t)nn;
-                for (int q = 0; q < 4; ++q)
-                    c[4 + q] = c[q] + (uint32_t)(nn * nn);
-                for (int q = 0; q < 6; ++q, ++t)
-                    for (int v = 0; v < 4; ++v)
-                        tets[4 * t + v] = c[kuhn[q][v]];
-            }
-    pf_status s = pf_mesh_from_tets(m, x, nn * nn * nn, tets, t, err);
-    free(x);
-    free(tets);
-    return s;
+    return pf_mesh_make_box_tets(m, pf_v3(0, 0, 0), pf_v3(1, 1, 1), n, n, n, err);
 }
 
 /* Mean u_z over the bottom face: int_f u_z = sum_a S[0][0][a][0] u_z,a (phi_0 = 1). */

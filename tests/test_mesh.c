@@ -134,6 +134,33 @@ static void test_select_elements(void **state)
     teardown_check();
 }
 
+/* The Kuhn tet grid of a box: 6 tets per cell, valid (pf_mesh_validate also checks every face is
+ * shared by at most two tets, so neighbouring cells cut their shared faces alike), volumes
+ * summing to the box's (a few ulp per tet) and every tet 1/6 of its cell. */
+static void test_box_tets(void **state)
+{
+    (void)state;
+    pf_mesh m = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_make_box_tets(&m, pf_v3(-1, 0, 2), pf_v3(2, 1, 2.5), 3, 2, 4, &err),
+                     PF_OK);
+    assert_int_equal(m.n_elems, 6 * 3 * 2 * 4);
+    assert_int_equal(m.n_nodes, 4 * 3 * 5);
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    double cell = (3.0 / 3) * (1.0 / 2) * (0.5 / 4), total = 0;
+    for (int32_t e = 0; e < m.n_elems; ++e) {
+        assert_int_equal(m.elem_kind[e], PF_ELEM_TET);
+        double v = pf_mesh_elem_volume(&m, e);
+        assert_true(fabs(v - cell / 6) < 1e-14);
+        total += v;
+    }
+    assert_true(fabs(total - 1.5) < 1e-13);
+    assert_int_equal(pf_mesh_make_box_tets(&m, pf_v3(0, 0, 0), pf_v3(1, 1, 1), 0, 1, 1, &err),
+                     PF_ERR_INVALID);
+    pf_mesh_release(&m);
+    teardown_check();
+}
+
 static void test_builder_rejects_bad_cells(void **state)
 {
     (void)state;
@@ -778,6 +805,7 @@ int main(void)
         cmocka_unit_test(test_voxelize_overlap_covers_surface),
         cmocka_unit_test(test_voxelize_rays_tolerate_a_small_hole),
         cmocka_unit_test(test_select_elements),
+        cmocka_unit_test(test_box_tets),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

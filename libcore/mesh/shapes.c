@@ -1,4 +1,4 @@
-/* Generated models: a hex box grid, a torus and a sphere surface. */
+/* Generated models: hex and tet box grids, a torus and a sphere surface. */
 #include <pf/mesh.h>
 
 #include <math.h>
@@ -6,19 +6,25 @@
 
 static const double PI = 3.14159265358979323846;
 
-pf_status pf_mesh_make_box(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32_t ny, int32_t nz,
-                           pf_error *err)
+/* The box grids: nodes numbered i fastest, then j, then k; cells the same way, each either one
+ * hex or the 6 tetrahedra around its diagonal from corner 0 to corner 6 (Kuhn's subdivision,
+ * which neighbouring cells cut alike on their shared faces). */
+static pf_status make_grid(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32_t ny, int32_t nz,
+                           bool tets, pf_error *err)
 {
-    PF_CHECK(nx > 0 && ny > 0 && nz > 0 && (int64_t)nx * ny * nz <= INT32_MAX / 8, err,
-             PF_ERR_INVALID, "box grid needs 1..2^28 cells, got %d x %d x %d", (int)nx, (int)ny,
-             (int)nz);
+    int per_cell = tets ? 24 : 8; /* node indices per cell */
+    PF_CHECK(nx > 0 && ny > 0 && nz > 0 && (int64_t)nx * ny * nz <= INT32_MAX / per_cell, err,
+             PF_ERR_INVALID, "box grid needs 1..%d cells, got %d x %d x %d",
+             (int)(INT32_MAX / per_cell), (int)nx, (int)ny, (int)nz);
     PF_CHECK(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z && pf_v3_isfinite(lo) && pf_v3_isfinite(hi),
              err, PF_ERR_INVALID, "box grid needs finite corners with lo < hi");
+    static const int KUHN[6][4] = {{0, 1, 2, 6}, {0, 2, 3, 6}, {0, 3, 7, 6},
+                                   {0, 7, 4, 6}, {0, 4, 5, 6}, {0, 5, 1, 6}};
     int32_t n_nodes = (nx + 1) * (ny + 1) * (nz + 1), n_cells = nx * ny * nz;
     double *x = pf_alloc_array(3 * (size_t)n_nodes, sizeof *x);
-    uint32_t *hex = pf_alloc_array(8 * (size_t)n_cells, sizeof *hex);
+    uint32_t *cells = pf_alloc_array((size_t)per_cell * (size_t)n_cells, sizeof *cells);
     pf_status s = PF_OK;
-    if (!x || !hex) {
+    if (!x || !cells) {
         s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate a box grid");
         goto done;
     }
@@ -32,27 +38,49 @@ pf_status pf_mesh_make_box(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32
                 p[1] = j == ny ? hi.y : lo.y + (hi.y - lo.y) * j / ny;
                 p[2] = k == nz ? hi.z : lo.z + (hi.z - lo.z) * k / nz;
             }
-    uint32_t *h = hex;
+    uint32_t *h = cells;
     for (int32_t k = 0; k < nz; ++k)
         for (int32_t j = 0; j < ny; ++j)
             for (int32_t i = 0; i < nx; ++i) {
-                uint32_t c[8] = {NODE(i, j, k),         NODE(i + 1, j, k),
-                                 NODE(i + 1, j + 1, k), NODE(i, j + 1, k),
-                                 NODE(i, j, k + 1),     NODE(i + 1, j, k + 1),
-                                 NODE(i + 1, j + 1, k + 1), NODE(i, j + 1, k + 1)};
-                for (int q = 0; q < 8; ++q)
-                    *h++ = c[q];
+                uint32_t c[8] = {NODE(i, j, k),
+                                 NODE(i + 1, j, k),
+                                 NODE(i + 1, j + 1, k),
+                                 NODE(i, j + 1, k),
+                                 NODE(i, j, k + 1),
+                                 NODE(i + 1, j, k + 1),
+                                 NODE(i + 1, j + 1, k + 1),
+                                 NODE(i, j + 1, k + 1)};
+                if (!tets)
+                    for (int q = 0; q < 8; ++q)
+                        *h++ = c[q];
+                else
+                    for (int t = 0; t < 6; ++t)
+                        for (int q = 0; q < 4; ++q)
+                            *h++ = c[KUHN[t][q]];
             }
 #undef NODE
-    s = pf_mesh_from_hexes(m, x, n_nodes, hex, n_cells, err);
+    s = tets ? pf_mesh_from_tets(m, x, n_nodes, cells, 6 * n_cells, err)
+             : pf_mesh_from_hexes(m, x, n_nodes, cells, n_cells, err);
 done:
     pf_free(x);
-    pf_free(hex);
+    pf_free(cells);
     return s;
 }
 
-pf_status pf_surface_make_torus(pf_surface *s, double R, double r, int32_t n_major,
-                                int32_t n_minor, pf_error *err)
+pf_status pf_mesh_make_box(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32_t ny, int32_t nz,
+                           pf_error *err)
+{
+    return make_grid(m, lo, hi, nx, ny, nz, false, err);
+}
+
+pf_status pf_mesh_make_box_tets(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32_t ny,
+                                int32_t nz, pf_error *err)
+{
+    return make_grid(m, lo, hi, nx, ny, nz, true, err);
+}
+
+pf_status pf_surface_make_torus(pf_surface *s, double R, double r, int32_t n_major, int32_t n_minor,
+                                pf_error *err)
 {
     PF_CHECK(isfinite(R) && isfinite(r) && r > 0 && R > r, err, PF_ERR_INVALID,
              "torus needs 0 < r < R, got R = %g, r = %g", R, r);

@@ -149,9 +149,14 @@ pf_status pf_surface_compute_stats(const pf_surface *s, pf_surface_stats *out, p
 
 /* ---- generated models (tests, benchmarks, the demo) -------------------------------------------- */
 
-/* Hex grid of nx * ny * nz cells filling the box [lo, hi]. */
+/* Hex grid of nx * ny * nz cells filling the box [lo, hi]; nodes numbered x fastest, then y,
+ * then z, cells the same way. */
 pf_status pf_mesh_make_box(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32_t ny, int32_t nz,
                            pf_error *err);
+/* The same grid with every cell split into the 6 tetrahedra around its diagonal from its lowest
+ * to its highest corner (Kuhn), 6 nx ny nz tets, the 6 of a cell consecutive. */
+pf_status pf_mesh_make_box_tets(pf_mesh *m, pf_vec3 lo, pf_vec3 hi, int32_t nx, int32_t ny,
+                                int32_t nz, pf_error *err);
 /* Closed torus around the z axis through the origin: tube centre radius R, tube radius r < R,
  * n_major >= 3 segments around z, n_minor >= 3 around the tube. Volume -> 2 pi^2 R r^2. */
 pf_status pf_surface_make_torus(pf_surface *s, double R, double r, int32_t n_major,

@@ -59,21 +59,22 @@ static void accum_start(accum *a, int32_t k)
     a->moment = pf_v3(0, 0, 0);
 }
 
-/* Upper triangle (q >= p) only: accum_symmetrize mirrors it. */
-static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, double w, double rho)
+/* Adds the point x of weight w with values val [k] and gradients grad [3 k]. Upper triangle
+ * (q >= p) only: accum_symmetrize mirrors it. */
+static void accum_values(accum *a, pf_vec3 x, double w, double rho, const double *val,
+                         const double *grad)
 {
     int32_t k = a->k;
-    pf_basis_eval(b, e, x, a->val, a->grad);
     for (int32_t p = 0; p < k; ++p) {
-        double wp = w * a->val[p];
+        double wp = w * val[p];
         a->n_int[p] += wp;
-        const double *gp = a->grad + 3 * p;
+        const double *gp = grad + 3 * p;
         double wg[3] = {w * gp[0], w * gp[1], w * gp[2]};
         for (int i = 0; i < 3; ++i)
             a->gint[3 * p + i] += wg[i];
         for (int32_t q = p; q < k; ++q) {
-            a->me[p * k + q] += rho * wp * a->val[q];
-            const double *gq = a->grad + 3 * q;
+            a->me[p * k + q] += rho * wp * val[q];
+            const double *gq = grad + 3 * q;
             double *d = a->d + 9 * ((size_t)p * k + q);
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j)
@@ -82,6 +83,12 @@ static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, doubl
     }
     a->volume += w;
     a->moment = pf_v3_add(a->moment, pf_v3_scale(x, w));
+}
+
+static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, double w, double rho)
+{
+    pf_basis_eval(b, e, x, a->val, a->grad);
+    accum_values(a, x, w, rho, a->val, a->grad);
 }
 
 /* D_qp = D_pq^T and M_qp = M_pq for q < p. */
@@ -177,8 +184,24 @@ static pf_status integrate_harmonic(accum *a, const pf_basis *b, const pf_mesh *
     pf_status st = pf_polyhedron_quadrature(&poly, m->n_nodes, degree, &rule, err);
     pf_arena_reset(arena, mark);
     PF_TRY(st);
-    for (int64_t q = 0; q < rule.n; ++q)
-        accum_point(a, b, e, pf_v3_load(rule.x + 3 * q), rule.w[q], rho);
+    int32_t k = a->k;
+    double *val = pf_arena_push(arena, 4 * (size_t)k * PF_BASIS_EVAL_BLOCK, sizeof *val);
+    double *scratch = pf_arena_push(arena, pf_basis_eval_block_scratch(b, e) + 1, sizeof *scratch);
+    if (!val || !scratch) {
+        pf_arena_reset(arena, mark);
+        pf_quadrature_release(&rule);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "element %d: no scratch for the basis at the rule points", (int)e);
+    }
+    double *grad = val + (size_t)k * PF_BASIS_EVAL_BLOCK;
+    for (int64_t q0 = 0; q0 < rule.n; q0 += PF_BASIS_EVAL_BLOCK) {
+        int32_t n = (int32_t)(rule.n - q0 < PF_BASIS_EVAL_BLOCK ? rule.n - q0 : PF_BASIS_EVAL_BLOCK);
+        pf_basis_eval_block(b, e, n, rule.x + 3 * q0, val, grad, scratch);
+        for (int32_t q = 0; q < n; ++q)
+            accum_values(a, pf_v3_load(rule.x + 3 * (q0 + q)), rule.w[q0 + q], rho,
+                         val + (size_t)q * k, grad + 3 * (size_t)q * k);
+    }
+    pf_arena_reset(arena, mark);
     *points += rule.n;
     pf_quadrature_release(&rule);
     accum_symmetrize(a);
@@ -395,11 +418,13 @@ static size_t elem_view_entries(const pf_mesh *m, int32_t e)
     return n + 1;
 }
 
-/* Bytes an accumulator for k nodes and a polyhedron view of `entries` need. */
-static size_t arena_bytes(int32_t k, size_t entries)
+/* Bytes an accumulator for k nodes, a polyhedron view of `entries` and block evaluation with
+ * `eval` doubles of basis scratch need. */
+static size_t arena_bytes(int32_t k, size_t entries, size_t eval)
 {
     return ((size_t)k * k * 10 + 11 * (size_t)k + PF_BASIS_MAX_NODES) * sizeof(double) + 16 * 16 +
-           16 * entries + 64 * entries + 1024;
+           16 * entries + 64 * entries + 1024 +
+           (4 * (size_t)k * PF_BASIS_EVAL_BLOCK + eval + 1) * sizeof(double) + 32;
 }
 
 pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree, double *ke,
@@ -409,7 +434,9 @@ pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int
              (int)cg->n_elems);
     int32_t k = pf_basis_elem_nodes(&cg->basis, e, NULL);
     pf_arena arena;
-    PF_TRY(pf_arena_init(&arena, arena_bytes(k, elem_view_entries(m, e)), err));
+    PF_TRY(pf_arena_init(
+        &arena, arena_bytes(k, elem_view_entries(m, e), pf_basis_eval_block_scratch(&cg->basis, e)),
+        err));
     accum a;
     int64_t points = 0;
     pf_status st = accum_init(&a, &arena, k)
@@ -469,13 +496,14 @@ static double half_diagonal(const pf_mesh *m, const int32_t *nodes, int32_t k)
 
 static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, pf_error *err)
 {
-    size_t entries = 0;
+    size_t entries = 0, eval = 0;
     for (int32_t e = 0; e < m->n_elems; ++e) {
-        size_t n = elem_view_entries(m, e);
+        size_t n = elem_view_entries(m, e), s = pf_basis_eval_block_scratch(&cg->basis, e);
         entries = n > entries ? n : entries;
+        eval = s > eval ? s : eval;
     }
     pf_arena arena;
-    PF_TRY(pf_arena_init(&arena, arena_bytes(cg->max_nodes, entries), err));
+    PF_TRY(pf_arena_init(&arena, arena_bytes(cg->max_nodes, entries, eval), err));
     accum a;
     pf_status st = accum_init(&a, &arena, cg->max_nodes)
                        ? PF_OK

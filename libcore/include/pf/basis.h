@@ -181,6 +181,21 @@ static inline pf_basis_kind pf_basis_elem_kind(const pf_basis *b, int32_t e)
  * element. Reentrant; allocates nothing. */
 void pf_basis_eval(const pf_basis *b, int32_t e, pf_vec3 x, double *n, double *grad);
 
+/* Points per pf_basis_eval_block call at most. */
+#define PF_BASIS_EVAL_BLOCK 64
+
+/* Doubles of scratch pf_basis_eval_block needs for element e (0 for closed forms). */
+size_t pf_basis_eval_block_scratch(const pf_basis *b, int32_t e);
+
+/* pf_basis_eval at n <= PF_BASIS_EVAL_BLOCK points x [3 n] (model coordinates) at once:
+ * vals [n k] with vals[p k + i] = N_i(x_p), grads [n 3 k] with grads[3 (p k + i) + d] =
+ * dN_i/dx_d at x_p (k = pf_basis_elem_nodes). For harmonic elements one dense product (BLAS
+ * dgemm) evaluates every kernel at every point: the same values as pf_basis_eval up to
+ * round-off (summation order). scratch: pf_basis_eval_block_scratch(b, e) doubles, caller
+ * owned. Allocates nothing. */
+void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *x, double *vals,
+                         double *grads, double *scratch);
+
 /* Median and maximum of the per-element statistics over elements of the given kind (or every
  * kind for kind < 0): a summary for reports. Medians of an empty selection are 0. */
 typedef struct pf_basis_summary {

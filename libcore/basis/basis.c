@@ -932,7 +932,7 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
     b->data_offsets[e + 1] = end;
     b->kind[e] = (uint8_t)kind;
     st->setup_ms = 1e3 * (pf_time_seconds() - t0);
-    return elem_stats(b, c, p, &cs->pts, st, err);
+    return p->no_check_stats ? PF_OK : elem_stats(b, c, p, &cs->pts, st, err);
 }
 
 pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,

@@ -99,6 +99,10 @@ typedef struct pf_basis_params {
     double rank_rcond;          /* switch from QR to SVD when the reciprocal condition of the QR
                                    factor falls below this; also the SVD cut-off; default 1e-13 */
     bool force_mfs;             /* harmonic MFS also for tets and parallelepipeds (tests, study) */
+    bool no_check_stats;        /* true: skip the check-point statistics of pf_basis_elem_stats
+                                   (boundary, linear and unity errors, min_value stay 0; counts
+                                   and setup_ms are kept): they cost about as much as the MFS
+                                   solves and the simulator does not read them */
 } pf_basis_params;
 
 pf_basis_params pf_basis_params_default(void);

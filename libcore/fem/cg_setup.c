@@ -13,6 +13,8 @@
 #include <math.h>
 #include <string.h>
 
+#include <cblas.h>
+
 pf_cg_params pf_cg_params_default(void)
 {
     pf_cg_params p = {0};
@@ -184,23 +186,51 @@ static pf_status integrate_harmonic(accum *a, const pf_basis *b, const pf_mesh *
     pf_status st = pf_polyhedron_quadrature(&poly, m->n_nodes, degree, &rule, err);
     pf_arena_reset(arena, mark);
     PF_TRY(st);
+    /* By blocks of points: values V [n k] and gradients G [n 3k] at once, then the sums of
+     * accum_values as products, D += G^T diag(w) G and M += rho V^T diag(w) V. */
     int32_t k = a->k;
-    double *val = pf_arena_push(arena, 4 * (size_t)k * PF_BASIS_EVAL_BLOCK, sizeof *val);
+    size_t nb = PF_BASIS_EVAL_BLOCK, k3 = 3 * (size_t)k;
+    double *val = pf_arena_push(arena, 8 * (size_t)k * nb, sizeof *val);
+    double *dfull = pf_arena_push(arena, k3 * k3, sizeof *dfull);
     double *scratch = pf_arena_push(arena, pf_basis_eval_block_scratch(b, e) + 1, sizeof *scratch);
-    if (!val || !scratch) {
+    if (!val || !dfull || !scratch) {
         pf_arena_reset(arena, mark);
         pf_quadrature_release(&rule);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "element %d: no scratch for the basis at the rule points", (int)e);
     }
-    double *grad = val + (size_t)k * PF_BASIS_EVAL_BLOCK;
+    double *grad = val + (size_t)k * nb, *wval = grad + k3 * nb, *wgrad = wval + (size_t)k * nb;
+    memset(dfull, 0, k3 * k3 * sizeof *dfull);
     for (int64_t q0 = 0; q0 < rule.n; q0 += PF_BASIS_EVAL_BLOCK) {
         int32_t n = (int32_t)(rule.n - q0 < PF_BASIS_EVAL_BLOCK ? rule.n - q0 : PF_BASIS_EVAL_BLOCK);
         pf_basis_eval_block(b, e, n, rule.x + 3 * q0, val, grad, scratch);
-        for (int32_t q = 0; q < n; ++q)
-            accum_values(a, pf_v3_load(rule.x + 3 * (q0 + q)), rule.w[q0 + q], rho,
-                         val + (size_t)q * k, grad + 3 * (size_t)q * k);
+        for (int32_t q = 0; q < n; ++q) {
+            double w = rule.w[q0 + q];
+            const double *v = val + (size_t)q * k, *g = grad + k3 * q;
+            double *wv = wval + (size_t)q * k, *wg = wgrad + k3 * q;
+            for (int32_t p = 0; p < k; ++p) {
+                wv[p] = w * v[p];
+                a->n_int[p] += wv[p];
+                wv[p] *= rho;
+            }
+            for (size_t c = 0; c < k3; ++c) {
+                wg[c] = w * g[c];
+                a->gint[c] += wg[c];
+            }
+            a->volume += w;
+            a->moment = pf_v3_add(a->moment, pf_v3_scale(pf_v3_load(rule.x + 3 * (q0 + q)), w));
+        }
+        cblas_dgemm(CblasRowMajor, CblasTrans, CblasNoTrans, (int)k3, (int)k3, n, 1, wgrad,
+                    (int)k3, grad, (int)k3, 1, dfull, (int)k3);
+        cblas_dgemm(CblasRowMajor, CblasTrans, CblasNoTrans, k, k, n, 1, wval, k, val, k, 1, a->me,
+                    k);
     }
+    for (int32_t p = 0; p < k; ++p)
+        for (int32_t q = p; q < k; ++q)
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    a->d[9 * ((size_t)p * k + q) + 3 * i + j] =
+                        dfull[(3 * (size_t)p + i) * k3 + 3 * (size_t)q + j];
     pf_arena_reset(arena, mark);
     *points += rule.n;
     pf_quadrature_release(&rule);
@@ -424,7 +454,8 @@ static size_t arena_bytes(int32_t k, size_t entries, size_t eval)
 {
     return ((size_t)k * k * 10 + 11 * (size_t)k + PF_BASIS_MAX_NODES) * sizeof(double) + 16 * 16 +
            16 * entries + 64 * entries + 1024 +
-           (4 * (size_t)k * PF_BASIS_EVAL_BLOCK + eval + 1) * sizeof(double) + 32;
+           (8 * (size_t)k * PF_BASIS_EVAL_BLOCK + 9 * (size_t)k * k + eval + 1) * sizeof(double) +
+           48;
 }
 
 pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree, double *ke,

@@ -195,9 +195,10 @@ size_t pf_basis_eval_block_scratch(const pf_basis *b, int32_t e)
 }
 
 /* The harmonic case of pf_basis_eval for a block of points as one product: the rows of
- * phi [4 n x (nk + 4)] are, per point, the kernels 1/r and the polynomial (y, 1) (value row),
- * then their derivatives by y_x, y_y, y_z; phi coef = the unprojected group functions and their
- * gradients, projected row by row as in eval_harmonic (eq. 14's constraints). */
+ * phi [r n x (nk + 4)] are, per point, the kernels 1/r and the polynomial (y, 1) (value row),
+ * then (with gradients, r = 4) their derivatives by y_x, y_y, y_z; phi coef = the unprojected
+ * group functions and their gradients, projected row by row as in eval_harmonic (eq. 14's
+ * constraints). */
 void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *x, double *vals,
                          double *grads, double *scratch)
 {
@@ -207,7 +208,7 @@ void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *
     if (b->kind[e] != PF_BASIS_HARMONIC) {
         for (int32_t p = 0; p < n; ++p)
             pf_basis_eval(b, e, pf_v3_load(x + 3 * (size_t)p), vals + (size_t)p * k,
-                          grads + 3 * (size_t)p * k);
+                          grads ? grads + 3 * (size_t)p * k : NULL);
         return;
     }
     const int32_t *slot = b->node_slot + o;
@@ -217,38 +218,52 @@ void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *
     const double *kern = d + HDR, *coef = kern + 3 * nk;
     const double *gpos = coef + (size_t)(nk + 4) * ng, *q = gpos + 3 * ng, *gcount = q + 4 * ng;
     size_t cols = (size_t)nk + 4;
+    int nr = grads ? 4 : 1; /* rows per point */
     double *phi = scratch, *out = scratch + 4 * (size_t)PF_BASIS_EVAL_BLOCK * cols;
+    static const double dpoly[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
     for (int32_t p = 0; p < n; ++p) {
         double y[3] = {(x[3 * p] - c.x) / h, (x[3 * p + 1] - c.y) / h, (x[3 * p + 2] - c.z) / h};
-        double *r0 = phi + 4 * (size_t)p * cols, *r1 = r0 + cols, *r2 = r1 + cols, *r3 = r2 + cols;
-        for (int32_t j = 0; j < nk; ++j) {
-            double a0 = y[0] - kern[3 * j], a1 = y[1] - kern[3 * j + 1], a2 = y[2] - kern[3 * j + 2];
-            double ir = 1 / sqrt(a0 * a0 + a1 * a1 + a2 * a2), ir3 = ir * ir * ir;
-            r0[j] = ir;
-            r1[j] = -ir3 * a0;
-            r2[j] = -ir3 * a1;
-            r3[j] = -ir3 * a2;
+        double *r0 = phi + (size_t)nr * p * cols;
+        if (grads) {
+            double *r1 = r0 + cols, *r2 = r1 + cols, *r3 = r2 + cols;
+            for (int32_t j = 0; j < nk; ++j) {
+                double a0 = y[0] - kern[3 * j], a1 = y[1] - kern[3 * j + 1],
+                       a2 = y[2] - kern[3 * j + 2];
+                double ir = 1 / sqrt(a0 * a0 + a1 * a1 + a2 * a2), ir3 = ir * ir * ir;
+                r0[j] = ir;
+                r1[j] = -ir3 * a0;
+                r2[j] = -ir3 * a1;
+                r3[j] = -ir3 * a2;
+            }
+            memcpy(r1 + nk, dpoly[0], sizeof dpoly[0]);
+            memcpy(r2 + nk, dpoly[1], sizeof dpoly[1]);
+            memcpy(r3 + nk, dpoly[2], sizeof dpoly[2]);
+        } else {
+            for (int32_t j = 0; j < nk; ++j) {
+                double a0 = y[0] - kern[3 * j], a1 = y[1] - kern[3 * j + 1],
+                       a2 = y[2] - kern[3 * j + 2];
+                r0[j] = 1 / sqrt(a0 * a0 + a1 * a1 + a2 * a2);
+            }
         }
-        double poly[4][4] = {{y[0], y[1], y[2], 1}, {1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
-        double *rows[4] = {r0, r1, r2, r3};
-        for (int t = 0; t < 4; ++t)
-            memcpy(rows[t] + nk, poly[t], 4 * sizeof(double));
+        double poly[4] = {y[0], y[1], y[2], 1};
+        memcpy(r0 + nk, poly, sizeof poly);
     }
-    cblas_dgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, 4 * n, ng, (int)cols, 1, phi,
+    cblas_dgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, nr * n, ng, (int)cols, 1, phi,
                 (int)cols, coef, ng, 0, out, ng);
     for (int32_t p = 0; p < n; ++p) {
-        const double *y = phi + 4 * (size_t)p * cols + nk; /* y_x, y_y, y_z, 1 */
+        const double *y = phi + (size_t)nr * p * cols + nk; /* y_x, y_y, y_z, 1 */
         double t[4][4] = {{1, y[0], y[1], y[2]}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
-        double *G = out + 4 * (size_t)p * ng;
-        for (int r = 0; r < 4; ++r)
+        double *G = out + (size_t)nr * p * ng;
+        for (int r = 0; r < nr; ++r)
             apply_projection(3, ng, gpos, q, t[r], G + (size_t)r * ng);
-        double *nv = vals + (size_t)p * k, *gv = grads + 3 * (size_t)p * k;
+        double *nv = vals + (size_t)p * k, *gv = grads ? grads + 3 * (size_t)p * k : NULL;
         for (int32_t i = 0; i < k; ++i) {
             int32_t g = slot[i];
             double share = 1 / gcount[g];
             nv[i] = G[g] * share;
-            for (int dd = 0; dd < 3; ++dd)
-                gv[3 * i + dd] = G[(size_t)(dd + 1) * ng + g] * share * ih;
+            if (gv)
+                for (int dd = 0; dd < 3; ++dd)
+                    gv[3 * i + dd] = G[(size_t)(dd + 1) * ng + g] * share * ih;
         }
     }
 }

@@ -318,10 +318,13 @@ static pf_status face_flux(const pf_cg *cg, const pf_mesh *m, int32_t e, accum *
         int32_t *sloc = pf_arena_push(arena, (size_t)n, sizeof *sloc);
         int32_t *eloc = pf_arena_push(arena, (size_t)n, sizeof *eloc);
         uint32_t *tri = pf_arena_push(arena, 3 * (size_t)(n - 2), sizeof *tri);
-        double *val = pf_arena_push(arena, (size_t)ks, sizeof *val);
+        double *val = pf_arena_push(arena, NG * NG * (size_t)ks, sizeof *val);
+        double *xs = pf_arena_push(arena, 3 * NG * NG, sizeof *xs);
+        double *scratch =
+            pf_arena_push(arena, pf_basis_eval_block_scratch(b, src) + 1, sizeof *scratch);
         double *t = pf_arena_push(arena, (size_t)n, sizeof *t);
         double *py = pf_arena_push(arena, 2 * (size_t)n, sizeof *py);
-        PF_CHECK(sloc && eloc && tri && val && t && py, err, PF_ERR_NOMEM,
+        PF_CHECK(sloc && eloc && tri && val && xs && scratch && t && py, err, PF_ERR_NOMEM,
                  "element %d: scratch too small for face %d", (int)e, (int)f);
         for (int32_t j = 0; j < n; ++j) {
             sloc[j] = find_node(snodes, ks, idx[j]);
@@ -365,14 +368,21 @@ static pf_status face_flux(const pf_cg *cg, const pf_mesh *m, int32_t e, accum *
             for (int i = 0; i < NG; ++i)
                 for (int j = 0; j < NG; ++j) {
                     double a = gx[i], bb = gx[j];
-                    pf_vec3 x =
-                        pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a), pf_v3_scale(e2, bb * (1 - a))));
+                    pf_v3_store(
+                        pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a), pf_v3_scale(e2, bb * (1 - a)))),
+                        xs + 3 * (NG * i + j));
+                }
+            pf_basis_eval_block(b, src, NG * NG, xs, val, NULL, scratch);
+            for (int i = 0; i < NG; ++i)
+                for (int j = 0; j < NG; ++j) {
+                    double a = gx[i];
+                    pf_vec3 x = pf_v3_load(xs + 3 * (NG * i + j));
                     double w = gw[i] * gw[j] * jac * (1 - a);
-                    pf_basis_eval(b, src, x, val, NULL);
+                    const double *vq = val + (size_t)ks * (NG * i + j);
                     pf_vec3 d = pf_v3_sub(x, o);
                     double r[3] = {1, pf_v3_dot(d, u) / sc, pf_v3_dot(d, v) / sc};
                     for (int32_t p = 0; p < n; ++p) {
-                        t[p] = val[sloc[p]];
+                        t[p] = vq[sloc[p]];
                         r[0] -= t[p];
                         r[1] -= t[p] * py[2 * p];
                         r[2] -= t[p] * py[2 * p + 1];
@@ -449,13 +459,13 @@ static size_t elem_view_entries(const pf_mesh *m, int32_t e)
 }
 
 /* Bytes an accumulator for k nodes, a polyhedron view of `entries` and block evaluation with
- * `eval` doubles of basis scratch need. */
+ * `eval` doubles of basis scratch (rule points, then face points of a trace source) need. */
 static size_t arena_bytes(int32_t k, size_t entries, size_t eval)
 {
     return ((size_t)k * k * 10 + 11 * (size_t)k + PF_BASIS_MAX_NODES) * sizeof(double) + 16 * 16 +
            16 * entries + 64 * entries + 1024 +
            (8 * (size_t)k * PF_BASIS_EVAL_BLOCK + 9 * (size_t)k * k + eval + 1) * sizeof(double) +
-           48;
+           (9 * (size_t)PF_BASIS_MAX_NODES + 27 + eval + 1) * sizeof(double) + 96;
 }
 
 pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree, double *ke,
@@ -465,9 +475,12 @@ pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int
              (int)cg->n_elems);
     int32_t k = pf_basis_elem_nodes(&cg->basis, e, NULL);
     pf_arena arena;
-    PF_TRY(pf_arena_init(
-        &arena, arena_bytes(k, elem_view_entries(m, e), pf_basis_eval_block_scratch(&cg->basis, e)),
-        err));
+    size_t eval = 0; /* e's and the trace sources' (face_flux) */
+    for (int32_t f = 0; f < cg->n_elems; ++f) {
+        size_t s = pf_basis_eval_block_scratch(&cg->basis, f);
+        eval = s > eval ? s : eval;
+    }
+    PF_TRY(pf_arena_init(&arena, arena_bytes(k, elem_view_entries(m, e), eval), err));
     accum a;
     int64_t points = 0;
     pf_status st = accum_init(&a, &arena, k)

@@ -193,7 +193,8 @@ size_t pf_basis_eval_block_scratch(const pf_basis *b, int32_t e);
 
 /* pf_basis_eval at n <= PF_BASIS_EVAL_BLOCK points x [3 n] (model coordinates) at once:
  * vals [n k] with vals[p k + i] = N_i(x_p), grads [n 3 k] with grads[3 (p k + i) + d] =
- * dN_i/dx_d at x_p (k = pf_basis_elem_nodes). For harmonic elements one dense product (BLAS
+ * dN_i/dx_d at x_p (k = pf_basis_elem_nodes); grads may be NULL (values only, a quarter of
+ * the work). For harmonic elements one dense product (BLAS
  * dgemm) evaluates every kernel at every point: the same values as pf_basis_eval up to
  * round-off (summation order). scratch: pf_basis_eval_block_scratch(b, e) doubles, caller
  * owned. Allocates nothing. */

@@ -627,13 +627,13 @@ static void test_sliced_sphere_cells(void **state)
 }
 
 /* Block evaluation (one dgemm) against pointwise evaluation on every cell of the sliced sphere,
- * at a full block and a partial one of points inside each cell: they differ in summation order
- * only. Values are O(1) sums of ~200 kernel terms whose coefficients cancel by up to ~1e3, so
- * reordering them moves the result by at most ~1e3 * 200 * 1e-16 = 2e-11 in the worst case and
- * by ~1e-15 typically (measured: 7e-16 for values, 4e-15 for gradients times the cell
- * diameter); the bound 1e-13 leaves room for the typical case only, so a wrong row or column
- * (an O(1) error) fails. The check-point statistics, when skipped, leave the functions bit for
- * bit unchanged. */
+ * at a full block, a partial one and a partial one without gradients, at points inside each
+ * cell: they differ in summation order only. Values are O(1) sums of ~200 kernel terms whose
+ * coefficients cancel by up to ~1e3, so reordering them moves the result by at most ~1e3 * 200 *
+ * 1e-16 = 2e-11 in the worst case and by ~1e-15 typically (measured: 9e-16 for values, 4e-15 for
+ * gradients times the cell diameter); the bound 1e-13 leaves room for the typical case only, so a
+ * wrong row or column (an O(1) error) fails. The check-point statistics, when skipped, leave the
+ * functions bit for bit unchanged. */
 static void test_block_eval_matches_pointwise(void **state)
 {
     (void)state;
@@ -672,8 +672,8 @@ static void test_block_eval_matches_pointwise(void **state)
                 for (int32_t i = 0; i < k; ++i) {
                     worst_v = fmax(worst_v, fabs(val[(size_t)q * k + i] - v[i]));
                     for (int d = 0; d < 3 * (pass < 2); ++d)
-                        worst_g = fmax(worst_g,
-                                       diam * fabs(grad[3 * ((size_t)q * k + i) + d] - g[3 * i + d]));
+                        worst_g = fmax(
+                            worst_g, diam * fabs(grad[3 * ((size_t)q * k + i) + d] - g[3 * i + d]));
                 }
             }
         }

@@ -894,8 +894,8 @@ static void cantilever_converges_to_dg(void **state)
     previous = INFINITY;
     for (int q = 0; q < 3; ++q) {
         int harmonic = 0;
-        double w = cantilever_tip(PF_METHOD_CG, BEAM_SLICED, res[q], 30 * 3.14159265358979323846 / 180,
-                                  &harmonic);
+        double w = cantilever_tip(PF_METHOD_CG, BEAM_SLICED, res[q],
+                                  30 * 3.14159265358979323846 / 180, &harmonic);
         double e = fabs(w / limit - 1);
         printf("cantilever, cg on the turned beam sliced at res %2d (%d harmonic cells): %.6e, "
                "error %.3e\n",

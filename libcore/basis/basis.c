@@ -248,8 +248,8 @@ void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *
         double poly[4] = {y[0], y[1], y[2], 1};
         memcpy(r0 + nk, poly, sizeof poly);
     }
-    cblas_dgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, nr * n, ng, (int)cols, 1, phi,
-                (int)cols, coef, ng, 0, out, ng);
+    cblas_dgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, nr * n, ng, (int)cols, 1, phi, (int)cols,
+                coef, ng, 0, out, ng);
     for (int32_t p = 0; p < n; ++p) {
         const double *y = phi + (size_t)nr * p * cols + nk; /* y_x, y_y, y_z, 1 */
         double t[4][4] = {{1, y[0], y[1], y[2]}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};

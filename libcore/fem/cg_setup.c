@@ -202,7 +202,8 @@ static pf_status integrate_harmonic(accum *a, const pf_basis *b, const pf_mesh *
     double *grad = val + (size_t)k * nb, *wval = grad + k3 * nb, *wgrad = wval + (size_t)k * nb;
     memset(dfull, 0, k3 * k3 * sizeof *dfull);
     for (int64_t q0 = 0; q0 < rule.n; q0 += PF_BASIS_EVAL_BLOCK) {
-        int32_t n = (int32_t)(rule.n - q0 < PF_BASIS_EVAL_BLOCK ? rule.n - q0 : PF_BASIS_EVAL_BLOCK);
+        int32_t n =
+            (int32_t)(rule.n - q0 < PF_BASIS_EVAL_BLOCK ? rule.n - q0 : PF_BASIS_EVAL_BLOCK);
         pf_basis_eval_block(b, e, n, rule.x + 3 * q0, val, grad, scratch);
         for (int32_t q = 0; q < n; ++q) {
             double w = rule.w[q0 + q];
@@ -220,8 +221,8 @@ static pf_status integrate_harmonic(accum *a, const pf_basis *b, const pf_mesh *
             a->volume += w;
             a->moment = pf_v3_add(a->moment, pf_v3_scale(pf_v3_load(rule.x + 3 * (q0 + q)), w));
         }
-        cblas_dgemm(CblasRowMajor, CblasTrans, CblasNoTrans, (int)k3, (int)k3, n, 1, wgrad,
-                    (int)k3, grad, (int)k3, 1, dfull, (int)k3);
+        cblas_dgemm(CblasRowMajor, CblasTrans, CblasNoTrans, (int)k3, (int)k3, n, 1, wgrad, (int)k3,
+                    grad, (int)k3, 1, dfull, (int)k3);
         cblas_dgemm(CblasRowMajor, CblasTrans, CblasNoTrans, k, k, n, 1, wval, k, val, k, 1, a->me,
                     k);
     }

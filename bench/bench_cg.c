@@ -3,13 +3,20 @@
  *
  *   bench_cg          CSV per element of sliced spheres and tori (res 4 and 8):
  *                     mesh,element,kind,convex,nodes,basis_ms,integrate_ms,setup_ms
- *                     (setup = basis + K_e and M_e; one core, wall clock)
+ *                     (setup = basis + K_e and M_e; wall clock; one core when run with
+ *                     OPENBLAS_NUM_THREADS=1, as bench/results/cg_setup.csv was)
  *   bench_cg sweep    CSV per MFS parameter set: the median boundary error of the sliced
  *                     sphere's harmonic cells and the cantilever's tip error against the DG
  *                     limit (the 4 x 1 x 1 beam turned by 30 degrees about z, sliced at res 9):
  *                     xi,edge_samples,median_kernels,median_boundary_error,tip,tip_error
  *   bench_cg step     CSV per mesh: time per corotated semi-implicit Euler step
- *                     mesh,elements,harmonic,dofs,assemble_ms,factor_ms,solve_ms,step_ms */
+ *                     mesh,elements,harmonic,dofs,assemble_ms,factor_ms,solve_ms,step_ms
+ *   bench_cg refine   CSV per mesh of the cantilever (4 x 1 x 1, static, as in tests/test_cg.c):
+ *                     uniform hex grids against octrees of the beam's surface (refined toward
+ *                     it, coarse inside; harmonic cells where coarse meets fine) and sliced
+ *                     octrees of the beam turned by 30 degrees (harmonic cut cells); the tip
+ *                     error against the DG limit per DOF count (harmonic paper fig. 6 in 3D):
+ *                     mesh,refine,elements,harmonic,dofs,tip,tip_error,setup_s,solve_s */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -69,7 +76,9 @@ static int per_element(void)
                 return 1;
             pf_cg cg;
             pf_error err = {0};
-            if (pf_cg_create(&cg, &m, 1e5, 0.3, 1000, NULL, &err) < 0) {
+            pf_cg_params params = pf_cg_params_default();
+            params.basis.no_check_stats = true; /* as pf-sim: only setup_ms is reported */
+            if (pf_cg_create(&cg, &m, 1e5, 0.3, 1000, &params, &err) < 0) {
                 fprintf(stderr, "bench_cg: %s\n", err.msg);
                 return 1;
             }
@@ -257,8 +266,140 @@ static int step_time(void)
     return 0;
 }
 
+/* The closed surface of the beam [0, 4] x [0, 1] x [0, 1] turned by angle (radians) about z. */
+static int beam_surface(pf_surface *s, double angle)
+{
+    pf_error err = {0};
+    pf_mesh box = {0};
+    pf_boundary bd = {0};
+    pf_status st = pf_mesh_make_box(&box, pf_v3(0, 0, 0), pf_v3(4, 1, 1), 1, 1, 1, &err);
+    if (st >= 0)
+        st = pf_boundary_extract(&box, &bd, &err);
+    int32_t nt = st >= 0 ? (int32_t)bd.tri_offsets[bd.n_faces] : 0;
+    if (st >= 0)
+        st = pf_surface_alloc(s, box.n_nodes, nt, &err);
+    if (st >= 0) {
+        for (int32_t i = 0; i < box.n_nodes; ++i) {
+            const double *x = box.x + 3 * i;
+            s->x[3 * i] = cos(angle) * x[0] - sin(angle) * x[1];
+            s->x[3 * i + 1] = sin(angle) * x[0] + cos(angle) * x[1];
+            s->x[3 * i + 2] = x[2];
+        }
+        memcpy(s->tri, bd.tri, 3 * (size_t)nt * sizeof *s->tri);
+    }
+    pf_boundary_release(&bd);
+    pf_mesh_release(&box);
+    if (st < 0)
+        fprintf(stderr, "bench_cg: %s\n", err.msg);
+    return st < 0 ? -1 : 0;
+}
+
+/* One static cantilever solve by pf-sim's method "cg": clamped at x' = 0, traction (0, 0, -1)
+ * on x' = 4 (x' the beam's axis at angle about z), E = 1e5, nu = 0.3; prints the CSV row. */
+static int refine_row(const char *name, int refine, const pf_mesh *m, double angle, double limit)
+{
+    pf_scene sc;
+    pf_scene_default(&sc);
+    sc.method = PF_METHOD_CG;
+    sc.E = 1e5;
+    sc.nu = 0.3;
+    sc.density = 1;
+    sc.gravity = pf_v3(0, 0, 0);
+    sc.is_static = true;
+    sc.ground = false;
+    pf_vec3 axis = {cos(angle), sin(angle), 0};
+    pf_fixed fixed = {.region = {.kind = PF_REGION_PLANE,
+                                 .plane = pf_plane_from_point_normal(pf_v3(0, 0, 0), axis),
+                                 .tol = 1e-9}};
+    pf_load load = {.region = {.kind = PF_REGION_PLANE,
+                               .plane = pf_plane_from_point_normal(pf_v3_scale(axis, 4), axis),
+                               .tol = 1e-9},
+                    .traction = {0, 0, -1}};
+    sc.fixed = &fixed;
+    sc.n_fixed = 1;
+    sc.loads = &load;
+    sc.n_loads = 1;
+    pf_error err = {0};
+    pf_sim *sim = NULL;
+    double t0 = pf_time_seconds();
+    pf_status st = pf_sim_create(&sim, &sc, m, &err);
+    double t1 = pf_time_seconds();
+    if (st >= 0)
+        st = pf_sim_solve_static(sim, &err);
+    double t2 = pf_time_seconds();
+    double *u = st >= 0 ? malloc(3 * (size_t)m->n_nodes * sizeof *u) : NULL;
+    if (u) {
+        pf_sim_nodal_displacements(sim, u);
+        double w = 0;
+        int count = 0;
+        for (int32_t i = 0; i < m->n_nodes; ++i)
+            if (fabs(pf_plane_signed_distance(load.region.plane, pf_v3_load(m->x + 3 * i))) < 1e-9)
+                w += u[3 * i + 2], ++count;
+        w /= count;
+        const pf_sim_stats *ss = pf_sim_get_stats(sim);
+        printf("%s,%d,%d,%d,%lld,%.6e,%.5f,%.3f,%.3f\n", name, refine, (int)m->n_elems,
+               (int)ss->harmonic_elems, (long long)ss->dofs, w, fabs(w / limit - 1), t1 - t0,
+               t2 - t1);
+        fflush(stdout);
+        free(u);
+    }
+    pf_sim_destroy(&sim);
+    sc.fixed = NULL, sc.loads = NULL, sc.n_fixed = sc.n_loads = 0; /* borrowed */
+    pf_scene_release(&sc);
+    if (st < 0)
+        fprintf(stderr, "bench_cg: %s: %s\n", name, err.msg);
+    return st < 0 ? -1 : 0;
+}
+
+static int refine(void)
+{
+    /* The DG limit of tests/test_cg.c: IP degree 2 on 16 x 4 x 4 hexes. */
+    const double limit = -2.630794e-03, angle = 30 * 3.14159265358979323846 / 180;
+    printf("mesh,refine,elements,harmonic,dofs,tip,tip_error,setup_s,solve_s\n");
+    pf_error err = {0};
+    for (int r = 1; r <= 12; r += r < 4 ? r : 4) {
+        pf_mesh m = {0};
+        if (pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(4, 1, 1), 4 * r, r, r, &err) < 0 ||
+            pf_mesh_derive(&m, &err) < 0) {
+            fprintf(stderr, "bench_cg: %s\n", err.msg);
+            return 1;
+        }
+        int st = refine_row("hex", r, &m, 0, limit);
+        pf_mesh_release(&m);
+        if (st < 0)
+            return 1;
+    }
+    for (int t = 0; t < 2; ++t) {
+        pf_surface s = {0};
+        if (beam_surface(&s, t ? angle : 0) < 0)
+            return 1;
+        for (int d = 3; d <= (t ? 5 : 6); ++d) {
+            pf_octree_params p = pf_octree_params_default();
+            p.depth = d;
+            p.min_depth = 2;
+            p.slice = t == 1;
+            pf_mesh m = {0};
+            if (pf_mesh_octree(&m, &s, &p, NULL, &err) < 0) {
+                fprintf(stderr, "bench_cg: %s\n", err.msg);
+                pf_surface_release(&s);
+                return 1;
+            }
+            int st = refine_row(t ? "octree_turned_sliced" : "octree", d, &m, t ? angle : 0, limit);
+            pf_mesh_release(&m);
+            if (st < 0) {
+                pf_surface_release(&s);
+                return 1;
+            }
+        }
+        pf_surface_release(&s);
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if (argc > 1 && !strcmp(argv[1], "refine"))
+        return refine();
     if (argc > 1 && !strcmp(argv[1], "sweep"))
         return sweep();
     if (argc > 1 && !strcmp(argv[1], "step"))

@@ -2,14 +2,15 @@
 # convex and non-convex cells of sliced spheres and tori; (b) cantilever tip error and median
 # boundary error against the kernel offset xi, one line per edge_samples.
 # gnuplot bench/cg.gp   (writes cg.png)
-# optional: -e "setup='...csv'; sweep='...csv'; out='other.png'"
+# optional: -e "setup='...csv'; sweep='...csv'; refine='...csv'; out='other.png'"
 if (!exists("setup")) setup = 'bench/results/cg_setup.csv'
 if (!exists("sweep")) sweep = 'bench/results/cg_sweep.csv'
+if (!exists("refine")) refine = 'bench/results/cg_refine.csv'
 if (!exists("out")) out = 'cg.png'
-set terminal pngcairo size 1300,520
+set terminal pngcairo size 1950,520
 set output out
 set datafile separator ','
-set multiplot layout 1,2
+set multiplot layout 1,3
 
 # (a) columns: 3 kind, 4 convex, 5 nodes, 8 setup_ms
 set logscale y
@@ -29,4 +30,13 @@ set ylabel 'relative error'
 set key top right
 plot for [s in "2 3 5"] sweep using ($2 == s+0 ? $1 : NaN):6 with linespoints title sprintf('tip error, edge samples %s', s), \
      for [s in "2 3 5"] sweep using ($2 == s+0 ? $1 : NaN):4 with linespoints dt 2 title sprintf('median boundary error, edge samples %s', s)
+
+# (c) columns: 1 mesh, 5 dofs, 7 tip error
+set logscale xy
+set xlabel 'degrees of freedom'
+set ylabel 'cantilever tip error against the DG limit'
+set key bottom left
+plot refine using (strcol(1) eq 'hex' ? $5 : NaN):7 with linespoints pt 7 title 'uniform hexes (trilinear)', \
+     refine using (strcol(1) eq 'octree' ? $5 : NaN):7 with linespoints pt 5 title 'octree toward the surface (harmonic where coarse meets fine)', \
+     refine using (strcol(1) eq 'octree_turned_sliced' ? $5 : NaN):7 with linespoints pt 9 title 'sliced octree, beam turned 30 degrees'
 unset multiplot

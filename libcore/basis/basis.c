@@ -13,6 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <cblas.h>
+
 #include "basis_internal.h"
 
 enum { HDR = 6 };
@@ -180,6 +182,89 @@ void pf_basis_eval(const pf_basis *b, int32_t e, pf_vec3 x, double *n, double *g
         if (grad)
             for (int c = 0; c < 3; ++c)
                 grad[3 * i + c] = dG[(size_t)c * ng + g] * share * ih;
+    }
+}
+
+size_t pf_basis_eval_block_scratch(const pf_basis *b, int32_t e)
+{
+    if (b->kind[e] != PF_BASIS_HARMONIC)
+        return 0;
+    const double *d = b->data + b->data_offsets[e];
+    size_t nk = (size_t)d[4], ng = (size_t)d[5];
+    return 4 * (size_t)PF_BASIS_EVAL_BLOCK * (nk + 4 + ng);
+}
+
+/* The harmonic case of pf_basis_eval for a block of points as one product: the rows of
+ * phi [r n x (nk + 4)] are, per point, the kernels 1/r and the polynomial (y, 1) (value row),
+ * then (with gradients, r = 4) their derivatives by y_x, y_y, y_z; phi coef = the unprojected
+ * group functions and their gradients, projected row by row as in eval_harmonic (eq. 14's
+ * constraints). */
+void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *x, double *vals,
+                         double *grads, double *scratch)
+{
+    const double *d = b->data + b->data_offsets[e];
+    int64_t o = b->node_offsets[e];
+    int32_t k = (int32_t)(b->node_offsets[e + 1] - o);
+    if (b->kind[e] != PF_BASIS_HARMONIC) {
+        for (int32_t p = 0; p < n; ++p)
+            pf_basis_eval(b, e, pf_v3_load(x + 3 * (size_t)p), vals + (size_t)p * k,
+                          grads ? grads + 3 * (size_t)p * k : NULL);
+        return;
+    }
+    const int32_t *slot = b->node_slot + o;
+    pf_vec3 c = pf_v3_load(d);
+    double h = d[3], ih = 1 / h;
+    int32_t nk = (int32_t)d[4], ng = (int32_t)d[5];
+    const double *kern = d + HDR, *coef = kern + 3 * nk;
+    const double *gpos = coef + (size_t)(nk + 4) * ng, *q = gpos + 3 * ng, *gcount = q + 4 * ng;
+    size_t cols = (size_t)nk + 4;
+    int nr = grads ? 4 : 1; /* rows per point */
+    double *phi = scratch, *out = scratch + 4 * (size_t)PF_BASIS_EVAL_BLOCK * cols;
+    static const double dpoly[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+    for (int32_t p = 0; p < n; ++p) {
+        double y[3] = {(x[3 * p] - c.x) / h, (x[3 * p + 1] - c.y) / h, (x[3 * p + 2] - c.z) / h};
+        double *r0 = phi + (size_t)nr * p * cols;
+        if (grads) {
+            double *r1 = r0 + cols, *r2 = r1 + cols, *r3 = r2 + cols;
+            for (int32_t j = 0; j < nk; ++j) {
+                double a0 = y[0] - kern[3 * j], a1 = y[1] - kern[3 * j + 1],
+                       a2 = y[2] - kern[3 * j + 2];
+                double ir = 1 / sqrt(a0 * a0 + a1 * a1 + a2 * a2), ir3 = ir * ir * ir;
+                r0[j] = ir;
+                r1[j] = -ir3 * a0;
+                r2[j] = -ir3 * a1;
+                r3[j] = -ir3 * a2;
+            }
+            memcpy(r1 + nk, dpoly[0], sizeof dpoly[0]);
+            memcpy(r2 + nk, dpoly[1], sizeof dpoly[1]);
+            memcpy(r3 + nk, dpoly[2], sizeof dpoly[2]);
+        } else {
+            for (int32_t j = 0; j < nk; ++j) {
+                double a0 = y[0] - kern[3 * j], a1 = y[1] - kern[3 * j + 1],
+                       a2 = y[2] - kern[3 * j + 2];
+                r0[j] = 1 / sqrt(a0 * a0 + a1 * a1 + a2 * a2);
+            }
+        }
+        double poly[4] = {y[0], y[1], y[2], 1};
+        memcpy(r0 + nk, poly, sizeof poly);
+    }
+    cblas_dgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, nr * n, ng, (int)cols, 1, phi, (int)cols,
+                coef, ng, 0, out, ng);
+    for (int32_t p = 0; p < n; ++p) {
+        const double *y = phi + (size_t)nr * p * cols + nk; /* y_x, y_y, y_z, 1 */
+        double t[4][4] = {{1, y[0], y[1], y[2]}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+        double *G = out + (size_t)nr * p * ng;
+        for (int r = 0; r < nr; ++r)
+            apply_projection(3, ng, gpos, q, t[r], G + (size_t)r * ng);
+        double *nv = vals + (size_t)p * k, *gv = grads ? grads + 3 * (size_t)p * k : NULL;
+        for (int32_t i = 0; i < k; ++i) {
+            int32_t g = slot[i];
+            double share = 1 / gcount[g];
+            nv[i] = G[g] * share;
+            if (gv)
+                for (int dd = 0; dd < 3; ++dd)
+                    gv[3 * i + dd] = G[(size_t)(dd + 1) * ng + g] * share * ih;
+        }
     }
 }
 
@@ -862,7 +947,7 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
     b->data_offsets[e + 1] = end;
     b->kind[e] = (uint8_t)kind;
     st->setup_ms = 1e3 * (pf_time_seconds() - t0);
-    return elem_stats(b, c, p, &cs->pts, st, err);
+    return p->no_check_stats ? PF_OK : elem_stats(b, c, p, &cs->pts, st, err);
 }
 
 pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,

@@ -13,6 +13,8 @@
 #include <math.h>
 #include <string.h>
 
+#include <cblas.h>
+
 pf_cg_params pf_cg_params_default(void)
 {
     pf_cg_params p = {0};
@@ -59,21 +61,22 @@ static void accum_start(accum *a, int32_t k)
     a->moment = pf_v3(0, 0, 0);
 }
 
-/* Upper triangle (q >= p) only: accum_symmetrize mirrors it. */
-static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, double w, double rho)
+/* Adds the point x of weight w with values val [k] and gradients grad [3 k]. Upper triangle
+ * (q >= p) only: accum_symmetrize mirrors it. */
+static void accum_values(accum *a, pf_vec3 x, double w, double rho, const double *val,
+                         const double *grad)
 {
     int32_t k = a->k;
-    pf_basis_eval(b, e, x, a->val, a->grad);
     for (int32_t p = 0; p < k; ++p) {
-        double wp = w * a->val[p];
+        double wp = w * val[p];
         a->n_int[p] += wp;
-        const double *gp = a->grad + 3 * p;
+        const double *gp = grad + 3 * p;
         double wg[3] = {w * gp[0], w * gp[1], w * gp[2]};
         for (int i = 0; i < 3; ++i)
             a->gint[3 * p + i] += wg[i];
         for (int32_t q = p; q < k; ++q) {
-            a->me[p * k + q] += rho * wp * a->val[q];
-            const double *gq = a->grad + 3 * q;
+            a->me[p * k + q] += rho * wp * val[q];
+            const double *gq = grad + 3 * q;
             double *d = a->d + 9 * ((size_t)p * k + q);
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j)
@@ -82,6 +85,12 @@ static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, doubl
     }
     a->volume += w;
     a->moment = pf_v3_add(a->moment, pf_v3_scale(x, w));
+}
+
+static void accum_point(accum *a, const pf_basis *b, int32_t e, pf_vec3 x, double w, double rho)
+{
+    pf_basis_eval(b, e, x, a->val, a->grad);
+    accum_values(a, x, w, rho, a->val, a->grad);
 }
 
 /* D_qp = D_pq^T and M_qp = M_pq for q < p. */
@@ -177,8 +186,53 @@ static pf_status integrate_harmonic(accum *a, const pf_basis *b, const pf_mesh *
     pf_status st = pf_polyhedron_quadrature(&poly, m->n_nodes, degree, &rule, err);
     pf_arena_reset(arena, mark);
     PF_TRY(st);
-    for (int64_t q = 0; q < rule.n; ++q)
-        accum_point(a, b, e, pf_v3_load(rule.x + 3 * q), rule.w[q], rho);
+    /* By blocks of points: values V [n k] and gradients G [n 3k] at once, then the sums of
+     * accum_values as products, D += G^T diag(w) G and M += rho V^T diag(w) V. */
+    int32_t k = a->k;
+    size_t nb = PF_BASIS_EVAL_BLOCK, k3 = 3 * (size_t)k;
+    double *val = pf_arena_push(arena, 8 * (size_t)k * nb, sizeof *val);
+    double *dfull = pf_arena_push(arena, k3 * k3, sizeof *dfull);
+    double *scratch = pf_arena_push(arena, pf_basis_eval_block_scratch(b, e) + 1, sizeof *scratch);
+    if (!val || !dfull || !scratch) {
+        pf_arena_reset(arena, mark);
+        pf_quadrature_release(&rule);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "element %d: no scratch for the basis at the rule points", (int)e);
+    }
+    double *grad = val + (size_t)k * nb, *wval = grad + k3 * nb, *wgrad = wval + (size_t)k * nb;
+    memset(dfull, 0, k3 * k3 * sizeof *dfull);
+    for (int64_t q0 = 0; q0 < rule.n; q0 += PF_BASIS_EVAL_BLOCK) {
+        int32_t n =
+            (int32_t)(rule.n - q0 < PF_BASIS_EVAL_BLOCK ? rule.n - q0 : PF_BASIS_EVAL_BLOCK);
+        pf_basis_eval_block(b, e, n, rule.x + 3 * q0, val, grad, scratch);
+        for (int32_t q = 0; q < n; ++q) {
+            double w = rule.w[q0 + q];
+            const double *v = val + (size_t)q * k, *g = grad + k3 * q;
+            double *wv = wval + (size_t)q * k, *wg = wgrad + k3 * q;
+            for (int32_t p = 0; p < k; ++p) {
+                wv[p] = w * v[p];
+                a->n_int[p] += wv[p];
+                wv[p] *= rho;
+            }
+            for (size_t c = 0; c < k3; ++c) {
+                wg[c] = w * g[c];
+                a->gint[c] += wg[c];
+            }
+            a->volume += w;
+            a->moment = pf_v3_add(a->moment, pf_v3_scale(pf_v3_load(rule.x + 3 * (q0 + q)), w));
+        }
+        cblas_dgemm(CblasRowMajor, CblasTrans, CblasNoTrans, (int)k3, (int)k3, n, 1, wgrad, (int)k3,
+                    grad, (int)k3, 1, dfull, (int)k3);
+        cblas_dgemm(CblasRowMajor, CblasTrans, CblasNoTrans, k, k, n, 1, wval, k, val, k, 1, a->me,
+                    k);
+    }
+    for (int32_t p = 0; p < k; ++p)
+        for (int32_t q = p; q < k; ++q)
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    a->d[9 * ((size_t)p * k + q) + 3 * i + j] =
+                        dfull[(3 * (size_t)p + i) * k3 + 3 * (size_t)q + j];
+    pf_arena_reset(arena, mark);
     *points += rule.n;
     pf_quadrature_release(&rule);
     accum_symmetrize(a);
@@ -265,10 +319,13 @@ static pf_status face_flux(const pf_cg *cg, const pf_mesh *m, int32_t e, accum *
         int32_t *sloc = pf_arena_push(arena, (size_t)n, sizeof *sloc);
         int32_t *eloc = pf_arena_push(arena, (size_t)n, sizeof *eloc);
         uint32_t *tri = pf_arena_push(arena, 3 * (size_t)(n - 2), sizeof *tri);
-        double *val = pf_arena_push(arena, (size_t)ks, sizeof *val);
+        double *val = pf_arena_push(arena, NG * NG * (size_t)ks, sizeof *val);
+        double *xs = pf_arena_push(arena, 3 * NG * NG, sizeof *xs);
+        double *scratch =
+            pf_arena_push(arena, pf_basis_eval_block_scratch(b, src) + 1, sizeof *scratch);
         double *t = pf_arena_push(arena, (size_t)n, sizeof *t);
         double *py = pf_arena_push(arena, 2 * (size_t)n, sizeof *py);
-        PF_CHECK(sloc && eloc && tri && val && t && py, err, PF_ERR_NOMEM,
+        PF_CHECK(sloc && eloc && tri && val && xs && scratch && t && py, err, PF_ERR_NOMEM,
                  "element %d: scratch too small for face %d", (int)e, (int)f);
         for (int32_t j = 0; j < n; ++j) {
             sloc[j] = find_node(snodes, ks, idx[j]);
@@ -312,14 +369,21 @@ static pf_status face_flux(const pf_cg *cg, const pf_mesh *m, int32_t e, accum *
             for (int i = 0; i < NG; ++i)
                 for (int j = 0; j < NG; ++j) {
                     double a = gx[i], bb = gx[j];
-                    pf_vec3 x =
-                        pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a), pf_v3_scale(e2, bb * (1 - a))));
+                    pf_v3_store(
+                        pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a), pf_v3_scale(e2, bb * (1 - a)))),
+                        xs + 3 * (NG * i + j));
+                }
+            pf_basis_eval_block(b, src, NG * NG, xs, val, NULL, scratch);
+            for (int i = 0; i < NG; ++i)
+                for (int j = 0; j < NG; ++j) {
+                    double a = gx[i];
+                    pf_vec3 x = pf_v3_load(xs + 3 * (NG * i + j));
                     double w = gw[i] * gw[j] * jac * (1 - a);
-                    pf_basis_eval(b, src, x, val, NULL);
+                    const double *vq = val + (size_t)ks * (NG * i + j);
                     pf_vec3 d = pf_v3_sub(x, o);
                     double r[3] = {1, pf_v3_dot(d, u) / sc, pf_v3_dot(d, v) / sc};
                     for (int32_t p = 0; p < n; ++p) {
-                        t[p] = val[sloc[p]];
+                        t[p] = vq[sloc[p]];
                         r[0] -= t[p];
                         r[1] -= t[p] * py[2 * p];
                         r[2] -= t[p] * py[2 * p + 1];
@@ -395,11 +459,14 @@ static size_t elem_view_entries(const pf_mesh *m, int32_t e)
     return n + 1;
 }
 
-/* Bytes an accumulator for k nodes and a polyhedron view of `entries` need. */
-static size_t arena_bytes(int32_t k, size_t entries)
+/* Bytes an accumulator for k nodes, a polyhedron view of `entries` and block evaluation with
+ * `eval` doubles of basis scratch (rule points, then face points of a trace source) need. */
+static size_t arena_bytes(int32_t k, size_t entries, size_t eval)
 {
     return ((size_t)k * k * 10 + 11 * (size_t)k + PF_BASIS_MAX_NODES) * sizeof(double) + 16 * 16 +
-           16 * entries + 64 * entries + 1024;
+           16 * entries + 64 * entries + 1024 +
+           (8 * (size_t)k * PF_BASIS_EVAL_BLOCK + 9 * (size_t)k * k + eval + 1) * sizeof(double) +
+           (9 * (size_t)PF_BASIS_MAX_NODES + 27 + eval + 1) * sizeof(double) + 96;
 }
 
 pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int degree, double *ke,
@@ -409,7 +476,12 @@ pf_status pf_cg_integrate_elem(const pf_cg *cg, const pf_mesh *m, int32_t e, int
              (int)cg->n_elems);
     int32_t k = pf_basis_elem_nodes(&cg->basis, e, NULL);
     pf_arena arena;
-    PF_TRY(pf_arena_init(&arena, arena_bytes(k, elem_view_entries(m, e)), err));
+    size_t eval = 0; /* e's and the trace sources' (face_flux) */
+    for (int32_t f = 0; f < cg->n_elems; ++f) {
+        size_t s = pf_basis_eval_block_scratch(&cg->basis, f);
+        eval = s > eval ? s : eval;
+    }
+    PF_TRY(pf_arena_init(&arena, arena_bytes(k, elem_view_entries(m, e), eval), err));
     accum a;
     int64_t points = 0;
     pf_status st = accum_init(&a, &arena, k)
@@ -469,13 +541,14 @@ static double half_diagonal(const pf_mesh *m, const int32_t *nodes, int32_t k)
 
 static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, pf_error *err)
 {
-    size_t entries = 0;
+    size_t entries = 0, eval = 0;
     for (int32_t e = 0; e < m->n_elems; ++e) {
-        size_t n = elem_view_entries(m, e);
+        size_t n = elem_view_entries(m, e), s = pf_basis_eval_block_scratch(&cg->basis, e);
         entries = n > entries ? n : entries;
+        eval = s > eval ? s : eval;
     }
     pf_arena arena;
-    PF_TRY(pf_arena_init(&arena, arena_bytes(cg->max_nodes, entries), err));
+    PF_TRY(pf_arena_init(&arena, arena_bytes(cg->max_nodes, entries, eval), err));
     accum a;
     pf_status st = accum_init(&a, &arena, cg->max_nodes)
                        ? PF_OK

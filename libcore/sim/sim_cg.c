@@ -331,7 +331,9 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     c->scene = scene;
     c->mesh = mesh;
     c->lumped = scene->mass == PF_MASS_LUMPED;
-    pf_status st = pf_cg_create(&c->cg, mesh, scene->E, scene->nu, scene->density, NULL, err);
+    pf_cg_params params = pf_cg_params_default();
+    params.basis.no_check_stats = true;
+    pf_status st = pf_cg_create(&c->cg, mesh, scene->E, scene->nu, scene->density, &params, err);
     if (st >= 0) {
         size_t nn = (size_t)mesh->n_nodes, ne = (size_t)mesh->n_elems;
         c->fixed = pf_calloc(nn + 1, sizeof *c->fixed);

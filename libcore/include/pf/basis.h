@@ -99,6 +99,10 @@ typedef struct pf_basis_params {
     double rank_rcond;          /* switch from QR to SVD when the reciprocal condition of the QR
                                    factor falls below this; also the SVD cut-off; default 1e-13 */
     bool force_mfs;             /* harmonic MFS also for tets and parallelepipeds (tests, study) */
+    bool no_check_stats;        /* true: skip the check-point statistics of pf_basis_elem_stats
+                                   (boundary, linear and unity errors, min_value stay 0; counts
+                                   and setup_ms are kept): they cost about as much as the MFS
+                                   solves and the simulator does not read them */
 } pf_basis_params;
 
 pf_basis_params pf_basis_params_default(void);
@@ -180,6 +184,22 @@ static inline pf_basis_kind pf_basis_elem_kind(const pf_basis *b, int32_t e)
  * linearly / trilinearly, harmonic functions away from the kernels), meaningful inside the
  * element. Reentrant; allocates nothing. */
 void pf_basis_eval(const pf_basis *b, int32_t e, pf_vec3 x, double *n, double *grad);
+
+/* Points per pf_basis_eval_block call at most. */
+#define PF_BASIS_EVAL_BLOCK 64
+
+/* Doubles of scratch pf_basis_eval_block needs for element e (0 for closed forms). */
+size_t pf_basis_eval_block_scratch(const pf_basis *b, int32_t e);
+
+/* pf_basis_eval at n <= PF_BASIS_EVAL_BLOCK points x [3 n] (model coordinates) at once:
+ * vals [n k] with vals[p k + i] = N_i(x_p), grads [n 3 k] with grads[3 (p k + i) + d] =
+ * dN_i/dx_d at x_p (k = pf_basis_elem_nodes); grads may be NULL (values only, a quarter of
+ * the work). For harmonic elements one dense product (BLAS
+ * dgemm) evaluates every kernel at every point: the same values as pf_basis_eval up to
+ * round-off (summation order). scratch: pf_basis_eval_block_scratch(b, e) doubles, caller
+ * owned. Allocates nothing. */
+void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *x, double *vals,
+                         double *grads, double *scratch);
 
 /* Median and maximum of the per-element statistics over elements of the given kind (or every
  * kind for kind < 0): a summary for reports. Medians of an empty selection are 0. */

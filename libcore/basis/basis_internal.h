@@ -7,6 +7,16 @@
 
 #include <pf/basis.h>
 
+/* Element data layouts (doubles at data + data_offsets[e]):
+ *   tet, hex:  x0[3], minv[9] (row-major inverse of the edge matrix [e1 e2 e3]); the reference
+ *              coordinates are l = minv (x - x0); node_slot is the corner (tet: 0..3, hex: bits
+ *              of (l0, l1, l2)).
+ *   harmonic:  c[3], h, nk, ng, kern[3 nk], coef[(nk + 4) ng] (row j over groups: kernels 1/r,
+ *              then y_x, y_y, y_z, 1), gpos[3 ng], q[4 ng], gcount[ng]; in scaled coordinates
+ *              y = (x - c) / h; node_slot is the merged group.
+ * HDR doubles of header (harmonic: c[3], h, nk, ng) come first. */
+enum { HDR = 6 };
+
 /* Growable scratch reused from element to element (setup allocates only when an element is
  * larger than every earlier one). */
 enum {

@@ -19,7 +19,7 @@ static const char USAGE[] =
     "\n"
     "  --json             one JSON object per line and element, the summary last\n"
     "  --xi X             kernel offset as a fraction of the element size (default 0.1)\n"
-    "  --edge-samples N   kernel samples inside each edge (default 3)\n"
+    "  --edge-samples N   kernel samples inside each edge (default 2)\n"
     "  --force-mfs        harmonic functions also for tets and parallelepipeds\n"
     "  --quiet            no progress on stderr\n"
     "  --help, --version\n"

@@ -1,7 +1,9 @@
 /* Nodal shape functions per element: closed forms (tet, parallelepiped hex) and harmonic
  * coordinates by the method of fundamental solutions (harmonic paper sec. 4-5, eq. 11-14): their
- * construction, statistics and summary. Element data layouts: basis_internal.h; evaluation:
- * eval.c.
+ * construction, statistics and summary. The MFS polynomial part is the linear polynomial of eq. 11
+ * plus the harmonic polynomials of degree 2 and 3 (a departure from the paper, explained in
+ * pf/basis.h: the smooth part of the boundary data no longer needs kernels). Element data
+ * layouts: basis_internal.h; evaluation: eval.c.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -27,7 +29,7 @@ pf_basis_params pf_basis_params_default(void)
 {
     pf_basis_params p = {0};
     p.xi = 0.1;
-    p.edge_samples = 3;
+    p.edge_samples = 2;
     p.collocation_density = 3;
     p.face_spacing = 1;
     p.parallel_tol = 1e-9;
@@ -118,20 +120,24 @@ static bool elem_contains(const elem_ctx *c, pf_vec3 q)
     return cross & 1;
 }
 
-static double elem_boundary_distance(const elem_ctx *c, pf_vec3 q)
+/* Whether q lies within dist of the element's boundary. Faces whose plane is dist or more away
+ * are skipped before the in-plane distance (most faces, for a kernel near one face). */
+static bool elem_boundary_within(const elem_ctx *c, pf_vec3 q, double dist)
 {
-    double best = INFINITY;
     for (int32_t lf = 0; lf < c->nf; ++lf) {
         const face_fn *f = &c->faces[c->face_id[lf]];
         double dp = pf_v3_dot(pf_v3_sub(q, f->o), f->nrm);
+        if (fabs(dp) >= dist)
+            continue;
         double pu, pv;
         face_coords(f, q, &pu, &pv);
         double din = polygon_contains(f->p2, f->n, pu, pv)
                          ? 0
                          : polygon_boundary_distance(f->p2, f->n, pu, pv) * f->s;
-        best = fmin(best, hypot(dp, din));
+        if (dp * dp + din * din < dist * dist)
+            return true;
     }
-    return best;
+    return false;
 }
 
 static int32_t local_index(const elem_ctx *c, int32_t node)
@@ -482,7 +488,7 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
         if (pf_v3_norm(pt->nrm) > 0)
             for (double shrink = 1; shrink > 0.2 && !placed; shrink *= 0.5) {
                 pf_vec3 k = pf_v3_add(pt->x, pf_v3_scale(pt->nrm, shrink * off));
-                if (elem_contains(c, k) || elem_boundary_distance(c, k) < 0.2 * shrink * off)
+                if (elem_contains(c, k) || elem_boundary_within(c, k, 0.2 * shrink * off))
                     continue;
                 pf_vec3 y = pf_v3_scale(pf_v3_sub(k, c->c), 1 / c->h);
                 pf_v3_store(y, kern + 3 * nk);
@@ -497,7 +503,7 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
     /* Collocation points, about rho times denser (eq. 13), and the system of eq. 14. */
     double sc = fsp / sqrt(rho);
     PF_TRY(elem_samples(c, spacing / rho, (int32_t)ceil(rho), 0, sc, 0.5, 0.5 * sc, pts, err));
-    int32_t m = pts->n, cols = nk + 4;
+    int32_t m = pts->n, cols = nk + N_POLY;
     size_t ldb = (size_t)(m > cols ? m : cols);
     st->m = m;
     double *A = ws_get(w, WS_A, (size_t)m * cols, sizeof *A);
@@ -518,6 +524,10 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
         A[r + (size_t)(nk + 1) * m] = y.y;
         A[r + (size_t)(nk + 2) * m] = y.z;
         A[r + (size_t)(nk + 3) * m] = 1;
+        double hv[N_HIGH];
+        harmonic_high((const double[3]){y.x, y.y, y.z}, hv, NULL);
+        for (int a = 0; a < N_HIGH; ++a)
+            A[r + (size_t)(nk + N_LINEAR + a) * m] = hv[a];
     }
     memset(B, 0, ldb * ng * sizeof *B);
     for (int32_t r = 0; r < m; ++r)
@@ -725,7 +735,8 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
         st->n_kernels_moved = mo.moved;
         st->n_kernels_dropped = mo.dropped;
         st->used_svd = mo.svd;
-        end = at + HDR + 3 * (int64_t)mo.nk + (int64_t)(mo.nk + 4) * c->ng + 8 * (int64_t)c->ng;
+        end =
+            at + HDR + 3 * (int64_t)mo.nk + (int64_t)(mo.nk + N_POLY) * c->ng + 8 * (int64_t)c->ng;
         for (int32_t i = 0; i < c->k; ++i)
             slot[i] = c->slot[i];
     }

@@ -4,6 +4,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <string.h>
 
 #include <pf/basis.h>
 
@@ -11,11 +12,60 @@
  *   tet, hex:  x0[3], minv[9] (row-major inverse of the edge matrix [e1 e2 e3]); the reference
  *              coordinates are l = minv (x - x0); node_slot is the corner (tet: 0..3, hex: bits
  *              of (l0, l1, l2)).
- *   harmonic:  c[3], h, nk, ng, kern[3 nk], coef[(nk + 4) ng] (row j over groups: kernels 1/r,
- *              then y_x, y_y, y_z, 1), gpos[3 ng], q[4 ng], gcount[ng]; in scaled coordinates
+ *   harmonic:  c[3], h, nk, ng, kern[3 nk], coef[(nk + N_POLY) ng] (row j over groups: kernels
+ *              1/r, then y_x, y_y, y_z, 1, then harmonic_high), gpos[3 ng], q[4 ng], gcount[ng];
+ *              in scaled coordinates
  *              y = (x - c) / h; node_slot is the merged group.
  * HDR doubles of header (harmonic: c[3], h, nk, ng) come first. */
 enum { HDR = 6 };
+
+/* Polynomial columns of a harmonic element after its nk kernels: y_x, y_y, y_z, 1 (eq. 11's
+ * linear part), then N_HIGH harmonic polynomials of degrees 2 and 3 (harmonic_high). */
+enum { N_LINEAR = 4, N_HIGH = 12, N_POLY = N_LINEAR + N_HIGH };
+
+/* The harmonic polynomials of degree 2 and 3 at y (scaled coordinates): xy, yz, zx, x^2 - y^2,
+ * y^2 - z^2; xyz, x^3 - 3xy^2, y^3 - 3x^2y, y^3 - 3yz^2, z^3 - 3y^2z, z^3 - 3x^2z, x^3 - 3xz^2
+ * (each cubic holds a monomial no other has, so the 7 are independent: all of the cubics'
+ * 7-dimensional harmonic space). With gradients when d is not NULL: d[3 a + k] = d v_a / d y_k. */
+static inline void harmonic_high(const double *y, double *v, double *d)
+{
+    double x = y[0], yy = y[1], z = y[2];
+    double x2 = x * x, y2 = yy * yy, z2 = z * z;
+    v[0] = x * yy, v[1] = yy * z, v[2] = z * x, v[3] = x2 - y2, v[4] = y2 - z2;
+    v[5] = x * yy * z;
+    v[6] = x * (x2 - 3 * y2), v[7] = yy * (y2 - 3 * x2), v[8] = yy * (y2 - 3 * z2);
+    v[9] = z * (z2 - 3 * y2), v[10] = z * (z2 - 3 * x2), v[11] = x * (x2 - 3 * z2);
+    if (!d)
+        return;
+    const double g[N_HIGH][3] = {
+        {yy, x, 0},
+        {0, z, yy},
+        {z, 0, x},
+        {2 * x, -2 * yy, 0},
+        {0, 2 * yy, -2 * z},
+        {yy * z, x * z, x * yy},
+        {3 * (x2 - y2), -6 * x * yy, 0},
+        {-6 * x * yy, 3 * (y2 - x2), 0},
+        {0, 3 * (y2 - z2), -6 * yy * z},
+        {0, -6 * yy * z, 3 * (z2 - y2)},
+        {-6 * x * z, 0, 3 * (z2 - x2)},
+        {3 * (x2 - z2), 0, -6 * x * z},
+    };
+    memcpy(d, g, sizeof g);
+}
+
+/* Face (2D) counterpart: after the kernels, u, v, 1, then the harmonic polynomials
+ * Re, Im (u + iv)^2 and (u + iv)^3 (face_high). */
+enum { N_LINEAR2 = 3, N_HIGH2 = 4, N_POLY2 = N_LINEAR2 + N_HIGH2 };
+
+static inline void face_high(double u, double v, double *h)
+{
+    double u2 = u * u, v2 = v * v;
+    h[0] = u2 - v2, h[1] = u * v, h[2] = u * (u2 - 3 * v2), h[3] = v * (3 * u2 - v2);
+}
+
+/* Least-squares QR (lsq_solve): column block, and the smallest system blocked. */
+enum { QR_BLOCK = 32, QR_BLOCKED_MIN = 64 };
 
 /* Growable scratch reused from element to element (setup allocates only when an element is
  * larger than every earlier one). */
@@ -27,6 +77,7 @@ enum {
     WS_WORK,
     WS_IWORK,
     WS_SING,
+    WS_TFACTOR,
     WS_KERN,
     WS_FACEVAL,
     WS_EFACE,
@@ -70,7 +121,7 @@ typedef struct face_fn {
     double *q;      /* [3 n_groups] projection (P^T P)^-1 P^T, stored per group */
     int32_t nk;
     double *kern; /* [2 nk] scaled kernel centres */
-    double *coef; /* [(nk + 3) n_groups], row j over groups */
+    double *coef; /* [(nk + N_POLY2) n_groups], row j over groups: kernels, u, v, 1, face_high */
     double setup_ms;
 } face_fn;
 
@@ -98,8 +149,8 @@ bool polygon_contains(const double *p, int32_t n, double x, double y);
 double polygon_boundary_distance(const double *p, int32_t n, double x, double y);
 
 /* Least squares min |A X - B| for g right-hand sides: A m x cols, B m x g (column-major, leading
- * dimension ldb >= max(m, cols)), both overwritten; X in B's first cols rows. QR (dgels), SVD
- * (dgelsd) when the QR factor's reciprocal condition is below rcond. A0 / B0 are untouched
+ * dimension ldb >= max(m, cols)), both overwritten; X in B's first cols rows. Blocked QR (dgeqrt),
+ * SVD (dgelsd) when the QR factor's reciprocal condition is below rcond. A0 / B0 are untouched
  * copies used for the SVD retry. */
 pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond, bool *used_svd,
                     pf_error *err);
@@ -108,8 +159,34 @@ pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcon
  * when the positions do not span dim dimensions. */
 pf_status exactness_projection(int dim, int32_t ng, const double *pos, double *q);
 
-/* G (ng values) <- G + (t - G P) Q: the smallest change making sum_g G_g (1, pos_g) = t. */
-void apply_projection(int dim, int32_t ng, const double *pos, const double *q, const double *t,
-                      double *G);
+/* G (ng values) <- G + (t - G P) Q: the smallest change making sum_g G_g (1, pos_g) = t. Inline
+ * and written out per dimension: it runs for every row of every evaluation (4 per point with
+ * gradients), and the generic loops over dim + 1 terms were a sixth of the CG set-up. */
+static inline void apply_projection(int dim, int32_t ng, const double *pos, const double *q,
+                                    const double *t, double *G)
+{
+    if (dim == 3) {
+        double r0 = t[0], r1 = t[1], r2 = t[2], r3 = t[3];
+        for (int32_t g = 0; g < ng; ++g) {
+            double v = G[g];
+            r0 -= v;
+            r1 -= v * pos[3 * g];
+            r2 -= v * pos[3 * g + 1];
+            r3 -= v * pos[3 * g + 2];
+        }
+        for (int32_t g = 0; g < ng; ++g)
+            G[g] += r0 * q[4 * g] + r1 * q[4 * g + 1] + r2 * q[4 * g + 2] + r3 * q[4 * g + 3];
+        return;
+    }
+    double r0 = t[0], r1 = t[1], r2 = t[2];
+    for (int32_t g = 0; g < ng; ++g) {
+        double v = G[g];
+        r0 -= v;
+        r1 -= v * pos[2 * g];
+        r2 -= v * pos[2 * g + 1];
+    }
+    for (int32_t g = 0; g < ng; ++g)
+        G[g] += r0 * q[3 * g] + r1 * q[3 * g + 1] + r2 * q[3 * g + 2];
+}
 
 #endif

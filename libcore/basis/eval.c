@@ -50,7 +50,7 @@ static void eval_harmonic(const double *d, pf_vec3 x, double *G, double *dG, boo
     double h = d[3];
     int32_t nk = (int32_t)d[4], ng = (int32_t)d[5];
     const double *kern = d + HDR, *coef = kern + 3 * nk;
-    const double *gpos = coef + (size_t)(nk + 4) * ng, *q = gpos + 3 * ng;
+    const double *gpos = coef + (size_t)(nk + N_POLY) * ng, *q = gpos + 3 * ng;
     double y[3] = {(x.x - c.x) / h, (x.y - c.y) / h, (x.z - c.z) / h};
     for (int32_t g = 0; g < ng; ++g)
         G[g] = 0;
@@ -76,6 +76,17 @@ static void eval_harmonic(const double *d, pf_vec3 x, double *G, double *dG, boo
     const double *poly = coef + (size_t)nk * ng;
     for (int32_t g = 0; g < ng; ++g)
         G[g] += y[0] * poly[g] + y[1] * poly[ng + g] + y[2] * poly[2 * ng + g] + poly[3 * ng + g];
+    double hv[N_HIGH], hd[3 * N_HIGH];
+    harmonic_high(y, hv, want_grad ? hd : NULL);
+    const double *high = poly + (size_t)N_LINEAR * ng;
+    for (int a = 0; a < N_HIGH; ++a)
+        for (int32_t g = 0; g < ng; ++g) {
+            double cg = high[(size_t)a * ng + g];
+            G[g] += hv[a] * cg;
+            if (want_grad)
+                for (int dd = 0; dd < 3; ++dd)
+                    dG[(size_t)dd * ng + g] += hd[3 * a + dd] * cg;
+        }
     double t[4] = {1, y[0], y[1], y[2]};
     apply_projection(3, ng, gpos, q, t, G);
     if (!want_grad)
@@ -111,7 +122,7 @@ void pf_basis_eval(const pf_basis *b, int32_t e, pf_vec3 x, double *n, double *g
     double G[PF_BASIS_MAX_NODES], dG[3 * PF_BASIS_MAX_NODES];
     eval_harmonic(d, x, G, dG, grad != NULL);
     int32_t nk = (int32_t)d[4], ng = (int32_t)d[5];
-    const double *gcount = d + HDR + 3 * nk + (size_t)(nk + 4) * ng + 7 * (size_t)ng;
+    const double *gcount = d + HDR + 3 * nk + (size_t)(nk + N_POLY) * ng + 7 * (size_t)ng;
     double ih = 1 / d[3];
     for (int32_t i = 0; i < k; ++i) {
         int32_t g = slot[i];
@@ -130,7 +141,7 @@ size_t pf_basis_eval_block_scratch(const pf_basis *b, int32_t e)
         return 0;
     const double *d = b->data + b->data_offsets[e];
     size_t nk = (size_t)d[4], ng = (size_t)d[5];
-    return 4 * (size_t)PF_BASIS_EVAL_BLOCK * (nk + 4 + ng);
+    return 4 * (size_t)PF_BASIS_EVAL_BLOCK * (nk + N_POLY + ng);
 }
 
 /* The harmonic case of pf_basis_eval for a block of points as one product: the rows of
@@ -155,8 +166,9 @@ void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *
     double h = d[3], ih = 1 / h;
     int32_t nk = (int32_t)d[4], ng = (int32_t)d[5];
     const double *kern = d + HDR, *coef = kern + 3 * nk;
-    const double *gpos = coef + (size_t)(nk + 4) * ng, *q = gpos + 3 * ng, *gcount = q + 4 * ng;
-    size_t cols = (size_t)nk + 4;
+    const double *gpos = coef + (size_t)(nk + N_POLY) * ng, *q = gpos + 3 * ng,
+                 *gcount = q + 4 * ng;
+    size_t cols = (size_t)nk + N_POLY;
     int nr = grads ? 4 : 1; /* rows per point */
     double *phi = scratch, *out = scratch + 4 * (size_t)PF_BASIS_EVAL_BLOCK * cols;
     static const double dpoly[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
@@ -165,6 +177,7 @@ void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *
         double *r0 = phi + (size_t)nr * p * cols;
         if (grads) {
             double *r1 = r0 + cols, *r2 = r1 + cols, *r3 = r2 + cols;
+#pragma omp simd
             for (int32_t j = 0; j < nk; ++j) {
                 double a0 = y[0] - kern[3 * j], a1 = y[1] - kern[3 * j + 1],
                        a2 = y[2] - kern[3 * j + 2];
@@ -178,6 +191,7 @@ void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *
             memcpy(r2 + nk, dpoly[1], sizeof dpoly[1]);
             memcpy(r3 + nk, dpoly[2], sizeof dpoly[2]);
         } else {
+#pragma omp simd
             for (int32_t j = 0; j < nk; ++j) {
                 double a0 = y[0] - kern[3 * j], a1 = y[1] - kern[3 * j + 1],
                        a2 = y[2] - kern[3 * j + 2];
@@ -186,6 +200,12 @@ void pf_basis_eval_block(const pf_basis *b, int32_t e, int32_t n, const double *
         }
         double poly[4] = {y[0], y[1], y[2], 1};
         memcpy(r0 + nk, poly, sizeof poly);
+        double hd[3 * N_HIGH];
+        harmonic_high(y, r0 + nk + N_LINEAR, grads ? hd : NULL);
+        if (grads)
+            for (int a = 0; a < N_HIGH; ++a)
+                for (int dd = 0; dd < 3; ++dd)
+                    r0[(size_t)(dd + 1) * cols + nk + N_LINEAR + a] = hd[3 * a + dd];
     }
     cblas_dgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, nr * n, ng, (int)cols, 1, phi, (int)cols,
                 coef, ng, 0, out, ng);

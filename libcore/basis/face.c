@@ -39,20 +39,37 @@ pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcon
                     pf_error *err)
 {
     double *a = w->buf[WS_A], *b = w->buf[WS_B];
-    lapack_int ldb = m > cols ? m : cols;
-    double q;
-    lapack_int info = LAPACKE_dgels_work(LAPACK_COL_MAJOR, 'N', m, cols, g, a, m, b, ldb, &q, -1);
-    PF_CHECK(info == 0, err, PF_ERR_NUMERIC, "least squares: dgels workspace query failed");
-    size_t lwork = (size_t)q + (size_t)(3 * cols);
-    double *work = ws_get(w, WS_WORK, lwork, sizeof *work);
-    lapack_int *iwork = ws_get(w, WS_IWORK, (size_t)cols + 1, sizeof *iwork);
-    PF_CHECK(work && iwork, err, PF_ERR_NOMEM, "least squares: no memory for %zu doubles", lwork);
-    info = LAPACKE_dgels_work(LAPACK_COL_MAJOR, 'N', m, cols, g, a, m, b, ldb, work,
-                              (lapack_int)lwork);
+    lapack_int ldb = m > cols ? m : cols, info = -1;
     double rc = 0;
-    if (info == 0 && m >= cols)
-        info = LAPACKE_dtrcon_work(LAPACK_COL_MAJOR, '1', 'U', 'N', cols, a, m, &rc, work, iwork);
-    *used_svd = info != 0 || m < cols || !(rc >= rcond);
+    if (m >= cols) {
+        /* Householder QR. Below QR_BLOCKED_MIN columns (the face systems) the plain LAPACK
+         * factorisation is fastest; above (the element systems, 100-250 columns) the compact WY
+         * form blocked by QR_BLOCK columns is 1.3-1.5x faster (LAPACK's dgeqrf blocks only beyond
+         * 128 columns, and dgels also scans A and B for their norms first). */
+        bool blocked = cols >= QR_BLOCKED_MIN;
+        lapack_int nb = blocked ? QR_BLOCK : 1;
+        size_t lwork = (size_t)QR_BLOCK * (size_t)(cols > g ? cols : g) + 3 * (size_t)cols;
+        double *t = ws_get(w, WS_TFACTOR, (size_t)nb * (size_t)cols, sizeof *t);
+        double *work = ws_get(w, WS_WORK, lwork, sizeof *work);
+        lapack_int *iwork = ws_get(w, WS_IWORK, (size_t)cols + 1, sizeof *iwork);
+        PF_CHECK(t && work && iwork, err, PF_ERR_NOMEM, "least squares: no memory for %zu doubles",
+                 lwork);
+        info = blocked ? LAPACKE_dgeqrt_work(LAPACK_COL_MAJOR, m, cols, nb, a, m, t, nb, work)
+                       : LAPACKE_dgeqrf_work(LAPACK_COL_MAJOR, m, cols, a, m, t, work,
+                                             (lapack_int)lwork);
+        if (info == 0)
+            info =
+                LAPACKE_dtrcon_work(LAPACK_COL_MAJOR, '1', 'U', 'N', cols, a, m, &rc, work, iwork);
+        if (info == 0 && rc >= rcond) {
+            info = blocked ? LAPACKE_dgemqrt_work(LAPACK_COL_MAJOR, 'L', 'T', m, g, cols, nb, a, m,
+                                                  t, nb, b, ldb, work)
+                           : LAPACKE_dormqr_work(LAPACK_COL_MAJOR, 'L', 'T', m, g, cols, a, m, t, b,
+                                                 ldb, work, (lapack_int)lwork);
+            if (info == 0)
+                info = LAPACKE_dtrtrs_work(LAPACK_COL_MAJOR, 'U', 'N', 'N', cols, g, a, m, b, ldb);
+        }
+    }
+    *used_svd = info != 0 || !(rc >= rcond);
     if (!*used_svd)
         return PF_OK;
 
@@ -63,12 +80,13 @@ pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcon
     double *sing = ws_get(w, WS_SING, (size_t)mn, sizeof *sing);
     PF_CHECK(sing, err, PF_ERR_NOMEM, "least squares: no memory");
     lapack_int rank, iq = 0;
+    double q;
     info = LAPACKE_dgelsd_work(LAPACK_COL_MAJOR, m, cols, g, a, m, b, ldb, sing, rcond, &rank, &q,
                                -1, &iq);
     PF_CHECK(info == 0, err, PF_ERR_NUMERIC, "least squares: dgelsd workspace query failed");
-    lwork = (size_t)q;
-    work = ws_get(w, WS_WORK, lwork, sizeof *work);
-    iwork = ws_get(w, WS_IWORK, (size_t)(iq > 1 ? iq : 1), sizeof *iwork);
+    size_t lwork = (size_t)q;
+    double *work = ws_get(w, WS_WORK, lwork, sizeof *work);
+    lapack_int *iwork = ws_get(w, WS_IWORK, (size_t)(iq > 1 ? iq : 1), sizeof *iwork);
     PF_CHECK(work && iwork, err, PF_ERR_NOMEM, "least squares: no memory for %zu doubles", lwork);
     info = LAPACKE_dgelsd_work(LAPACK_COL_MAJOR, m, cols, g, a, m, b, ldb, sing, rcond, &rank, work,
                                (lapack_int)lwork, iwork);
@@ -143,26 +161,6 @@ pf_status exactness_projection(int dim, int32_t ng, const double *pos, double *q
     return PF_OK;
 }
 
-void apply_projection(int dim, int32_t ng, const double *pos, const double *q, const double *t,
-                      double *G)
-{
-    int c = dim + 1;
-    double r[4];
-    for (int i = 0; i < c; ++i)
-        r[i] = t[i];
-    for (int32_t g = 0; g < ng; ++g) {
-        r[0] -= G[g];
-        for (int d = 0; d < dim; ++d)
-            r[1 + d] -= G[g] * pos[dim * g + d];
-    }
-    for (int32_t g = 0; g < ng; ++g) {
-        double s = 0;
-        for (int i = 0; i < c; ++i)
-            s += r[i] * q[c * g + i];
-        G[g] += s;
-    }
-}
-
 /* ---- polygons in the plane ---------------------------------------------------------------- */
 
 bool polygon_contains(const double *p, int32_t n, double x, double y)
@@ -181,7 +179,7 @@ bool polygon_contains(const double *p, int32_t n, double x, double y)
 
 double polygon_boundary_distance(const double *p, int32_t n, double x, double y)
 {
-    double best = INFINITY;
+    double best2 = INFINITY; /* squared: one square root at the end (scaled, O(1) coordinates) */
     for (int32_t i = 0; i < n; ++i) {
         int32_t j = (i + 1) % n;
         double ex = p[2 * j] - p[2 * i], ey = p[2 * j + 1] - p[2 * i + 1];
@@ -189,9 +187,10 @@ double polygon_boundary_distance(const double *p, int32_t n, double x, double y)
         double l2 = ex * ex + ey * ey;
         double t = l2 > 0 ? (dx * ex + dy * ey) / l2 : 0;
         t = t < 0 ? 0 : t > 1 ? 1 : t;
-        best = fmin(best, hypot(dx - t * ex, dy - t * ey));
+        double rx = dx - t * ex, ry = dy - t * ey;
+        best2 = fmin(best2, rx * rx + ry * ry);
     }
-    return best;
+    return sqrt(best2);
 }
 
 /* ---- face frame ------------------------------------------------------------------------------ */
@@ -378,10 +377,10 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
 
     /* Kernels: samples moved outward by xi * diameter (eq. 12); at a node along the mean of its
      * two edge normals. Back toward the boundary, then dropped, when that lands inside. */
-    /* Kernel samples every lmax / (edge_samples + 1) along the edges, collocation points
-     * collocation_density times denser. */
+    /* Kernel samples every lmax / (2 edge_samples + 4) along the edges, at least 2 edge_samples
+     * + 3 inside each (7 at the default), collocation points collocation_density times denser. */
     double lmax = longest_edge(f);
-    int32_t per_edge = 2 * p->edge_samples + 1,
+    int32_t per_edge = 2 * p->edge_samples + 3,
             per_edge_c = (int32_t)lround(p->collocation_density * (per_edge + 1)) - 1;
     double sp = lmax / (per_edge + 1), spc = sp / p->collocation_density;
     int32_t ncol = f->n;
@@ -439,7 +438,7 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
 
     /* Collocation points (m ~ density * n) and the system of eq. 14. */
     int32_t m = face_samples(f, spc, per_edge_c, pts);
-    int32_t cols = nk + 3, ldb = m > cols ? m : cols;
+    int32_t cols = nk + N_POLY2, ldb = m > cols ? m : cols;
     double *A = ws_get(w, WS_A, (size_t)m * cols, sizeof *A);
     double *A0 = ws_get(w, WS_A0, (size_t)m * cols, sizeof *A0);
     double *B = ws_get(w, WS_B, (size_t)ldb * ng, sizeof *B);
@@ -453,6 +452,10 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
         A[r + (size_t)nk * m] = pts[r].x;
         A[r + (size_t)(nk + 1) * m] = pts[r].y;
         A[r + (size_t)(nk + 2) * m] = 1;
+        double h[N_HIGH2];
+        face_high(pts[r].x, pts[r].y, h);
+        for (int a = 0; a < N_HIGH2; ++a)
+            A[r + (size_t)(nk + N_LINEAR2 + a) * m] = h[a];
     }
     memset(B, 0, (size_t)ldb * ng * sizeof *B);
     for (int32_t r = 0; r < m; ++r) {
@@ -517,6 +520,13 @@ void face_eval(const face_fn *f, pf_vec3 x, double *vals)
     const double *cu = f->coef + (size_t)f->nk * ng, *cv = cu + ng, *c1 = cv + ng;
     for (int32_t g = 0; g < ng; ++g)
         G[g] += pu * cu[g] + pv * cv[g] + c1[g];
+    double h[N_HIGH2];
+    face_high(pu, pv, h);
+    for (int a = 0; a < N_HIGH2; ++a) {
+        const double *row = c1 + (size_t)(1 + a) * ng;
+        for (int32_t g = 0; g < ng; ++g)
+            G[g] += h[a] * row[g];
+    }
     double t[3] = {1, pu, pv};
     apply_projection(2, ng, f->gpos, f->q, t, G);
     for (int32_t a = 0; a < f->n; ++a)

@@ -6,6 +6,10 @@
  * fig. 3 question: how sensitive are the functions to xi and to the kernel count?):
  *                          xi,edge_samples,face_spacing,median_kernels,median_setup_ms,
  *                          median_boundary_error,max_boundary_error
+ *   bench_basis cost       CSV per edge_samples (1-6) over the harmonic cells of up to 16 nodes
+ *                          of the finer meshes (the set-up target's cells): what an error costs
+ *                          edge_samples,median_kernels,median_setup_ms,median_boundary_error,
+ *                          max_boundary_error
  *
  * Meshes: a sphere and a torus sliced by pf_mesh_slice at two resolutions (cells cut by the
  * surface are general convex / non-convex polyhedra with 5-30 nodes), and the unit cube with MFS
@@ -111,6 +115,44 @@ static void sweep(scenario *s, int ns)
             }
 }
 
+/* Medians over the harmonic cells of at most 16 nodes of the res-8 meshes, per edge_samples. */
+static void cost(scenario *s, int ns)
+{
+    printf(
+        "edge_samples,median_kernels,median_setup_ms,median_boundary_error,max_boundary_error\n");
+    for (int32_t es = 1; es <= 6; ++es) {
+        pf_basis_params p = pf_basis_params_default();
+        p.edge_samples = es;
+        static double k[100000], t[100000], be[100000];
+        int n = 0;
+        double mx = 0;
+        for (int i = 0; i < ns; ++i) {
+            if (!strchr(s[i].name, '8'))
+                continue;
+            pf_error err = {0};
+            pf_basis bs;
+            if (pf_basis_create(&bs, &s[i].m, &p, &err) != PF_OK) {
+                fprintf(stderr, "bench_basis: %s\n", err.msg);
+                exit(1);
+            }
+            for (int32_t e = 0; e < bs.n_elems && n < 100000; ++e)
+                if (bs.kind[e] == PF_BASIS_HARMONIC && bs.stats[e].n_nodes <= 16) {
+                    k[n] = bs.stats[e].n_kernels;
+                    t[n] = bs.stats[e].setup_ms;
+                    be[n] = bs.stats[e].boundary_error;
+                    mx = fmax(mx, be[n]);
+                    ++n;
+                }
+            pf_basis_release(&bs);
+        }
+        qsort(k, (size_t)n, sizeof *k, cmp);
+        qsort(t, (size_t)n, sizeof *t, cmp);
+        qsort(be, (size_t)n, sizeof *be, cmp);
+        printf("%d,%g,%.4f,%.5f,%.5f\n", (int)es, k[n / 2], t[n / 2], be[n / 2], mx);
+        fflush(stdout);
+    }
+}
+
 int main(int argc, char **argv)
 {
     scenario s[8];
@@ -122,6 +164,8 @@ int main(int argc, char **argv)
     }
     if (argc > 1 && strcmp(argv[1], "sweep") == 0) {
         sweep(s, ns);
+    } else if (argc > 1 && strcmp(argv[1], "cost") == 0) {
+        cost(s, ns);
     } else {
         printf("mesh,element,kind,faces,nodes,kernels,collocation,setup_ms,boundary_error\n");
         for (int i = 0; i < ns; ++i) {

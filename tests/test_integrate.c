@@ -293,26 +293,40 @@ static void cell_tet(cell *c, const pf_vec3 p[4])
         cell_face(c, 3, faces[f]);
 }
 
+/* The prism over the counter-clockwise polygon l[2 n] in z = 0 up to z = 2, moved by t. */
+static void cell_polygon_prism(cell *c, const double *l, int n, pf_vec3 t)
+{
+    cell_init(c);
+    for (int k = 0; k < 2; ++k)
+        for (int i = 0; i < n; ++i)
+            cell_node(c, pf_v3_add(t, pf_v3(l[2 * i], l[2 * i + 1], 2.0 * k)));
+    uint32_t bottom[16], top[16];
+    for (int i = 0; i < n; ++i) {
+        bottom[i] = (uint32_t)(n - 1 - i);
+        top[i] = (uint32_t)(n + i);
+    }
+    cell_face(c, n, bottom);
+    cell_face(c, n, top);
+    for (uint32_t i = 0; i < (uint32_t)n; ++i) {
+        uint32_t b = (i + 1) % (uint32_t)n, side[4] = {i, b, b + (uint32_t)n, i + (uint32_t)n};
+        cell_face(c, 4, side);
+    }
+}
+
 /* The prism over the L = [0,2]x[0,1] u [0,1]x[1,2] (non-convex hexagons top and bottom),
- * z in [0, 2], moved by t. */
+ * z in [0, 2], moved by t. Star-shaped: every face is seen from inside from near (0.5, 0.5). */
 static void cell_L_prism(cell *c, pf_vec3 t)
 {
     static const double l[] = {0, 0, 2, 0, 2, 1, 1, 1, 1, 2, 0, 2};
-    cell_init(c);
-    for (int k = 0; k < 2; ++k)
-        for (int i = 0; i < 6; ++i)
-            cell_node(c, pf_v3_add(t, pf_v3(l[2 * i], l[2 * i + 1], 2.0 * k)));
-    uint32_t bottom[6], top[6];
-    for (int i = 0; i < 6; ++i) {
-        bottom[i] = (uint32_t)(5 - i);
-        top[i] = (uint32_t)(6 + i);
-    }
-    cell_face(c, 6, bottom);
-    cell_face(c, 6, top);
-    for (uint32_t i = 0; i < 6; ++i) {
-        uint32_t b = (i + 1) % 6, side[4] = {i, b, b + 6, i + 6};
-        cell_face(c, 4, side);
-    }
+    cell_polygon_prism(c, l, 6, t);
+}
+
+/* The prism over the U = [0,3]x[0,3] minus the slot [1,2]x[1,3], moved by t: not star-shaped
+ * (the slot's walls x = 1 and x = 2 face each other), so it must be cut. */
+static void cell_U_prism(cell *c, pf_vec3 t)
+{
+    static const double u[] = {0, 0, 3, 0, 3, 3, 2, 3, 2, 1, 1, 1, 1, 3, 0, 3};
+    cell_polygon_prism(c, u, 8, t);
 }
 
 /* Pyramid over the dart (0,0) (2,1) (0,2) (0.7,1) (reflex at (0.7,1)) in z = 0 with the apex
@@ -935,7 +949,8 @@ static void check_quadrature(const char *what, const cell *c, double tol)
         double sum[COUNT] = {0};
         for (int64_t k = 0; k < q.n; ++k) {
             assert_true(q.w[k] > 0);
-            pf_vec3 local = pf_v3_scale(pf_v3_sub(pf_v3_load(q.x + 3 * k), fr.center), 1 / fr.scale);
+            pf_vec3 local =
+                pf_v3_scale(pf_v3_sub(pf_v3_load(q.x + 3 * k), fr.center), 1 / fr.scale);
             double v[COUNT];
             pf_moment_monomials(local, d, v);
             for (int i = 0; i < count_of(d); ++i)
@@ -944,8 +959,8 @@ static void check_quadrature(const char *what, const cell *c, double tol)
         for (int i = 0; i < count_of(d); ++i) {
             double scale = fabs(m[0]) * pow(rho, degree_of(i));
             if (!(fabs(sum[i] - m[i]) <= tol * scale))
-                fail_msg("%s: degree-%d rule, monomial %d: %.17g, exact %.17g", what, d, i,
-                         sum[i], m[i]);
+                fail_msg("%s: degree-%d rule, monomial %d: %.17g, exact %.17g", what, d, i, sum[i],
+                         m[i]);
         }
         pf_quadrature_release(&q);
     }
@@ -966,6 +981,20 @@ static void test_quadrature(void **state)
     check_quadrature("L prism at 1e4", &c, 1e-11);
     cell_dart_pyramid(&c, pf_v3(-1, 2, 0.5));
     check_quadrature("dart pyramid", &c, 1e-13);
+    cell_U_prism(&c, pf_v3(0.5, -1, 2));
+    check_quadrature("U prism", &c, 1e-13);
+    /* The L prism is integrated as one cone: its 20 triangles (2 x 4 of the L, 2 x 6 of the
+     * sides), each a tetrahedron of n^3 points, n = (d + 4) / 2. */
+    cell_L_prism(&c, pf_v3(-1, 0.5, 2));
+    for (int d = 0; d <= 4; d += 2) {
+        pf_quadrature lq;
+        pf_error lerr = {0};
+        pf_polyhedron lp = cell_view(&c);
+        assert_int_equal(pf_polyhedron_quadrature(&lp, c.n_nodes, d, &lq, &lerr), PF_OK);
+        int n = (d + 4) / 2;
+        assert_int_equal(lq.n, 20 * n * n * n);
+        pf_quadrature_release(&lq);
+    }
     pf_quadrature q;
     pf_error err = {0};
     pf_polyhedron p = cell_view(&c);

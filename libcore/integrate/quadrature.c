@@ -1,9 +1,11 @@
 /* Quadrature over polyhedra for integrands that are not polynomials (harmonic shape functions).
  *
- * A non-convex polyhedron is first cut into convex pieces by the planes of its reflex faces
- * (pf_poly_split): a face is reflex when some node lies beyond its plane. Each convex piece is a
- * cone from its node average (inside, by convexity) over its faces, each face a fan of triangles,
- * so the piece is a union of tetrahedra. A tetrahedron gets the collapsed-coordinate (Duffy)
+ * A convex polyhedron is a cone from its node average over its faces, each face a fan of
+ * triangles, so a union of tetrahedra. A non-convex one is the same cone from a point that sees
+ * every face from inside, when there is one (star-shaped; faces then triangulated by ear
+ * clipping, as they may be non-convex); otherwise it is cut into pieces by the planes of its
+ * reflex faces (pf_poly_split: a face is reflex when some node lies beyond its plane) until
+ * they are star-shaped or convex. A tetrahedron gets the collapsed-coordinate (Duffy)
  * product of Gauss-Legendre rules: with (a, b, c) in [0, 1]^3,
  *     x = v0 + a e1 + b (1 - a) e2 + c (1 - a)(1 - b) e3,   dx = 6 V (1 - a)^2 (1 - b) da db dc,
  * so a polynomial of degree d in x becomes one of degree d + 2 in a, d + 1 in b, d in c, and n
@@ -17,6 +19,9 @@
 #include <string.h>
 
 enum { MAX_POINTS_1D = 16, MAX_CONVEX_DEPTH = 64 };
+
+/* A star-shaped polyhedron's apex keeps this fraction of its diagonal from every face plane. */
+static const double STAR_MARGIN = 0.02;
 
 void pf_gauss_legendre(int n, double *nodes, double *weights)
 {
@@ -75,6 +80,7 @@ typedef struct rule {
     double node[MAX_POINTS_1D], weight[MAX_POINTS_1D];
     pf_quadrature *out;
     int64_t cap;
+    pf_arena scratch; /* face triangulations of star-shaped cells, made on first use */
 } rule;
 
 static pf_status add_tet(rule *r, pf_vec3 v0, pf_vec3 v1, pf_vec3 v2, pf_vec3 v3, pf_error *err)
@@ -87,9 +93,10 @@ static pf_status add_tet(rule *r, pf_vec3 v0, pf_vec3 v1, pf_vec3 v2, pf_vec3 v3
         for (int j = 0; j < r->n; ++j)
             for (int k = 0; k < r->n; ++k) {
                 double a = r->node[i], b = r->node[j], c = r->node[k];
-                pf_vec3 p = pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a),
-                                                    pf_v3_add(pf_v3_scale(e2, b * (1 - a)),
-                                                              pf_v3_scale(e3, c * (1 - a) * (1 - b)))));
+                pf_vec3 p =
+                    pf_v3_add(v0, pf_v3_add(pf_v3_scale(e1, a),
+                                            pf_v3_add(pf_v3_scale(e2, b * (1 - a)),
+                                                      pf_v3_scale(e3, c * (1 - a) * (1 - b)))));
                 double w = r->weight[i] * r->weight[j] * r->weight[k] * six_v * (1 - a) * (1 - a) *
                            (1 - b);
                 PF_TRY(push_point(r->out, p, w, &r->cap, err));
@@ -97,14 +104,10 @@ static pf_status add_tet(rule *r, pf_vec3 v0, pf_vec3 v1, pf_vec3 v2, pf_vec3 v3
     return PF_OK;
 }
 
-/* A convex polyhedron as a cone from its node average over the fans of its faces. */
-static pf_status add_convex(rule *r, const pf_polyhedron *p, pf_error *err)
+/* The cone from apex c over the fans of p's faces: a decomposition into tetrahedra when every
+ * face plane has c on its inner side (p convex, or star-shaped about c). */
+static pf_status add_cone(rule *r, const pf_polyhedron *p, pf_vec3 c, pf_error *err)
 {
-    pf_vec3 c = {0, 0, 0};
-    int64_t count = p->face_offsets[p->n_faces];
-    for (int64_t k = 0; k < count; ++k)
-        c = pf_v3_add(c, pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
-    c = pf_v3_scale(c, 1.0 / (double)count);
     for (int32_t f = 0; f < p->n_faces; ++f) {
         const uint32_t *idx = p->face_nodes + p->face_offsets[f];
         int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
@@ -116,6 +119,96 @@ static pf_status add_convex(rule *r, const pf_polyhedron *p, pf_error *err)
     return PF_OK;
 }
 
+static pf_vec3 node_average(const pf_polyhedron *p)
+{
+    pf_vec3 c = {0, 0, 0};
+    int64_t count = p->face_offsets[p->n_faces];
+    for (int64_t k = 0; k < count; ++k)
+        c = pf_v3_add(c, pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
+    return pf_v3_scale(c, 1.0 / (double)count);
+}
+
+/* Outward unit normal plane of face f (false for a degenerate face). */
+static bool face_plane(const pf_polyhedron *p, int32_t f, pf_plane *pl)
+{
+    const uint32_t *idx = p->face_nodes + p->face_offsets[f];
+    int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
+    pf_vec3 normal = pf_polygon_area_vector(p->x, idx, n);
+    if (pf_v3_norm(normal) == 0)
+        return false;
+    *pl = pf_plane_from_point_normal(pf_v3_load(p->x + 3 * (size_t)idx[0]), normal);
+    return true;
+}
+
+/* A point at least margin inside every face plane of p, so that p is star-shaped about it and
+ * the cone from it is a decomposition: cyclic projections onto the violated half-spaces
+ * (Agmon-Motzkin relaxation; each moves the point just past its plane), from the node
+ * average. False when STAR_SWEEPS sweeps leave a plane violated (no such point, or a thin one).
+ * A non-convex sliced cell (a cube cut by a curved sheet of facets) usually has one: one cone
+ * then replaces the many convex pieces of cutting it by its reflex planes (5x fewer points for
+ * the cells of a coarsely sliced bunny). */
+static bool star_center(const pf_polyhedron *p, double margin, pf_vec3 *c)
+{
+    enum { STAR_SWEEPS = 64 };
+    pf_vec3 x = node_average(p);
+    for (int sweep = 0; sweep < STAR_SWEEPS; ++sweep) {
+        bool moved = false;
+        for (int32_t f = 0; f < p->n_faces; ++f) {
+            pf_plane pl;
+            if (!face_plane(p, f, &pl))
+                continue;
+            double d = pf_plane_signed_distance(pl, x);
+            if (d > -margin) {
+                x = pf_v3_sub(x, pf_v3_scale(pl.n, d + 1.5 * margin));
+                moved = true;
+            }
+        }
+        if (!moved) {
+            *c = x;
+            return true;
+        }
+    }
+    return false;
+}
+
+/* The cone from c over p's faces, each triangulated in its plane (ear clipping when it is not
+ * convex: the faces of a cut cell, unlike those of its convex pieces, may not be), as for a
+ * star-shaped p. check: only whether every tetrahedron has positive volume (false also when a
+ * face is not simple); otherwise adds them. */
+static pf_status star_cone(rule *r, const pf_polyhedron *p, pf_vec3 c, bool check, bool *ok,
+                           pf_error *err)
+{
+    *ok = true;
+    int64_t nmax = 3;
+    for (int32_t f = 0; f < p->n_faces; ++f) {
+        int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
+        nmax = n > nmax ? n : nmax;
+    }
+    size_t need =
+        3 * (size_t)nmax * sizeof(uint32_t) + 2 * (size_t)nmax * (sizeof(double) + 4) + 64;
+    if (r->scratch.capacity < need) {
+        pf_arena_release(&r->scratch);
+        PF_TRY(pf_arena_init(&r->scratch, 2 * need, err));
+    }
+    uint32_t *tri = pf_arena_push(&r->scratch, 3 * (size_t)nmax, sizeof *tri);
+    for (int32_t f = 0; f < p->n_faces && *ok; ++f) {
+        const uint32_t *idx = p->face_nodes + p->face_offsets[f];
+        int32_t n = (int32_t)(p->face_offsets[f + 1] - p->face_offsets[f]);
+        PF_TRY(pf_polygon_triangulate(p->x, idx, n, &r->scratch, tri, NULL, err));
+        for (int32_t t = 0; t < n - 2 && *ok; ++t) {
+            pf_vec3 a = pf_v3_load(p->x + 3 * (size_t)idx[tri[3 * t]]);
+            pf_vec3 b = pf_v3_load(p->x + 3 * (size_t)idx[tri[3 * t + 1]]);
+            pf_vec3 d = pf_v3_load(p->x + 3 * (size_t)idx[tri[3 * t + 2]]);
+            if (check)
+                *ok = pf_v3_dot(pf_v3_sub(a, c), pf_v3_cross(pf_v3_sub(b, c), pf_v3_sub(d, c))) > 0;
+            else
+                PF_TRY(add_tet(r, c, a, b, d, err));
+        }
+    }
+    pf_arena_reset(&r->scratch, 0);
+    return PF_OK;
+}
+
 /* The plane of a face some node lies beyond (by more than tol), or false when p is convex. */
 static bool reflex_plane(const pf_polyhedron *p, double tol, pf_plane *plane)
 {
@@ -123,14 +216,12 @@ static bool reflex_plane(const pf_polyhedron *p, double tol, pf_plane *plane)
     double worst = tol;
     bool found = false;
     for (int32_t f = 0; f < p->n_faces; ++f) {
-        const uint32_t *idx = p->face_nodes + p->face_offsets[f];
-        int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
-        pf_vec3 normal = pf_polygon_area_vector(p->x, idx, n);
-        if (pf_v3_norm(normal) == 0)
+        pf_plane pl;
+        if (!face_plane(p, f, &pl))
             continue;
-        pf_plane pl = pf_plane_from_point_normal(pf_v3_load(p->x + 3 * (size_t)idx[0]), normal);
         for (int64_t k = 0; k < count; ++k) {
-            double d = pf_plane_signed_distance(pl, pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
+            double d =
+                pf_plane_signed_distance(pl, pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
             if (d > worst) {
                 worst = d;
                 *plane = pl;
@@ -142,11 +233,18 @@ static bool reflex_plane(const pf_polyhedron *p, double tol, pf_plane *plane)
 }
 
 static pf_status add_pieces(rule *r, const pf_polyhedron *p, int32_t n_nodes, double tol,
-                            int depth, pf_error *err)
+                            double size, int depth, pf_error *err)
 {
     pf_plane plane;
     if (!reflex_plane(p, tol, &plane))
-        return add_convex(r, p, err);
+        return add_cone(r, p, node_average(p), err);
+    pf_vec3 apex;
+    if (star_center(p, STAR_MARGIN * size, &apex)) {
+        bool ok;
+        PF_TRY(star_cone(r, p, apex, true, &ok, err));
+        if (ok)
+            return star_cone(r, p, apex, false, &ok, err);
+    }
     PF_CHECK(depth < MAX_CONVEX_DEPTH, err, PF_ERR_NUMERIC,
              "polyhedron not convex after %d cuts by its reflex faces", MAX_CONVEX_DEPTH);
     pf_split s;
@@ -156,7 +254,7 @@ static pf_status add_pieces(rule *r, const pf_polyhedron *p, int32_t n_nodes, do
     for (int32_t k = 0; st >= 0 && k < s.n_pieces; ++k) {
         pf_polyhedron piece = {s.x, (int32_t)(s.piece_faces[k + 1] - s.piece_faces[k]),
                                s.face_offsets + s.piece_faces[k], s.face_nodes};
-        st = add_pieces(r, &piece, s.n_nodes, tol, depth + 1, err);
+        st = add_pieces(r, &piece, s.n_nodes, tol, size, depth + 1, err);
     }
     pf_split_release(&s);
     return st;
@@ -174,8 +272,9 @@ pf_status pf_polyhedron_quadrature(const pf_polyhedron *p, int32_t n_nodes, int 
     pf_gauss_legendre(n, r.node, r.weight);
     pf_vec3 lo, hi;
     pf_polyhedron_bounds(p, &lo, &hi);
-    double tol = 1e-10 * pf_v3_norm(pf_v3_sub(hi, lo));
-    pf_status st = add_pieces(&r, p, n_nodes, tol, 0, err);
+    double size = pf_v3_norm(pf_v3_sub(hi, lo));
+    pf_status st = add_pieces(&r, p, n_nodes, 1e-10 * size, size, 0, err);
+    pf_arena_release(&r.scratch);
     if (st < 0)
         pf_quadrature_release(q);
     return st;

@@ -89,10 +89,11 @@ typedef struct pf_quadrature {
 void pf_quadrature_release(pf_quadrature *q);
 
 /* A rule exact for polynomials of degree <= degree (0..29) over the closed polyhedron p (nodes
- * x[3 n_nodes]), convex or not: cut into convex pieces by the planes of its reflex faces, each
- * piece a cone of tetrahedra from its node average, each tetrahedron a collapsed Gauss product
- * rule. All weights positive. q zeroed first; PF_ERR_INVALID for a bad degree or no faces,
- * PF_ERR_NUMERIC when the convex decomposition fails. */
+ * x[3 n_nodes]), convex or not: a cone of tetrahedra from a point that sees every face from
+ * inside (the node average when p is convex), else p cut by the planes of its reflex faces into
+ * pieces that have one; each tetrahedron a collapsed Gauss product rule. All weights positive. q
+ * zeroed first; PF_ERR_INVALID for a bad degree or no faces, PF_ERR_NUMERIC when the convex
+ * decomposition fails. */
 pf_status pf_polyhedron_quadrature(const pf_polyhedron *p, int32_t n_nodes, int degree,
                                    pf_quadrature *q, pf_error *err);
 

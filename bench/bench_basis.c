@@ -69,6 +69,45 @@ static int cmp(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Medians of the kernel count, set-up time and boundary error, and the largest boundary error,
+ * over the harmonic cells of at most max_nodes nodes of the coarse (fine = false) or the fine
+ * meshes and the cube, built with p. */
+typedef struct medians {
+    double kernels, setup_ms, boundary, max_boundary;
+} medians;
+
+static medians measure(scenario *s, int ns, pf_basis_params p, bool fine, int32_t max_nodes)
+{
+    static double k[100000], t[100000], be[100000];
+    int n = 0;
+    medians out = {0};
+    for (int i = 0; i < ns; ++i) {
+        if ((strchr(s[i].name, '8') != NULL) != fine)
+            continue;
+        pf_error err = {0};
+        pf_basis bs;
+        p.force_mfs = s[i].force;
+        if (pf_basis_create(&bs, &s[i].m, &p, &err) != PF_OK) {
+            fprintf(stderr, "bench_basis: %s\n", err.msg);
+            exit(1);
+        }
+        for (int32_t e = 0; e < bs.n_elems && n < 100000; ++e)
+            if (bs.kind[e] == PF_BASIS_HARMONIC && bs.stats[e].n_nodes <= max_nodes) {
+                k[n] = bs.stats[e].n_kernels;
+                t[n] = bs.stats[e].setup_ms;
+                be[n] = bs.stats[e].boundary_error;
+                out.max_boundary = fmax(out.max_boundary, be[n]);
+                ++n;
+            }
+        pf_basis_release(&bs);
+    }
+    qsort(k, (size_t)n, sizeof *k, cmp);
+    qsort(t, (size_t)n, sizeof *t, cmp);
+    qsort(be, (size_t)n, sizeof *be, cmp);
+    out.kernels = k[n / 2], out.setup_ms = t[n / 2], out.boundary = be[n / 2];
+    return out;
+}
+
 static void sweep(scenario *s, int ns)
 {
     printf("xi,edge_samples,face_spacing,median_kernels,median_setup_ms,median_boundary_error,"
@@ -83,34 +122,10 @@ static void sweep(scenario *s, int ns)
                 p.xi = xis[a];
                 p.edge_samples = edges[b];
                 p.face_spacing = fsps[c];
-                static double k[100000], t[100000], be[100000];
-                int n = 0;
-                double mx = 0;
-                for (int i = 0; i < ns; ++i) {
-                    if (strchr(s[i].name, '8'))
-                        continue; /* the coarse meshes only: 36 parameter sets */
-                    pf_error err = {0};
-                    pf_basis bs;
-                    p.force_mfs = s[i].force;
-                    if (pf_basis_create(&bs, &s[i].m, &p, &err) != PF_OK) {
-                        fprintf(stderr, "bench_basis: %s\n", err.msg);
-                        exit(1);
-                    }
-                    for (int32_t e = 0; e < bs.n_elems && n < 100000; ++e)
-                        if (bs.kind[e] == PF_BASIS_HARMONIC) {
-                            k[n] = bs.stats[e].n_kernels;
-                            t[n] = bs.stats[e].setup_ms;
-                            be[n] = bs.stats[e].boundary_error;
-                            mx = fmax(mx, be[n]);
-                            ++n;
-                        }
-                    pf_basis_release(&bs);
-                }
-                qsort(k, (size_t)n, sizeof *k, cmp);
-                qsort(t, (size_t)n, sizeof *t, cmp);
-                qsort(be, (size_t)n, sizeof *be, cmp);
+                /* the coarse meshes only: 36 parameter sets */
+                medians r = measure(s, ns, p, false, PF_BASIS_MAX_NODES);
                 printf("%g,%d,%g,%g,%.4f,%.5f,%.5f\n", p.xi, (int)p.edge_samples, p.face_spacing,
-                       k[n / 2], t[n / 2], be[n / 2], mx);
+                       r.kernels, r.setup_ms, r.boundary, r.max_boundary);
                 fflush(stdout);
             }
 }
@@ -123,32 +138,9 @@ static void cost(scenario *s, int ns)
     for (int32_t es = 1; es <= 6; ++es) {
         pf_basis_params p = pf_basis_params_default();
         p.edge_samples = es;
-        static double k[100000], t[100000], be[100000];
-        int n = 0;
-        double mx = 0;
-        for (int i = 0; i < ns; ++i) {
-            if (!strchr(s[i].name, '8'))
-                continue;
-            pf_error err = {0};
-            pf_basis bs;
-            if (pf_basis_create(&bs, &s[i].m, &p, &err) != PF_OK) {
-                fprintf(stderr, "bench_basis: %s\n", err.msg);
-                exit(1);
-            }
-            for (int32_t e = 0; e < bs.n_elems && n < 100000; ++e)
-                if (bs.kind[e] == PF_BASIS_HARMONIC && bs.stats[e].n_nodes <= 16) {
-                    k[n] = bs.stats[e].n_kernels;
-                    t[n] = bs.stats[e].setup_ms;
-                    be[n] = bs.stats[e].boundary_error;
-                    mx = fmax(mx, be[n]);
-                    ++n;
-                }
-            pf_basis_release(&bs);
-        }
-        qsort(k, (size_t)n, sizeof *k, cmp);
-        qsort(t, (size_t)n, sizeof *t, cmp);
-        qsort(be, (size_t)n, sizeof *be, cmp);
-        printf("%d,%g,%.4f,%.5f,%.5f\n", (int)es, k[n / 2], t[n / 2], be[n / 2], mx);
+        medians r = measure(s, ns, p, true, 16);
+        printf("%d,%g,%.4f,%.5f,%.5f\n", (int)es, r.kernels, r.setup_ms, r.boundary,
+               r.max_boundary);
         fflush(stdout);
     }
 }

@@ -963,12 +963,47 @@ static void mass_key_is_parsed(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* method.edge_samples: default 2 (pf_basis_params_default), read, written back, overridden,
+ * refused outside 1..16 with the key named. */
+static void edge_samples_key_is_parsed(void **state)
+{
+    (void)state;
+    int64_t live = pf_alloc_live_bytes();
+    pf_scene s, t;
+    pf_error err = {0};
+    static const char none[] = "{\"method\": \"cg\"}";
+    assert_int_equal(pf_scene_parse(&s, none, sizeof none - 1, "scene.json", &err), PF_OK);
+    assert_int_equal(s.edge_samples, pf_basis_params_default().edge_samples);
+    pf_scene_release(&s);
+    static const char good[] = "{\"method\": {\"name\": \"cg\", \"edge_samples\": 5}}";
+    assert_int_equal(pf_scene_parse(&s, good, sizeof good - 1, "scene.json", &err), PF_OK);
+    assert_int_equal(s.edge_samples, 5);
+    char *json = NULL;
+    assert_int_equal(pf_scene_to_json(&s, &json, &err), PF_OK);
+    assert_int_equal(pf_scene_parse(&t, json, strlen(json), "SCEN", &err), PF_OK);
+    assert_int_equal(t.edge_samples, 5);
+    assert_int_equal(pf_scene_override(&t, "edge_samples", "3", &err), PF_OK);
+    assert_int_equal(t.edge_samples, 3);
+    assert_int_equal(pf_scene_override(&t, "edge_samples", "17", &err), PF_ERR_INVALID);
+    assert_string_equal(err.msg, "edge_samples: must be an integer from 1 to 16, got '17'");
+    assert_int_equal(t.edge_samples, 3);
+    pf_free(json);
+    pf_scene_release(&s);
+    pf_scene_release(&t);
+    static const char bad[] = "{\"method\": {\"name\": \"cg\", \"edge_samples\": 2.5}}";
+    assert_int_equal(pf_scene_parse(&s, bad, sizeof bad - 1, "scene.json", &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "method.edge_samples"));
+    pf_scene_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1)
         cmocka_set_test_filter(argv[1]); /* run one test by name (pattern) */
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(quadrature_order_converges),
+        cmocka_unit_test(edge_samples_key_is_parsed),
         cmocka_unit_test(rigid_modes_in_null_space),
         cmocka_unit_test(patch_test_on_mixed_meshes),
         cmocka_unit_test(c0_continuity_across_faces),

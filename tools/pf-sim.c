@@ -21,6 +21,8 @@ static const char USAGE[] =
     "Overrides of scene keys:\n"
     "  --method dg|cg     discretisation (cg: harmonic basis functions, nodal unknowns)\n"
     "  --mass consistent|lumped   CG mass matrix (default consistent)\n"
+    "  --edge-samples N   CG MFS kernel samples inside each element edge (1-16, default 2):\n"
+    "                     smaller basis errors, slower set-up\n"
     "  --degree 1|2       DG polynomial degree\n"
     "  --flux ip|bz       DG flux: interior penalty or Babuska-Zlamal\n"
     "  --penalty ETA      DG penalty factor (default: ip doubled from 1 until K is definite;\n"
@@ -38,8 +40,22 @@ static const char USAGE[] =
     "the stream is closed properly); 2 bad usage.\n";
 
 enum {
-    OPT_METHOD = 1, OPT_MASS, OPT_DEGREE, OPT_FLUX, OPT_PENALTY, OPT_E, OPT_NU, OPT_DENSITY,
-    OPT_FRAMES, OPT_DT, OPT_SUBSTEPS, OPT_STATIC, OPT_NO_COROTATION, OPT_INPUT, OPT_QUIET
+    OPT_METHOD = 1,
+    OPT_MASS,
+    OPT_EDGE_SAMPLES,
+    OPT_DEGREE,
+    OPT_FLUX,
+    OPT_PENALTY,
+    OPT_E,
+    OPT_NU,
+    OPT_DENSITY,
+    OPT_FRAMES,
+    OPT_DT,
+    OPT_SUBSTEPS,
+    OPT_STATIC,
+    OPT_NO_COROTATION,
+    OPT_INPUT,
+    OPT_QUIET
 };
 
 typedef struct run {
@@ -63,35 +79,58 @@ typedef struct run {
 static const char *override_key(int id)
 {
     switch (id) {
-    case OPT_METHOD: return "method";
-    case OPT_MASS: return "mass";
-    case OPT_DEGREE: return "degree";
-    case OPT_FLUX: return "flux";
-    case OPT_PENALTY: return "penalty";
-    case OPT_E: return "E";
-    case OPT_NU: return "nu";
-    case OPT_DENSITY: return "density";
-    case OPT_FRAMES: return "frames";
-    case OPT_DT: return "dt";
-    case OPT_SUBSTEPS: return "substeps";
-    case OPT_STATIC: return "static";
-    case OPT_NO_COROTATION: return "corotation";
-    default: return NULL;
+    case OPT_METHOD:
+        return "method";
+    case OPT_MASS:
+        return "mass";
+    case OPT_EDGE_SAMPLES:
+        return "edge_samples";
+    case OPT_DEGREE:
+        return "degree";
+    case OPT_FLUX:
+        return "flux";
+    case OPT_PENALTY:
+        return "penalty";
+    case OPT_E:
+        return "E";
+    case OPT_NU:
+        return "nu";
+    case OPT_DENSITY:
+        return "density";
+    case OPT_FRAMES:
+        return "frames";
+    case OPT_DT:
+        return "dt";
+    case OPT_SUBSTEPS:
+        return "substeps";
+    case OPT_STATIC:
+        return "static";
+    case OPT_NO_COROTATION:
+        return "corotation";
+    default:
+        return NULL;
     }
 }
 
 static void parse_arguments(run *r, int argc, char **argv)
 {
-    static const pf_cli_option options[] = {
-        {"method", true, OPT_METHOD},   {"mass", true, OPT_MASS},
-        {"degree", true, OPT_DEGREE},
-        {"flux", true, OPT_FLUX},       {"penalty", true, OPT_PENALTY},
-        {"E", true, OPT_E},             {"nu", true, OPT_NU},
-        {"density", true, OPT_DENSITY}, {"frames", true, OPT_FRAMES},
-        {"dt", true, OPT_DT},           {"substeps", true, OPT_SUBSTEPS},
-        {"static", false, OPT_STATIC},  {"no-corotation", false, OPT_NO_COROTATION},
-        {"input", true, OPT_INPUT},     {"quiet", false, OPT_QUIET},
-        {NULL, false, 0}};
+    static const pf_cli_option options[] = {{"method", true, OPT_METHOD},
+                                            {"mass", true, OPT_MASS},
+                                            {"degree", true, OPT_DEGREE},
+                                            {"edge-samples", true, OPT_EDGE_SAMPLES},
+                                            {"flux", true, OPT_FLUX},
+                                            {"penalty", true, OPT_PENALTY},
+                                            {"E", true, OPT_E},
+                                            {"nu", true, OPT_NU},
+                                            {"density", true, OPT_DENSITY},
+                                            {"frames", true, OPT_FRAMES},
+                                            {"dt", true, OPT_DT},
+                                            {"substeps", true, OPT_SUBSTEPS},
+                                            {"static", false, OPT_STATIC},
+                                            {"no-corotation", false, OPT_NO_COROTATION},
+                                            {"input", true, OPT_INPUT},
+                                            {"quiet", false, OPT_QUIET},
+                                            {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
     /* Overrides apply after the scene file, wherever they stand: collect them first. */
     int ids[64];
@@ -198,15 +237,16 @@ static void print_summary(const run *r, const pf_sim *sim)
     const pf_sim_stats *st = pf_sim_get_stats(sim);
     if (r->scene.method == PF_METHOD_CG)
         fprintf(stderr,
-                "pf-sim: cg, %d elements (%d closed forms, MFS skipped; %d harmonic, basis "
-                "%.3f s), %lld unknowns, %lld steps; ",
+                "pf-sim: cg, %d elements (%d closed forms, MFS skipped; %d harmonic, %lld "
+                "kernels, basis %.3f s), %lld unknowns, %lld steps; ",
                 (int)r->mesh.n_elems, (int)st->closed_form_elems, (int)st->harmonic_elems,
-                st->basis_seconds, (long long)st->dofs, (long long)st->steps);
+                (long long)st->kernels, st->basis_seconds, (long long)st->dofs,
+                (long long)st->steps);
     else
         fprintf(stderr,
                 "pf-sim: dg, %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; ",
-                (int)r->mesh.n_elems, (long long)st->dofs, st->penalty,
-                (int)st->penalty_doublings, (long long)st->steps);
+                (int)r->mesh.n_elems, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
+                (long long)st->steps);
     fprintf(stderr,
             "setup %.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at "
             "%d %s: %lld contacts, search %.3f s, positions %.3f s\n",
@@ -224,9 +264,9 @@ static pf_status simulate(run *r, pf_error *err)
     pf_scene_resolve(&r->scene, lo, hi);
     /* contact at the embedded surface when the stream's weights belong to its SURF and MESH */
     const pf_weights *w = &r->weights;
-    bool embedded = r->embedded = r->have_weights && r->have_surface && w->surface_id == r->surface.id &&
-                    w->mesh_id == r->mesh.id && w->rows == r->surface.n_verts &&
-                    w->cols == r->mesh.n_nodes;
+    bool embedded = r->embedded = r->have_weights && r->have_surface &&
+                                  w->surface_id == r->surface.id && w->mesh_id == r->mesh.id &&
+                                  w->rows == r->surface.n_verts && w->cols == r->mesh.n_nodes;
     if (r->have_weights && !embedded && !r->quiet)
         fprintf(stderr, "pf-sim: warning: the WGHT chunk does not belong to the latest SURF and "
                         "MESH: contact at the mesh nodes\n");

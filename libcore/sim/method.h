@@ -65,15 +65,13 @@ typedef pf_status (*pf_method_create_fn)(const pf_scene *scene, const pf_mesh *m
                                          pf_error *err);
 
 pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
-                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces,
-                           pf_error *err);
+                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
 
 /* The CG method (sim_cg.c), and its set-up statistics: elements with closed-form functions (MFS
- * skipped), harmonic elements, seconds spent building the shape functions. */
+ * skipped), harmonic elements, their MFS kernels, seconds spent building the shape functions. */
 pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
-                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces,
-                           pf_error *err);
-void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic,
+                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
+void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic, int64_t *kernels,
                      double *basis_seconds);
 
 #endif

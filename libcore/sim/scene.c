@@ -32,6 +32,7 @@ void pf_scene_default(pf_scene *s)
         .flux = PF_FLUX_IP,
         .penalty = 0,
         .corotation = true,
+        .edge_samples = 2,
         .gravity = {0, 0, -9.81},
         .body_force = {0, 0, 0},
         .damping_alpha = 0,
@@ -72,18 +73,20 @@ static void apply_static_ground_rule(pf_scene *s)
 /* ---- value ranges, shared by the file reader and the overrides ------------------------------- */
 
 typedef enum range {
-    RANGE_FINITE,     /* any finite number */
-    RANGE_POSITIVE,   /* > 0 */
-    RANGE_NONNEG,     /* >= 0 */
-    RANGE_POISSON,    /* (-1, 0.5): the bulk and shear moduli are then positive */
-    RANGE_DEGREE,     /* integer 1 or 2 */
-    RANGE_INT_NONNEG, /* integer >= 0 (fits int32) */
-    RANGE_INT_POS,    /* integer >= 1 (fits int32) */
+    RANGE_FINITE,       /* any finite number */
+    RANGE_POSITIVE,     /* > 0 */
+    RANGE_NONNEG,       /* >= 0 */
+    RANGE_POISSON,      /* (-1, 0.5): the bulk and shear moduli are then positive */
+    RANGE_DEGREE,       /* integer 1 or 2 */
+    RANGE_EDGE_SAMPLES, /* integer 1 .. 16 */
+    RANGE_INT_NONNEG,   /* integer >= 0 (fits int32) */
+    RANGE_INT_POS,      /* integer >= 1 (fits int32) */
 } range;
 
 static bool range_is_integer(range r)
 {
-    return r == RANGE_DEGREE || r == RANGE_INT_NONNEG || r == RANGE_INT_POS;
+    return r == RANGE_DEGREE || r == RANGE_EDGE_SAMPLES || r == RANGE_INT_NONNEG ||
+           r == RANGE_INT_POS;
 }
 
 static bool in_range(range r, double v)
@@ -93,13 +96,22 @@ static bool in_range(range r, double v)
     if (range_is_integer(r) && (v != floor(v) || v > INT32_MAX))
         return false;
     switch (r) {
-    case RANGE_FINITE: return true;
-    case RANGE_POSITIVE: return v > 0;
-    case RANGE_NONNEG: return v >= 0;
-    case RANGE_POISSON: return v > -1 && v < 0.5;
-    case RANGE_DEGREE: return v == 1 || v == 2;
-    case RANGE_INT_NONNEG: return v >= 0;
-    case RANGE_INT_POS: return v >= 1;
+    case RANGE_FINITE:
+        return true;
+    case RANGE_POSITIVE:
+        return v > 0;
+    case RANGE_NONNEG:
+        return v >= 0;
+    case RANGE_POISSON:
+        return v > -1 && v < 0.5;
+    case RANGE_DEGREE:
+        return v == 1 || v == 2;
+    case RANGE_EDGE_SAMPLES:
+        return v >= 1 && v <= 16;
+    case RANGE_INT_NONNEG:
+        return v >= 0;
+    case RANGE_INT_POS:
+        return v >= 1;
     }
     return false;
 }
@@ -107,13 +119,22 @@ static bool in_range(range r, double v)
 static const char *range_text(range r)
 {
     switch (r) {
-    case RANGE_FINITE: return "must be finite";
-    case RANGE_POSITIVE: return "must be > 0";
-    case RANGE_NONNEG: return "must be >= 0";
-    case RANGE_POISSON: return "must be in (-1, 0.5)";
-    case RANGE_DEGREE: return "must be 1 or 2";
-    case RANGE_INT_NONNEG: return "must be an integer >= 0";
-    case RANGE_INT_POS: return "must be an integer >= 1";
+    case RANGE_FINITE:
+        return "must be finite";
+    case RANGE_POSITIVE:
+        return "must be > 0";
+    case RANGE_NONNEG:
+        return "must be >= 0";
+    case RANGE_POISSON:
+        return "must be in (-1, 0.5)";
+    case RANGE_DEGREE:
+        return "must be 1 or 2";
+    case RANGE_EDGE_SAMPLES:
+        return "must be an integer from 1 to 16";
+    case RANGE_INT_NONNEG:
+        return "must be an integer >= 0";
+    case RANGE_INT_POS:
+        return "must be an integer >= 1";
     }
     return "out of range";
 }
@@ -149,8 +170,7 @@ static void advance(reader *r, int n)
 static size_t push_key(reader *r, const char *key)
 {
     size_t mark = r->len;
-    advance(r, snprintf(r->path + r->len, sizeof r->path - r->len, "%s%s", r->len ? "." : "",
-                        key));
+    advance(r, snprintf(r->path + r->len, sizeof r->path - r->len, "%s%s", r->len ? "." : "", key));
     return mark;
 }
 
@@ -171,7 +191,8 @@ static void pop(reader *r, size_t mark)
 #if defined(__GNUC__)
 __attribute__((format(printf, 2, 3)))
 #endif
-static pf_status fail(reader *r, const char *fmt, ...)
+static pf_status
+fail(reader *r, const char *fmt, ...)
 {
     char reason[PF_ERROR_MSG_MAX];
     va_list ap;
@@ -389,8 +410,8 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
         return read_method_name(r, v, &s->method);
     if (!cJSON_IsObject(v))
         return fail_type(r, v, "\"dg\", \"cg\" or an object");
-    static const char *const keys[] = {"name",       "degree", "flux", "penalty",
-                                       "corotation", "mass",   NULL};
+    static const char *const keys[] = {"name",       "degree", "flux",         "penalty",
+                                       "corotation", "mass",   "edge_samples", NULL};
     PF_TRY(begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "name"))
@@ -403,6 +424,8 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
             READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->penalty));
         else if (!strcmp(it->string, "mass"))
             READ_KEY(r, it, read_mass(r, it, &s->mass));
+        else if (!strcmp(it->string, "edge_samples"))
+            READ_KEY(r, it, read_int(r, it, RANGE_EDGE_SAMPLES, &s->edge_samples));
         else
             READ_KEY(r, it, read_corotation(r, it, s));
     }
@@ -549,8 +572,8 @@ static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
     int i = 0;
     for (const cJSON *it = v->child; it; it = it->next, ++i) {
         size_t mark = push_index(r, i);
-        PF_TRY(read_region_entry(r, it, "traction", true, &s->loads[i].region,
-                                 &s->loads[i].traction));
+        PF_TRY(
+            read_region_entry(r, it, "traction", true, &s->loads[i].region, &s->loads[i].traction));
         pop(r, mark);
     }
     return PF_OK;
@@ -735,8 +758,7 @@ static pf_status read_path(reader *r, const cJSON *v, pf_obstacle *o)
 /* One obstacle: exactly one of plane / sphere / box / mesh, optional stiffness and path. */
 static pf_status read_obstacle(reader *r, const cJSON *v, pf_obstacle *o)
 {
-    static const char *const keys[] = {"plane", "sphere", "box", "mesh", "stiffness", "path",
-                                       NULL};
+    static const char *const keys[] = {"plane", "sphere", "box", "mesh", "stiffness", "path", NULL};
     PF_TRY(begin_object(r, v, keys));
     int n_shapes = 0;
     for (const cJSON *it = v->child; it; it = it->next) {
@@ -773,8 +795,7 @@ static pf_status read_obstacles(reader *r, const cJSON *v, pf_scene *s)
     int n = cJSON_GetArraySize(v);
     release_obstacles(s);
     s->obstacles = pf_calloc((size_t)n, sizeof *s->obstacles);
-    PF_CHECK(s->obstacles || n == 0, r->err, PF_ERR_NOMEM, "%s: obstacles: out of memory",
-             r->name);
+    PF_CHECK(s->obstacles || n == 0, r->err, PF_ERR_NOMEM, "%s: obstacles: out of memory", r->name);
     s->n_obstacles = n;
     int i = 0;
     for (const cJSON *it = v->child; it; it = it->next, ++i) {
@@ -809,8 +830,7 @@ pf_status pf_scene_load_obstacles(pf_scene *s, pf_error *err)
         pf_surface_release(&o->surface);
         pf_status st = pf_import_surface(o->file, &o->surface, err);
         if (st >= 0 && o->surface.n_tris == 0)
-            st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: no triangles",
-                              o->file);
+            st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: no triangles", o->file);
         if (st < 0) {
             pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
             return st;
@@ -827,9 +847,9 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
         return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__,
                             "%s: the scene must be a JSON object, got %s", r->name, got);
     }
-    static const char *const keys[] = {"material", "method", "corotation", "gravity",
-                                       "body_force", "damping", "fixed", "loads",
-                                       "ground", "obstacles", "time", "static", NULL};
+    static const char *const keys[] = {"material", "method", "corotation", "gravity", "body_force",
+                                       "damping",  "fixed",  "loads",      "ground",  "obstacles",
+                                       "time",     "static", NULL};
     PF_TRY(begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;
@@ -864,8 +884,7 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
 
 /* ---- parse and load -------------------------------------------------------------------------- */
 
-pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *name,
-                         pf_error *err)
+pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *name, pf_error *err)
 {
     memset(s, 0, sizeof *s);
     pf_scene_default(s);
@@ -914,8 +933,7 @@ pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err)
         st = pf_buffer_append(&buf, chunk, n, err);
         if (st == PF_OK && buf.size > SCENE_MAX_BYTES)
             st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
-                              "%s: larger than %d bytes: not a scene file", path,
-                              SCENE_MAX_BYTES);
+                              "%s: larger than %d bytes: not a scene file", path, SCENE_MAX_BYTES);
     }
     if (st == PF_OK && ferror(f))
         st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: read failed: %s", path,
@@ -934,16 +952,16 @@ pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err)
 #if defined(__GNUC__)
 __attribute__((format(printf, 4, 5)))
 #endif
-static pf_status override_fail(pf_error *err, const char *key, const char *value,
-                               const char *fmt, ...)
+static pf_status
+override_fail(pf_error *err, const char *key, const char *value, const char *fmt, ...)
 {
     char reason[PF_ERROR_MSG_MAX];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(reason, sizeof reason, fmt, ap);
     va_end(ap);
-    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: %s, got '%.64s'", key,
-                        reason, value ? value : "");
+    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: %s, got '%.64s'", key, reason,
+                        value ? value : "");
 }
 
 /* The whole of value as a number in range rg (strtod: decimal or hexadecimal floating point). */
@@ -1013,6 +1031,8 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
     }
     if (!strcmp(key, "degree"))
         return override_int(key, value, RANGE_DEGREE, &s->degree, err);
+    if (!strcmp(key, "edge_samples"))
+        return override_int(key, value, RANGE_EDGE_SAMPLES, &s->edge_samples, err);
     if (!strcmp(key, "frames"))
         return override_int(key, value, RANGE_INT_NONNEG, &s->frames, err);
     if (!strcmp(key, "substeps"))
@@ -1034,10 +1054,11 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
         apply_static_ground_rule(s);
         return PF_OK;
     }
-    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
-                        "%.64s: unknown scene option (expected one of: method, degree, flux, "
-                        "mass, frames, dt, static, E, nu, density, penalty, substeps, corotation)",
-                        key);
+    return pf_error_set(
+        err, PF_ERR_INVALID, __FILE__, __LINE__,
+        "%.64s: unknown scene option (expected one of: method, degree, flux, "
+        "mass, edge_samples, frames, dt, static, E, nu, density, penalty, substeps, corotation)",
+        key);
 }
 
 /* ---- completion against a mesh, regions ------------------------------------------------------ */

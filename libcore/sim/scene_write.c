@@ -82,7 +82,9 @@ static cJSON *scene_object(const pf_scene *s)
         cJSON_AddStringToObject(method, "flux", s->flux == PF_FLUX_BZ ? "bz" : "ip");
         cJSON_AddNumberToObject(method, "penalty", s->penalty);
     } else {
-        cJSON_AddStringToObject(method, "mass", s->mass == PF_MASS_LUMPED ? "lumped" : "consistent");
+        cJSON_AddStringToObject(method, "mass",
+                                s->mass == PF_MASS_LUMPED ? "lumped" : "consistent");
+        cJSON_AddNumberToObject(method, "edge_samples", s->edge_samples);
     }
     cJSON_AddBoolToObject(method, "corotation", s->corotation);
 

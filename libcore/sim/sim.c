@@ -21,15 +21,15 @@ struct pf_sim {
     const pf_mesh *mesh;
     const pf_method_ops *ops;
     void *method;
-    int64_t n;            /* unknowns */
-    double *f_ext;        /* [n] loads and body forces, constant */
-    double *u, *v;        /* state */
+    int64_t n;     /* unknowns */
+    double *f_ext; /* [n] loads and body forces, constant */
+    double *u, *v; /* state */
     double *f, *ku, *rhs;
     double *u_prev, *v_prev; /* the state before the frame, restored on failure */
     pf_block_matrix k;
     pf_cholesky *chol;
-    bool factored_once;   /* linear, contact-free dynamics reuse the first factorisation */
-    pf_contact *contact;  /* NULL without ground and obstacles, and in static scenes */
+    bool factored_once;  /* linear, contact-free dynamics reuse the first factorisation */
+    pf_contact *contact; /* NULL without ground and obstacles, and in static scenes */
     double model_size;
     double time;
     int32_t frame;
@@ -144,13 +144,13 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
     PF_CHECK(s, err, PF_ERR_NOMEM, "cannot allocate the simulator");
     s->scene = scene;
     s->mesh = mesh;
-    pf_method_create_fn create = scene->method == PF_METHOD_CG ? pf_sim_cg_create
-                                                               : pf_sim_dg_create;
+    pf_method_create_fn create =
+        scene->method == PF_METHOD_CG ? pf_sim_cg_create : pf_sim_dg_create;
     pf_status st = create(scene, mesh, &s->ops, &s->method, &s->stats.fixed_faces,
                           &s->stats.loaded_faces, err);
     if (st >= 0 && scene->method == PF_METHOD_CG)
         pf_sim_cg_stats(s->method, &s->stats.closed_form_elems, &s->stats.harmonic_elems,
-                        &s->stats.basis_seconds);
+                        &s->stats.kernels, &s->stats.basis_seconds);
     if (st >= 0) {
         s->n = s->ops->n_dofs(s->method);
         st = allocate_state(s, err);
@@ -309,8 +309,7 @@ pf_status pf_sim_frame(pf_sim *s, pf_error *err)
         pf_status st = step(s, h, err);
         if (st >= 0 && !state_is_sane(s))
             st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
-                              "the simulation diverged (element %d first)",
-                              (int)worst_element(s));
+                              "the simulation diverged (element %d first)", (int)worst_element(s));
         if (st < 0) {
             memcpy(s->u, s->u_prev, n * sizeof *s->u);
             memcpy(s->v, s->v_prev, n * sizeof *s->v);
@@ -353,9 +352,18 @@ pf_status pf_sim_solve_static(pf_sim *s, pf_error *err)
 
 /* ---- output and diagnostics -------------------------------------------------------------- */
 
-double pf_sim_time(const pf_sim *s) { return s->time; }
-int32_t pf_sim_frame_index(const pf_sim *s) { return s->frame; }
-const pf_sim_stats *pf_sim_get_stats(const pf_sim *s) { return &s->stats; }
+double pf_sim_time(const pf_sim *s)
+{
+    return s->time;
+}
+int32_t pf_sim_frame_index(const pf_sim *s)
+{
+    return s->frame;
+}
+const pf_sim_stats *pf_sim_get_stats(const pf_sim *s)
+{
+    return &s->stats;
+}
 
 void pf_sim_nodal_displacements(const pf_sim *s, double *out)
 {

@@ -312,12 +312,15 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
     return PF_OK;
 }
 
-void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic,
+void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic, int64_t *kernels,
                      double *basis_seconds)
 {
     const cg_method *c = ctx;
     *closed_form = c->cg.n_closed_form;
     *harmonic = c->cg.n_elems - c->cg.n_closed_form;
+    *kernels = 0;
+    for (int32_t e = 0; e < c->cg.basis.n_elems; ++e)
+        *kernels += c->cg.basis.stats[e].n_kernels;
     *basis_seconds = c->cg.basis_seconds;
 }
 
@@ -333,6 +336,7 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     c->lumped = scene->mass == PF_MASS_LUMPED;
     pf_cg_params params = pf_cg_params_default();
     params.basis.no_check_stats = true;
+    params.basis.edge_samples = scene->edge_samples;
     pf_status st = pf_cg_create(&c->cg, mesh, scene->E, scene->nu, scene->density, &params, err);
     if (st >= 0) {
         size_t nn = (size_t)mesh->n_nodes, ne = (size_t)mesh->n_elems;

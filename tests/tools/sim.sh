@@ -50,6 +50,15 @@ expect 0 "harmonic" "$bin/pf-sim" --method cg --mass lumped --frames 3 --input "
 "$bin/pf-sim" --method cg --frames 3 --quiet <"$tmp/ball.pfs" >"$tmp/ball_out.pfs"
 check "four cg frames of the ball" bash -c "'$bin/pf-info' '$tmp/ball_out.pfs' | grep -q '^FRAM .*: 4 frames'"
 expect 2 "mass: must be consistent or lumped" "$bin/pf-sim" --method cg --mass diagonal --input "$tmp/cube.pfs"
+# --edge-samples reaches the basis: more kernels (the summary counts them), and the SCEN in the
+# output records it.
+k2=$("$bin/pf-sim" --method cg --frames 1 --input "$tmp/ball.pfs" 2>&1 >/dev/null | sed -n 's/.* \([0-9]*\) kernels.*/\1/p')
+k3=$("$bin/pf-sim" --method cg --frames 1 --edge-samples 3 --input "$tmp/ball.pfs" 2>&1 >/dev/null | sed -n 's/.* \([0-9]*\) kernels.*/\1/p')
+check "edge_samples 3 gives more kernels ($k3) than the default 2 ($k2)" test "${k3:-0}" -gt "${k2:-0}" -a "${k2:-0}" -gt 0
+"$bin/pf-sim" --method cg --frames 1 --edge-samples 3 --quiet <"$tmp/ball.pfs" >"$tmp/ball_es3.pfs"
+check "the scene in the stream (SCEN, JSON) records edge_samples 3" \
+  bash -c "grep -a -q -E '\"edge_samples\":[[:space:]]*3' '$tmp/ball_es3.pfs'"
+expect 2 "edge_samples: must be an integer from 1 to 16" "$bin/pf-sim" --method cg --edge-samples 0 --input "$tmp/cube.pfs"
 "$bin/pf-shape" torus >"$tmp/torus.pfs"
 expect 1 "no MESH" "$bin/pf-sim" --input "$tmp/torus.pfs"
 head -c 200 "$tmp/cube.pfs" >"$tmp/cut.pfs"

@@ -30,10 +30,10 @@ typedef enum pf_mass { PF_MASS_CONSISTENT = 0, PF_MASS_LUMPED = 1 } pf_mass;
 typedef enum pf_region_kind { PF_REGION_BOX = 0, PF_REGION_PLANE = 1 } pf_region_kind;
 typedef struct pf_region {
     pf_region_kind kind;
-    pf_vec3 lo, hi;  /* box corners, lo <= hi componentwise */
-    pf_plane plane;  /* unit normal */
-    double tol;      /* plane: distance tolerance, model units, >= 0; -1 when the scene did not
-                        give one: pf_scene_resolve then sets 1e-6 x the bounding-box diagonal */
+    pf_vec3 lo, hi; /* box corners, lo <= hi componentwise */
+    pf_plane plane; /* unit normal */
+    double tol;     /* plane: distance tolerance, model units, >= 0; -1 when the scene did not
+                       give one: pf_scene_resolve then sets 1e-6 x the bounding-box diagonal */
 } pf_region;
 
 /* A fixed region: weak Dirichlet on its faces (DG) or every node of its faces fixed (CG), to
@@ -92,18 +92,20 @@ typedef struct pf_scene {
     double density; /* mass per unit volume (default 1000) */
 
     /* method */
-    pf_method method; /* default dg */
-    int32_t degree;   /* dg: 1 or 2 (default 1) */
-    pf_flux flux;     /* dg: ip (default) or bz */
-    double penalty;   /* dg: eta of eq. 20; 0 = automatic (default): ip, the smallest power of
-                         two from 1 for which the stiffness matrix is positive definite; bz
-                         (definite for any eta), 1 for degree 1 and 32 for degree 2 */
-    bool corotation;  /* default true */
-    pf_mass mass;     /* cg: consistent (default) or lumped */
+    pf_method method;     /* default dg */
+    int32_t degree;       /* dg: 1 or 2 (default 1) */
+    pf_flux flux;         /* dg: ip (default) or bz */
+    double penalty;       /* dg: eta of eq. 20; 0 = automatic (default): ip, the smallest power of
+                             two from 1 for which the stiffness matrix is positive definite; bz
+                             (definite for any eta), 1 for degree 1 and 32 for degree 2 */
+    bool corotation;      /* default true */
+    pf_mass mass;         /* cg: consistent (default) or lumped */
+    int32_t edge_samples; /* cg: MFS kernel samples inside each edge (pf_basis_params; 1-16,
+                             default 2): more for smaller boundary errors at a higher set-up */
 
     /* forces */
-    pf_vec3 gravity;     /* acceleration (default 0, 0, -9.81) */
-    pf_vec3 body_force;  /* force per unit volume, added to gravity's (default 0) */
+    pf_vec3 gravity;    /* acceleration (default 0, 0, -9.81) */
+    pf_vec3 body_force; /* force per unit volume, added to gravity's (default 0) */
     int32_t n_fixed;
     pf_fixed *fixed;
     int32_t n_loads;
@@ -114,11 +116,11 @@ typedef struct pf_scene {
     double damping_beta;  /* time (default 0.01) */
 
     /* ground: the plane through ground_point with normal ground_normal, penalty contact */
-    bool ground;            /* default true, except in static scenes */
-    bool ground_given;      /* "ground" was in the file: static no longer turns the ground off */
-    bool ground_auto;       /* ground_point not given: pf_scene_resolve puts it below the mesh */
-    pf_vec3 ground_point;   /* model units */
-    pf_vec3 ground_normal;  /* unit (default 0, 0, 1) */
+    bool ground;             /* default true, except in static scenes */
+    bool ground_given;       /* "ground" was in the file: static no longer turns the ground off */
+    bool ground_auto;        /* ground_point not given: pf_scene_resolve puts it below the mesh */
+    pf_vec3 ground_point;    /* model units */
+    pf_vec3 ground_normal;   /* unit (default 0, 0, 1) */
     double ground_stiffness; /* penalty, force per unit length per contact point (a boundary
                                 node, or an embedded-surface vertex); 0 = automatic */
 
@@ -158,11 +160,11 @@ pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *
 pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err);
 
 /* A command-line override of one common key: key is one of method (dg|cg), degree, flux (ip|bz),
- * mass (consistent|lumped), frames, dt, static, E, nu, density, penalty, substeps, corotation. Booleans (static,
- * corotation) take true or false, NULL or empty meaning true. Numbers must be the whole of value
- * (strtod / base-10 strtol) and obey the same ranges as the file. static re-applies the rule "no
- * ground in a static scene unless the file gave one". PF_ERR_INVALID "key: reason, got 'value'"
- * for an unknown key or a bad value (s then unchanged). */
+ * mass (consistent|lumped), edge_samples, frames, dt, static, E, nu, density, penalty, substeps,
+ * corotation. Booleans (static, corotation) take true or false, NULL or empty meaning true. Numbers
+ * must be the whole of value (strtod / base-10 strtol) and obey the same ranges as the file. static
+ * re-applies the rule "no ground in a static scene unless the file gave one". PF_ERR_INVALID "key:
+ * reason, got 'value'" for an unknown key or a bad value (s then unchanged). */
 pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_error *err);
 
 /* Completes the scene for a mesh with bounding box lo..hi (model units, lo <= hi). When
@@ -202,9 +204,9 @@ typedef struct pf_sim pf_sim;
 /* Time spent, seconds, and what was done, since creation. */
 typedef struct pf_sim_stats {
     int64_t dofs;
-    int64_t matrix_nnz;      /* stored (upper) entries of the system matrix */
+    int64_t matrix_nnz; /* stored (upper) entries of the system matrix */
     int64_t factor_nnz;
-    double penalty;          /* the eta in use */
+    double penalty; /* the eta in use */
     int32_t penalty_doublings;
     double setup_seconds;    /* basis, integrals, pattern, analysis, penalty search */
     double assemble_seconds; /* stiffness assembly, rotations */
@@ -217,19 +219,20 @@ typedef struct pf_sim_stats {
     double solve_seconds;
     int64_t steps, factorisations;
     int32_t fixed_faces, loaded_faces;
-    int64_t contacts;        /* active contact points summed over steps */
+    int64_t contacts; /* active contact points summed over steps */
     /* cg only (0 for dg) */
     int32_t closed_form_elems; /* tets and parallelepiped hexes: closed forms, MFS skipped */
     int32_t harmonic_elems;    /* elements with MFS harmonic functions */
+    int64_t kernels;           /* MFS kernels of all harmonic elements (edge_samples sets them) */
     double basis_seconds;      /* shape-function set-up (part of setup_seconds) */
 } pf_sim_stats;
 
 /* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles loaded with
  * pf_scene_load_obstacles) on the mesh (valid, derived). Contact with the ground and the
  * obstacles acts at the mesh's boundary nodes. The mesh and scene are borrowed and must outlive
- * the simulator. PF_ERR_INVALID also for a mesh obstacle whose surface is not loaded. PF_ERR_INVALID for a static
- * scene without fixed faces (rigid motions make it singular), PF_ERR_NUMERIC when no penalty up
- * to 2^20 makes the stiffness positive definite. */
+ * the simulator. PF_ERR_INVALID also for a mesh obstacle whose surface is not loaded.
+ * PF_ERR_INVALID for a static scene without fixed faces (rigid motions make it singular),
+ * PF_ERR_NUMERIC when no penalty up to 2^20 makes the stiffness positive definite. */
 pf_status pf_sim_create(pf_sim **sim, const pf_scene *scene, const pf_mesh *mesh, pf_error *err);
 /* The same with contact at the vertices of an embedded surface instead of the mesh's boundary
  * nodes (DG paper sec. 8, fig. 6): a vertex's displacement is its weights' row (pf_weights:

@@ -192,9 +192,8 @@ static void test_method_string_and_corotation_at_top_level(void **state)
     pf_scene_release(&s);
 
     /* given twice is ambiguous even when the values agree */
-    assert_int_equal(
-        parse(&s, "{\"corotation\": true, \"method\": {\"corotation\": true}}", &err),
-        PF_ERR_INVALID);
+    assert_int_equal(parse(&s, "{\"corotation\": true, \"method\": {\"corotation\": true}}", &err),
+                     PF_ERR_INVALID);
     assert_string_equal(err.msg, "scene.json: method.corotation: corotation is given both at the "
                                  "top level and in method: give it once");
     pf_scene_release(&s);
@@ -250,7 +249,7 @@ static const bad_case bad_cases[] = {
     /* unknown and duplicate keys, at every depth */
     {"{\"method\": {\"name\": \"dg\", \"fluxx\": \"ip\"}}", PF_ERR_INVALID,
      "scene.json: method.fluxx: unknown key (expected one of: name, degree, flux, penalty, "
-     "corotation, mass)"},
+     "corotation, mass, edge_samples)"},
     {"{\"gravty\": [0, 0, 0]}", PF_ERR_INVALID,
      "scene.json: gravty: unknown key (expected one of: material, method, corotation, gravity, "
      "body_force, damping, fixed, loads, ground, obstacles, time, static)"},
@@ -345,8 +344,7 @@ static const bad_case bad_cases[] = {
     {"{\"static\": tru}", PF_ERR_FORMAT, "scene.json:1:12: JSON syntax error near 'tru}'"},
     {"{} x", PF_ERR_FORMAT, "scene.json:1:4: JSON syntax error near 'x'"},
     {"{\n\"\xC3\xA9\": x}", PF_ERR_FORMAT, "scene.json:2:6: JSON syntax error near 'x}'"},
-    {"{\"gravity\": [0, 0,, 1]}", PF_ERR_FORMAT,
-     "scene.json:1:19: JSON syntax error near ', 1]}'"},
+    {"{\"gravity\": [0, 0,, 1]}", PF_ERR_FORMAT, "scene.json:1:19: JSON syntax error near ', 1]}'"},
     {"{\"time\": {\"dt\": 1}", PF_ERR_FORMAT, "scene.json:1:19: JSON syntax error at end of text"},
     {"  \n ", PF_ERR_FORMAT,
      "scene.json:2:2: JSON syntax error: no JSON value (the empty scene is {})"},
@@ -361,8 +359,7 @@ static const bad_case bad_cases[] = {
      "scene.json:1:17: JSON syntax error near '1.2.3}}'"},
     {"{\"time\": {\"dt\": -}}", PF_ERR_FORMAT, "scene.json:1:17: JSON syntax error near '-}}'"},
     {"{\"time\": {\"dt\": 1}}}", PF_ERR_FORMAT, "scene.json:1:20: JSON syntax error near '}'"},
-    {"{\"method\": \"dg}", PF_ERR_FORMAT,
-     "scene.json:1:12: unterminated string near '\"dg}'"},
+    {"{\"method\": \"dg}", PF_ERR_FORMAT, "scene.json:1:12: unterminated string near '\"dg}'"},
     {"{\"method\": \"d\\g\"}", PF_ERR_FORMAT,
      "scene.json:1:14: bad escape in a string near '\\g\"}'"},
     {"{\"method\": \"\\u00zz\"}", PF_ERR_FORMAT,
@@ -633,8 +630,9 @@ static const override_case bad_overrides[] = {
     {"flux", "", "flux: must be ip or bz, got ''"},
     {"static", "yes", "static: must be true or false, got 'yes'"},
     {"corotation", "1", "corotation: must be true or false, got '1'"},
-    {"gravity", "0", "gravity: unknown scene option (expected one of: method, degree, flux, "
-                     "mass, frames, dt, static, E, nu, density, penalty, substeps, corotation)"},
+    {"gravity", "0",
+     "gravity: unknown scene option (expected one of: method, degree, flux, "
+     "mass, edge_samples, frames, dt, static, E, nu, density, penalty, substeps, corotation)"},
 };
 
 static void test_overrides(void **state)

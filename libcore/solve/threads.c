@@ -18,10 +18,11 @@
  * factors of an otherwise idle machine: on the shared 2-core machine (load average 1.6-2.8)
  * bench_dg table1 factorised the 12000-unknown DG matrix in 165 ms (minimum of 7) on one thread
  * and 190 ms on two, the 30000-unknown degree-2 one in 1.90 s and 1.77-2.05 s, and the bunny's
- * CG steps (18954 unknowns) and the demo's DG steps (4704 unknowns, more after contact) ran as
- * fast or faster on one at a fraction of the system time; only at a lower load
- * (bench/results/dg_table1.csv) were two threads 20-35% faster on the two table-1 matrices.
- * OPENBLAS_NUM_THREADS gives them back to whoever prefers that speed to fixed bits. The count is set around each call and restored, so other BLAS calls of the
+ * CG steps (18954 unknowns) and the demo's DG steps before contact (4704 unknowns) ran as fast
+ * or faster on one at a fraction of the system time. At a load below 1.6 two threads were
+ * 20-35% faster on the two table-1 matrices (bench/results/dg_table1.csv) and 20% on the demo's
+ * steps once contact has grown their pattern (20 frames: 44.5 s of factorisation against 54.4 s).
+ * OPENBLAS_NUM_THREADS gives that back to whoever prefers the speed to fixed bits. The count is set around each call and restored, so other BLAS calls of the
  * process (the harmonic basis) keep OpenBLAS's own count. It is process-wide: two threads
  * factorising at once would share whatever the last one set (pf factorises on one thread).
  *

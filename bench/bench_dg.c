@@ -2,8 +2,9 @@
  * printing CSV on stdout after one comment line "# ..." describing the machine, its load and the
  * thread settings. CHOLMOD runs its OpenMP loops with a team size fixed when it was built (4 here:
  * OMP_NUM_THREADS does not change it, OMP_THREAD_LIMIT or OMP_DYNAMIC=true with OMP_NUM_THREADS
- * do) and calls OpenBLAS (OPENBLAS_NUM_THREADS). Column threads: the settings in force
- * ("default" when none is set); threads_alive: the threads of the process after the run.
+ * do) and calls OpenBLAS (OPENBLAS_NUM_THREADS); unless those are set, pf_cholesky runs both on
+ * one thread (libcore/solve/threads.c). Column threads: the settings in force ("default" when
+ * none is set); threads_alive: the threads of the process after the run.
  *
  * bench_dg table1: BZ and IP, degree 1 and 2, on a 10 x 10 x 10 hex block clamped at x = 0
  *   (linear elasticity): unknowns, matrix density, and the time of each stage, medians of REPEAT

@@ -4,7 +4,11 @@
  * exactly (the same additions in the same order). Solves are checked by the residual
  * |A x - b| / (|A| |x|): a backward-stable Cholesky gives a few n u, so 1e-13 for these
  * well-conditioned systems (condition number below 100) leaves a margin of 10 over what
- * n = 200 unknowns need. */
+ * n = 200 unknowns need. The thread count must not change a bit of a solution: a matrix large
+ * enough for CHOLMOD's OpenMP loops to split work is solved with the library's threads, with one
+ * thread and with CHOLMOD's own team, and the solutions compared byte for byte. */
+#define _POSIX_C_SOURCE 200809L /* unsetenv, opendir */
+#include <dirent.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -16,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "solve/solve_threads.h"
 #include "test_random.h"
 #include <pf/solve.h>
 
@@ -279,8 +284,125 @@ static void invalid_patterns_are_refused(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* The threads of this process (Linux: one entry per thread in /proc/self/task). */
+static int process_threads(void)
+{
+    DIR *d = opendir("/proc/self/task");
+    assert_non_null(d);
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d));)
+        n += e->d_name[0] != '.';
+    closedir(d);
+    return n;
+}
+
+/* Elasticity-like 3 x 3 blocks on an n^3 grid of nodes coupled to their 6 neighbours: random
+ * off-diagonal blocks in [-1, 1), diagonal blocks boosted past the row sums (6 neighbours x 3
+ * entries + 2 in the block < 21), so positive definite. The top separator (3 n^2 = 432 unknowns
+ * for n = 12) makes supernodes wide enough for CHOLMOD's OpenMP loops (from 64 rows on). */
+static void make_grid_matrix(pf_block_matrix *a, int32_t n, rng *r)
+{
+    int32_t nb = n * n * n;
+    int32_t *size = malloc((size_t)nb * sizeof *size), *pairs = malloc(6 * (size_t)nb * sizeof *pairs);
+    assert_non_null(size);
+    assert_non_null(pairs);
+    int64_t np = 0;
+    for (int32_t b = 0; b < nb; ++b) {
+        size[b] = 3;
+        int32_t x = b % n, y = b / n % n, z = b / (n * n);
+        if (x + 1 < n)
+            pairs[2 * np] = b, pairs[2 * np++ + 1] = b + 1;
+        if (y + 1 < n)
+            pairs[2 * np] = b, pairs[2 * np++ + 1] = b + n;
+        if (z + 1 < n)
+            pairs[2 * np] = b, pairs[2 * np++ + 1] = b + n * n;
+    }
+    pf_error err = {0};
+    assert_int_equal(pf_block_matrix_create(a, nb, size, np, pairs, &err), PF_OK);
+    double blk[9];
+    for (int64_t k = 0; k < np; ++k) {
+        for (int q = 0; q < 9; ++q)
+            blk[q] = uniform(r);
+        pf_block_matrix_add(a, pf_block_matrix_slot(a, pairs[2 * k], pairs[2 * k + 1]),
+                            pairs[2 * k], pairs[2 * k + 1], blk, 3);
+    }
+    for (int32_t b = 0; b < nb; ++b) {
+        for (int q = 0; q < 9; ++q)
+            blk[q] = uniform(r);
+        for (int q = 0; q < 3; ++q)
+            blk[4 * q] += 21;
+        pf_block_matrix_add(a, pf_block_matrix_slot(a, b, b), b, b, blk, 3);
+    }
+    free(size);
+    free(pairs);
+}
+
+/* Factor + solve with c's current threads into x. */
+static void factor_and_solve(pf_cholesky *c, const pf_block_matrix *a, const double *b, double *x)
+{
+    pf_error err = {0};
+    assert_int_equal(pf_cholesky_factor(c, a, NULL, &err), PF_OK);
+    assert_int_equal(pf_cholesky_solve(c, b, x, &err), PF_OK);
+}
+
+static void cholesky_is_independent_of_threads(void **state)
+{
+    (void)state;
+    size_t live = pf_alloc_live_bytes();
+    assert_true(solve_threads_blas_settable()); /* OpenBLAS: the BLAS the project builds on */
+    rng r = {0x5eed5eedu};
+    pf_block_matrix a;
+    make_grid_matrix(&a, 12, &r);
+    size_t n = (size_t)a.n;
+    double *b = malloc(n * sizeof *b), *x[3];
+    assert_non_null(b);
+    for (size_t k = 0; k < n; ++k)
+        b[k] = uniform(&r);
+    for (int k = 0; k < 3; ++k) {
+        x[k] = malloc(n * sizeof *x[k]);
+        assert_non_null(x[k]);
+    }
+    pf_error err = {0};
+    pf_cholesky *c = NULL;
+    assert_int_equal(pf_cholesky_create(&c, &a, &err), PF_OK);
+    factor_and_solve(c, &a, b, x[0]); /* the library's own choice */
+    pf_cholesky_force_threads(c, true, 1);
+    factor_and_solve(c, &a, b, x[1]);
+    int serial_threads = process_threads();
+    /* CHOLMOD's own OpenMP team (4 threads, as built). OpenBLAS is not varied: its threads do
+     * change the last bits (2 threads differ from 1 here), which is why threads.c keeps it on
+     * one thread inside CHOLMOD. */
+    pf_cholesky_force_threads(c, false, 1);
+    factor_and_solve(c, &a, b, x[2]);
+    assert_true(process_threads() > serial_threads); /* the team was started: threads did run */
+    assert_memory_equal(x[0], x[1], n * sizeof *x[0]);
+    assert_memory_equal(x[1], x[2], n * sizeof *x[1]);
+    /* and it is the solution: the residual bound of the file's header, n = 5184 */
+    double *ax = malloc(n * sizeof *ax);
+    assert_non_null(ax);
+    pf_block_matrix_mul(&a, 1, x[2], 0, ax);
+    double r2 = 0, b2 = 0;
+    for (size_t k = 0; k < n; ++k)
+        r2 += (ax[k] - b[k]) * (ax[k] - b[k]), b2 += b[k] * b[k];
+    assert_true(sqrt(r2 / b2) < 1e-13);
+    free(ax);
+    for (int k = 0; k < 3; ++k)
+        free(x[k]);
+    free(b);
+    pf_cholesky_destroy(&c);
+    pf_block_matrix_release(&a);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 int main(void)
 {
+    /* The library's thread choice is what is tested, not a setting of the caller's environment
+     * (read once, on the first factorisation). */
+    const char *const THREAD_VARIABLES[] = {"OMP_THREAD_LIMIT", "OMP_DYNAMIC", "OMP_NUM_THREADS",
+                                            "OMP_MAX_ACTIVE_LEVELS", "OMP_NESTED",
+                                            "OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS"};
+    for (size_t k = 0; k < sizeof THREAD_VARIABLES / sizeof *THREAD_VARIABLES; ++k)
+        unsetenv(THREAD_VARIABLES[k]);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(assembly_matches_dense, setup, teardown),
         cmocka_unit_test_setup_teardown(uncoupled_pairs_have_no_slot, setup, teardown),
@@ -288,6 +410,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(cholesky_solves_and_refactors, setup, teardown),
         cmocka_unit_test(cholesky_reports_indefinite_column),
         cmocka_unit_test(invalid_patterns_are_refused),
+        cmocka_unit_test(cholesky_is_independent_of_threads),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,7 +1,8 @@
 /* Sparse Cholesky through CHOLMOD (SuiteSparse_long interface). The block matrix already is
  * CHOLMOD's upper-triangular, sorted, packed compressed-column form, so it is wrapped, never
  * copied. The analysis (fill-reducing ordering, supernodal structure) is done once per pattern;
- * a factorisation only recomputes the values; solves reuse CHOLMOD's workspace. */
+ * a factorisation only recomputes the values; solves reuse CHOLMOD's workspace. Every
+ * factorisation and solve runs with the threads threads.c chooses. */
 #include <pf/solve.h>
 
 #include <stdbool.h>
@@ -9,11 +10,14 @@
 
 #include <cholmod.h>
 
+#include "solve_threads.h"
+
 struct pf_cholesky {
     cholmod_common cc;
     cholmod_factor *factor;
     cholmod_dense *x, *y, *e; /* solve2 results and workspace, kept between solves */
     int64_t n, nnz;
+    solve_threads_forced forced;
     bool factored;
 };
 
@@ -72,7 +76,9 @@ pf_status pf_cholesky_factor(pf_cholesky *c, const pf_block_matrix *a, int64_t *
              (long long)a->n, (long long)c->n);
     cholmod_sparse s = wrap_matrix(a);
     c->factored = false;
+    solve_threads_saved threads = solve_threads_enter(&c->forced);
     int ok = cholmod_l_factorize(&s, c->factor, &c->cc);
+    solve_threads_leave(threads);
     if (!ok || c->cc.status == CHOLMOD_OUT_OF_MEMORY)
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "out of memory factorising %lld unknowns", (long long)a->n);
@@ -101,7 +107,9 @@ pf_status pf_cholesky_solve(pf_cholesky *c, const double *b, double *x, pf_error
     rhs.x = (void *)b; /* read only: CHOLMOD takes the right-hand side as non-const */
     rhs.xtype = CHOLMOD_REAL;
     rhs.dtype = CHOLMOD_DOUBLE;
+    solve_threads_saved threads = solve_threads_enter(&c->forced);
     int ok = cholmod_l_solve2(CHOLMOD_A, c->factor, &rhs, NULL, &c->x, NULL, &c->y, &c->e, &c->cc);
+    solve_threads_leave(threads);
     PF_CHECK(ok && c->x, err, PF_ERR_NOMEM, "out of memory solving %lld unknowns",
              (long long)c->n);
     memcpy(x, c->x->x, (size_t)c->n * sizeof *x);
@@ -121,6 +129,11 @@ int64_t pf_cholesky_factor_nnz(const pf_cholesky *c)
     for (int64_t k = 0; k < c->n; ++k)
         nnz += colcount[k];
     return nnz;
+}
+
+void pf_cholesky_force_threads(pf_cholesky *c, bool openmp_serial, int blas)
+{
+    c->forced = (solve_threads_forced){.active = true, .openmp_serial = openmp_serial, .blas = blas};
 }
 
 void pf_cholesky_destroy(pf_cholesky **c)

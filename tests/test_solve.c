@@ -54,9 +54,8 @@ static void make_pattern(fixture *f, rng *r)
     for (int64_t k = 0; k < 2 * f->n_pairs; ++k)
         f->pairs[k] = below(r, f->n_blocks);
     pf_error err = {0};
-    assert_int_equal(pf_block_matrix_create(&f->a, f->n_blocks, f->size, f->n_pairs, f->pairs,
-                                            &err),
-                     PF_OK);
+    assert_int_equal(
+        pf_block_matrix_create(&f->a, f->n_blocks, f->size, f->n_pairs, f->pairs, &err), PF_OK);
     int64_t n = f->a.n;
     f->dense = calloc((size_t)(n * n), sizeof *f->dense);
     assert_non_null(f->dense);
@@ -303,7 +302,8 @@ static int process_threads(void)
 static void make_grid_matrix(pf_block_matrix *a, int32_t n, rng *r)
 {
     int32_t nb = n * n * n;
-    int32_t *size = malloc((size_t)nb * sizeof *size), *pairs = malloc(6 * (size_t)nb * sizeof *pairs);
+    int32_t *size = malloc((size_t)nb * sizeof *size),
+            *pairs = malloc(6 * (size_t)nb * sizeof *pairs);
     assert_non_null(size);
     assert_non_null(pairs);
     int64_t np = 0;
@@ -394,13 +394,33 @@ static void cholesky_is_independent_of_threads(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* pf_blas_threads_set reports the count it replaced and restore puts it back; forced, it acts
+ * whatever the environment says. */
+static void blas_threads_restore(void **state)
+{
+    (void)state;
+    assert_true(pf_blas_threads_settable()); /* OpenBLAS: the BLAS the project builds on */
+    pf_blas_threads a = pf_blas_threads_set(3, true);
+    pf_blas_threads b = pf_blas_threads_set(1, true);
+    assert_int_equal(b.before, 3);
+    pf_blas_threads c = pf_blas_threads_set(1, true);
+    assert_int_equal(c.before, 0); /* already 1: nothing to restore */
+    pf_blas_threads_restore(c);
+    pf_blas_threads_restore(b);
+    pf_blas_threads d = pf_blas_threads_set(3, true);
+    assert_int_equal(d.before, 0); /* b put 3 back */
+    pf_blas_threads_restore(d);
+    pf_blas_threads_restore(a);
+    assert_int_equal(pf_blas_threads_set(0, true).before, 0); /* 0: no change */
+}
+
 int main(void)
 {
     /* The library's thread choice is what is tested, not a setting of the caller's environment
      * (read once, on the first factorisation). */
-    const char *const THREAD_VARIABLES[] = {"OMP_THREAD_LIMIT", "OMP_DYNAMIC", "OMP_NUM_THREADS",
-                                            "OMP_MAX_ACTIVE_LEVELS", "OMP_NESTED",
-                                            "OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS"};
+    const char *const THREAD_VARIABLES[] = {
+        "OMP_THREAD_LIMIT", "OMP_DYNAMIC",          "OMP_NUM_THREADS", "OMP_MAX_ACTIVE_LEVELS",
+        "OMP_NESTED",       "OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS"};
     for (size_t k = 0; k < sizeof THREAD_VARIABLES / sizeof *THREAD_VARIABLES; ++k)
         unsetenv(THREAD_VARIABLES[k]);
     const struct CMUnitTest tests[] = {
@@ -408,6 +428,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(uncoupled_pairs_have_no_slot, setup, teardown),
         cmocka_unit_test_setup_teardown(product_matches_dense, setup, teardown),
         cmocka_unit_test_setup_teardown(cholesky_solves_and_refactors, setup, teardown),
+        cmocka_unit_test(blas_threads_restore),
         cmocka_unit_test(cholesky_reports_indefinite_column),
         cmocka_unit_test(invalid_patterns_are_refused),
         cmocka_unit_test(cholesky_is_independent_of_threads),

@@ -771,8 +771,11 @@ pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *
     memset(cs.faces, 0, (size_t)m->n_faces * sizeof *cs.faces);
     b->node_offsets[0] = 0;
     b->data_offsets[0] = 0;
+    /* One BLAS thread: small systems, and bits independent of the core count (pf/base.h). */
+    pf_blas_threads blas = pf_blas_threads_set(1, false);
     for (int32_t e = 0; e < ne && s >= 0; ++e)
         s = build_elem(b, &cs, m, e, &p, err);
+    pf_blas_threads_restore(blas);
     for (int32_t f = 0; f < m->n_faces; ++f) {
         b->n_face_mfs += cs.faces[f].kind == FACE_MFS;
         b->n_face_closed += cs.faces[f].kind == FACE_LINEAR || cs.faces[f].kind == FACE_BILINEAR;

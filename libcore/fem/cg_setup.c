@@ -600,6 +600,8 @@ pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double 
     cg->quadrature_degree = p.quadrature_degree;
     cg->consistency = !p.no_consistency_correction;
     pf_lame(E, nu, &cg->lambda, &cg->mu);
+    /* One BLAS thread: small products, and bits independent of the core count (pf/base.h). */
+    pf_blas_threads blas = pf_blas_threads_set(1, false);
     double t0 = pf_time_seconds();
     pf_status st = pf_basis_create(&cg->basis, m, &p.basis, err);
     cg->basis_seconds = pf_time_seconds() - t0;
@@ -607,6 +609,7 @@ pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double 
         st = allocate(cg, err);
     if (st >= 0)
         st = setup_elements(cg, m, err);
+    pf_blas_threads_restore(blas);
     if (st < 0)
         pf_cg_release(cg);
     return st;

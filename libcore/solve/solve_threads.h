@@ -20,7 +20,7 @@ typedef struct solve_threads_forced {
 typedef struct solve_threads_saved {
     int max_active_levels; /* the calling thread's OpenMP max-active-levels-var; -1: untouched */
     int dynamic;           /* its dyn-var; -1: untouched */
-    int blas;              /* OpenBLAS's thread count; 0: untouched */
+    pf_blas_threads blas;  /* OpenBLAS's thread count before (pf/base.h) */
 } solve_threads_saved;
 
 /* Configures the calling thread (OpenMP) and OpenBLAS for one CHOLMOD factorisation or solve,

@@ -22,34 +22,27 @@
  * or faster on one at a fraction of the system time. At a load below 1.6 two threads were
  * 20-35% faster on the two table-1 matrices (bench/results/dg_table1.csv) and 20% on the demo's
  * steps once contact has grown their pattern (20 frames: 44.5 s of factorisation against 54.4 s).
- * OPENBLAS_NUM_THREADS gives that back to whoever prefers the speed to fixed bits. The count is set around each call and restored, so other BLAS calls of the
- * process (the harmonic basis) keep OpenBLAS's own count. It is process-wide: two threads
- * factorising at once would share whatever the last one set (pf factorises on one thread).
+ * OPENBLAS_NUM_THREADS gives that back to whoever prefers the speed to fixed bits. The count is set
+ * around each call and restored, so other BLAS calls of the process (the harmonic basis) keep
+ * OpenBLAS's own count. It is process-wide: two threads factorising at once would share whatever
+ * the last one set (pf factorises on one thread).
  *
  * The user's environment wins: OMP_THREAD_LIMIT, OMP_DYNAMIC or OMP_MAX_ACTIVE_LEVELS leave
  * OpenMP as the runtime set it up; OMP_NUM_THREADS alone turns dynamic adjustment on, the only
  * way it can bound CHOLMOD's fixed team; OPENBLAS_NUM_THREADS, GOTO_NUM_THREADS or
  * OMP_NUM_THREADS (which OpenBLAS reads) leave OpenBLAS's count alone, at the price of results
  * that depend on it. */
-#define _GNU_SOURCE /* RTLD_DEFAULT */
 #include "solve_threads.h"
 
-#include <dlfcn.h>
 #include <omp.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef void (*set_threads_fn)(int);
-typedef int (*get_threads_fn)(void);
-
-/* The environment and the BLAS, looked at once per process (neither changes while it runs). */
+/* The environment, looked at once per process (it does not change while it runs). */
 typedef struct thread_environment {
     bool openmp_given;     /* a variable that bounds CHOLMOD's team is set */
     bool num_threads_only; /* OMP_NUM_THREADS is, alone among those */
-    bool blas_given;       /* a variable OpenBLAS reads for its thread count is set */
-    set_threads_fn blas_set;
-    get_threads_fn blas_get;
 } thread_environment;
 
 static thread_environment environment;
@@ -61,13 +54,6 @@ static bool is_set(const char *name)
     return v && *v;
 }
 
-/* OpenBLAS's entry points when OpenBLAS is the process's BLAS (libblas.so.3 is an alternatives
- * link on Debian), else NULL: then the BLAS is left as it is. */
-static void *blas_symbol(const char *name)
-{
-    return dlsym(RTLD_DEFAULT, name);
-}
-
 static void read_environment(void)
 {
     thread_environment *e = &environment;
@@ -75,13 +61,6 @@ static void read_environment(void)
                   is_set("OMP_MAX_ACTIVE_LEVELS") || is_set("OMP_NESTED");
     e->num_threads_only = !limits && is_set("OMP_NUM_THREADS");
     e->openmp_given = limits || e->num_threads_only;
-    e->blas_given = is_set("OPENBLAS_NUM_THREADS") || is_set("GOTO_NUM_THREADS") ||
-                    is_set("OMP_NUM_THREADS");
-    void *set = blas_symbol("openblas_set_num_threads"), *get = blas_symbol("openblas_get_num_threads");
-    if (set && get) { /* object to function pointer: POSIX guarantees dlsym's result converts */
-        memcpy(&e->blas_set, &set, sizeof set);
-        memcpy(&e->blas_get, &get, sizeof get);
-    }
 }
 
 static const thread_environment *thread_env(void)
@@ -92,7 +71,7 @@ static const thread_environment *thread_env(void)
 
 bool solve_threads_blas_settable(void)
 {
-    return thread_env()->blas_set != NULL;
+    return pf_blas_threads_settable();
 }
 
 static void serial_openmp(solve_threads_saved *saved)
@@ -101,25 +80,14 @@ static void serial_openmp(solve_threads_saved *saved)
     omp_set_max_active_levels(0);
 }
 
-static void set_blas_threads(const thread_environment *e, int threads, solve_threads_saved *saved)
-{
-    if (!e->blas_set || threads <= 0)
-        return;
-    int before = e->blas_get();
-    if (before == threads)
-        return;
-    saved->blas = before;
-    e->blas_set(threads);
-}
-
 solve_threads_saved solve_threads_enter(const solve_threads_forced *forced)
 {
     const thread_environment *e = thread_env();
-    solve_threads_saved saved = {.max_active_levels = -1, .dynamic = -1, .blas = 0};
+    solve_threads_saved saved = {.max_active_levels = -1, .dynamic = -1, .blas = {0}};
     if (forced && forced->active) {
         if (forced->openmp_serial)
             serial_openmp(&saved);
-        set_blas_threads(e, forced->blas, &saved);
+        saved.blas = pf_blas_threads_set(forced->blas, true);
         return saved;
     }
     if (!e->openmp_given) {
@@ -128,8 +96,7 @@ solve_threads_saved solve_threads_enter(const solve_threads_forced *forced)
         saved.dynamic = omp_get_dynamic();
         omp_set_dynamic(1);
     }
-    if (!e->blas_given)
-        set_blas_threads(e, 1, &saved);
+    saved.blas = pf_blas_threads_set(1, false);
     return saved;
 }
 
@@ -139,6 +106,5 @@ void solve_threads_leave(solve_threads_saved saved)
         omp_set_max_active_levels(saved.max_active_levels);
     if (saved.dynamic >= 0)
         omp_set_dynamic(saved.dynamic);
-    if (saved.blas > 0)
-        thread_env()->blas_set(saved.blas);
+    pf_blas_threads_restore(saved.blas);
 }

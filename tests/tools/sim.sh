@@ -58,6 +58,13 @@ check "edge_samples 3 gives more kernels ($k3) than the default 2 ($k2)" test "$
 "$bin/pf-sim" --method cg --frames 1 --edge-samples 3 --quiet <"$tmp/ball.pfs" >"$tmp/ball_es3.pfs"
 check "the scene in the stream (SCEN, JSON) records edge_samples 3" \
   bash -c "grep -a -q -E '\"edge_samples\":[[:space:]]*3' '$tmp/ball_es3.pfs'"
+# The same bytes whatever OpenBLAS's thread count would be: the library runs its BLAS calls on
+# one thread (with OPENBLAS_NUM_THREADS=2, which the library leaves alone, the frames differ).
+env -u OPENBLAS_NUM_THREADS -u GOTO_NUM_THREADS -u OMP_NUM_THREADS \
+  "$bin/pf-sim" --method cg --frames 2 --quiet <"$tmp/ball.pfs" >"$tmp/ball_default.pfs"
+OPENBLAS_NUM_THREADS=1 "$bin/pf-sim" --method cg --frames 2 --quiet <"$tmp/ball.pfs" >"$tmp/ball_one.pfs"
+check "cg frames do not depend on OpenBLAS's default thread count" \
+  cmp -s "$tmp/ball_default.pfs" "$tmp/ball_one.pfs"
 expect 2 "edge_samples: must be an integer from 1 to 16" "$bin/pf-sim" --method cg --edge-samples 0 --input "$tmp/cube.pfs"
 "$bin/pf-shape" torus >"$tmp/torus.pfs"
 expect 1 "no MESH" "$bin/pf-sim" --input "$tmp/torus.pfs"

@@ -8,6 +8,7 @@
 #define PF_BASE_H
 
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -17,14 +18,14 @@ extern "C" {
 
 typedef enum pf_status {
     PF_OK = 0,
-    PF_WARN = 1,              /* completed, with a warning in the pf_error message */
-    PF_ERR_NOMEM = -1,        /* allocation failed */
-    PF_ERR_IO = -2,           /* read/write failed at the OS level */
-    PF_ERR_FORMAT = -3,       /* input bytes or text are malformed */
-    PF_ERR_INVALID = -4,      /* well-formed input that violates a requirement */
-    PF_ERR_NUMERIC = -5,      /* a numerical failure (NaN, singular system, divergence) */
-    PF_ERR_TOO_LARGE = -6,    /* a size or count beyond what the input or memory allows */
-    PF_ERR_UNSUPPORTED = -7,  /* a feature or version this build does not handle */
+    PF_WARN = 1,             /* completed, with a warning in the pf_error message */
+    PF_ERR_NOMEM = -1,       /* allocation failed */
+    PF_ERR_IO = -2,          /* read/write failed at the OS level */
+    PF_ERR_FORMAT = -3,      /* input bytes or text are malformed */
+    PF_ERR_INVALID = -4,     /* well-formed input that violates a requirement */
+    PF_ERR_NUMERIC = -5,     /* a numerical failure (NaN, singular system, divergence) */
+    PF_ERR_TOO_LARGE = -6,   /* a size or count beyond what the input or memory allows */
+    PF_ERR_UNSUPPORTED = -7, /* a feature or version this build does not handle */
 } pf_status;
 
 enum { PF_ERROR_MSG_MAX = 512 };
@@ -103,7 +104,7 @@ int pf_mul_overflows(size_t a, size_t b, size_t *product);
 typedef struct pf_arena {
     unsigned char *base; /* [capacity] bytes */
     size_t capacity;
-    size_t top; /* bytes in use */
+    size_t top;  /* bytes in use */
     size_t peak; /* largest top seen: the capacity a loop needs */
 } pf_arena;
 
@@ -111,8 +112,14 @@ pf_status pf_arena_init(pf_arena *a, size_t capacity, pf_error *err);
 void pf_arena_release(pf_arena *a);
 /* count * size bytes aligned to 16, or NULL when the arena is full or the product overflows. */
 void *pf_arena_push(pf_arena *a, size_t count, size_t size);
-static inline size_t pf_arena_mark(const pf_arena *a) { return a->top; }
-static inline void pf_arena_reset(pf_arena *a, size_t mark) { a->top = mark; }
+static inline size_t pf_arena_mark(const pf_arena *a)
+{
+    return a->top;
+}
+static inline void pf_arena_reset(pf_arena *a, size_t mark)
+{
+    a->top = mark;
+}
 
 /* ---- growable array of bytes (for writers and builders) ------------------------------------ */
 typedef struct pf_buffer {
@@ -127,6 +134,20 @@ void pf_buffer_release(pf_buffer *b);
 
 /* Wall-clock seconds from a monotonic clock, for timing reports. */
 double pf_time_seconds(void);
+
+/* OpenBLAS's thread count for a stretch of BLAS / LAPACK calls (base/blas_threads.c says why pf
+ * runs its own calls on one: results independent of the core count, and small products).
+ * pf_blas_threads_set sets it to threads (> 0) unless the user set OPENBLAS_NUM_THREADS,
+ * GOTO_NUM_THREADS or OMP_NUM_THREADS (force: even then) or the BLAS is not OpenBLAS, and returns
+ * what pf_blas_threads_restore needs to put the count back. Process-wide, not reentrant across
+ * threads. */
+typedef struct pf_blas_threads {
+    int before; /* the count replaced; 0: unchanged */
+} pf_blas_threads;
+pf_blas_threads pf_blas_threads_set(int threads, bool force);
+void pf_blas_threads_restore(pf_blas_threads saved);
+/* True when the process's BLAS is OpenBLAS, whose count pf_blas_threads_set can change. */
+bool pf_blas_threads_settable(void);
 
 #ifdef __cplusplus
 }

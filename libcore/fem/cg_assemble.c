@@ -152,11 +152,12 @@ void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double 
 
 /* ---- stiffness ---------------------------------------------------------------------------- */
 
-/* out = R K R^T per 3 x 3 block of the n x n matrix K (R row-major). */
+/* out = R K R^T per 3 x 3 block of the symmetric n x n matrix K (R row-major): the blocks on and
+ * above the diagonal, each block below the transpose of its mirror (half the products). */
 static void warp(const double *r, const double *kk, int32_t n, double *out)
 {
     for (int32_t a = 0; a < n; a += 3)
-        for (int32_t c = 0; c < n; c += 3) {
+        for (int32_t c = a; c < n; c += 3) {
             double t[3][3];
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j)
@@ -164,9 +165,11 @@ static void warp(const double *r, const double *kk, int32_t n, double *out)
                               r[3 * i + 1] * kk[(size_t)(a + 1) * n + c + j] +
                               r[3 * i + 2] * kk[(size_t)(a + 2) * n + c + j];
             for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j)
-                    out[(size_t)(a + i) * n + c + j] =
-                        t[i][0] * r[3 * j] + t[i][1] * r[3 * j + 1] + t[i][2] * r[3 * j + 2];
+                for (int j = 0; j < 3; ++j) {
+                    double v = t[i][0] * r[3 * j] + t[i][1] * r[3 * j + 1] + t[i][2] * r[3 * j + 2];
+                    out[(size_t)(a + i) * n + c + j] = v;
+                    out[(size_t)(c + j) * n + a + i] = v;
+                }
         }
 }
 

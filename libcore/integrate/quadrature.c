@@ -128,16 +128,32 @@ static pf_vec3 node_average(const pf_polyhedron *p)
     return pf_v3_scale(c, 1.0 / (double)count);
 }
 
-/* Outward unit normal plane of face f (false for a degenerate face). */
-static bool face_plane(const pf_polyhedron *p, int32_t f, pf_plane *pl)
+/* scratch with room for bytes (its contents lost). */
+static pf_status reserve_scratch(rule *r, size_t bytes, pf_error *err)
 {
-    const uint32_t *idx = p->face_nodes + p->face_offsets[f];
-    int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
-    pf_vec3 normal = pf_polygon_area_vector(p->x, idx, n);
-    if (pf_v3_norm(normal) == 0)
-        return false;
-    *pl = pf_plane_from_point_normal(pf_v3_load(p->x + 3 * (size_t)idx[0]), normal);
-    return true;
+    pf_arena_reset(&r->scratch, 0);
+    if (r->scratch.capacity >= bytes)
+        return PF_OK;
+    pf_arena_release(&r->scratch);
+    return pf_arena_init(&r->scratch, 2 * bytes, err);
+}
+
+/* The outward unit-normal planes of p's faces, in scratch; a degenerate face gets a zero normal
+ * (every point then lies on it at distance -d = 0, never beyond it or violating it). */
+static pf_status face_planes(rule *r, const pf_polyhedron *p, pf_plane **out, pf_error *err)
+{
+    PF_TRY(reserve_scratch(r, (size_t)p->n_faces * sizeof **out + 64, err));
+    pf_plane *pl = pf_arena_push(&r->scratch, (size_t)p->n_faces, sizeof *pl);
+    for (int32_t f = 0; f < p->n_faces; ++f) {
+        const uint32_t *idx = p->face_nodes + p->face_offsets[f];
+        int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
+        pf_vec3 normal = pf_polygon_area_vector(p->x, idx, n);
+        pl[f] = pf_v3_norm(normal) == 0
+                    ? (pf_plane){{0, 0, 0}, 0}
+                    : pf_plane_from_point_normal(pf_v3_load(p->x + 3 * (size_t)idx[0]), normal);
+    }
+    *out = pl;
+    return PF_OK;
 }
 
 /* A point at least margin inside every face plane of p, so that p is star-shaped about it and
@@ -147,19 +163,18 @@ static bool face_plane(const pf_polyhedron *p, int32_t f, pf_plane *pl)
  * A non-convex sliced cell (a cube cut by a curved sheet of facets) usually has one: one cone
  * then replaces the many convex pieces of cutting it by its reflex planes (5x fewer points for
  * the cells of a coarsely sliced bunny). */
-static bool star_center(const pf_polyhedron *p, double margin, pf_vec3 *c)
+static bool star_center(const pf_polyhedron *p, const pf_plane *planes, double margin, pf_vec3 *c)
 {
     enum { STAR_SWEEPS = 64 };
     pf_vec3 x = node_average(p);
     for (int sweep = 0; sweep < STAR_SWEEPS; ++sweep) {
         bool moved = false;
         for (int32_t f = 0; f < p->n_faces; ++f) {
-            pf_plane pl;
-            if (!face_plane(p, f, &pl))
+            if (pf_v3_norm(planes[f].n) == 0)
                 continue;
-            double d = pf_plane_signed_distance(pl, x);
+            double d = pf_plane_signed_distance(planes[f], x);
             if (d > -margin) {
-                x = pf_v3_sub(x, pf_v3_scale(pl.n, d + 1.5 * margin));
+                x = pf_v3_sub(x, pf_v3_scale(planes[f].n, d + 1.5 * margin));
                 moved = true;
             }
         }
@@ -173,77 +188,79 @@ static bool star_center(const pf_polyhedron *p, double margin, pf_vec3 *c)
 
 /* The cone from c over p's faces, each triangulated in its plane (ear clipping when it is not
  * convex: the faces of a cut cell, unlike those of its convex pieces, may not be), as for a
- * star-shaped p. check: only whether every tetrahedron has positive volume (false also when a
- * face is not simple); otherwise adds them. */
-static pf_status star_cone(rule *r, const pf_polyhedron *p, pf_vec3 c, bool check, bool *ok,
-                           pf_error *err)
+ * star-shaped p: added when every tetrahedron has positive volume, else *ok false (also for a
+ * face that is not simple) and nothing added. */
+static pf_status add_star_cone(rule *r, const pf_polyhedron *p, pf_vec3 c, bool *ok, pf_error *err)
 {
-    *ok = true;
-    int64_t nmax = 3;
+    int64_t nmax = 3, ntri = 0;
     for (int32_t f = 0; f < p->n_faces; ++f) {
         int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];
         nmax = n > nmax ? n : nmax;
+        ntri += n - 2;
     }
-    size_t need =
-        3 * (size_t)nmax * sizeof(uint32_t) + 2 * (size_t)nmax * (sizeof(double) + 4) + 64;
-    if (r->scratch.capacity < need) {
-        pf_arena_release(&r->scratch);
-        PF_TRY(pf_arena_init(&r->scratch, 2 * need, err));
-    }
-    uint32_t *tri = pf_arena_push(&r->scratch, 3 * (size_t)nmax, sizeof *tri);
-    for (int32_t f = 0; f < p->n_faces && *ok; ++f) {
+    PF_TRY(reserve_scratch(r,
+                           3 * (size_t)(ntri + nmax) * sizeof(uint32_t) +
+                               2 * (size_t)nmax * (sizeof(double) + sizeof(int32_t)) + 128,
+                           err));
+    uint32_t *tri = pf_arena_push(&r->scratch, 3 * (size_t)ntri, sizeof *tri);
+    uint32_t *local = pf_arena_push(&r->scratch, 3 * (size_t)nmax, sizeof *local);
+    /* Node indices of every triangle, then the sign check, then the points. */
+    int64_t t = 0;
+    for (int32_t f = 0; f < p->n_faces; ++f) {
         const uint32_t *idx = p->face_nodes + p->face_offsets[f];
         int32_t n = (int32_t)(p->face_offsets[f + 1] - p->face_offsets[f]);
-        PF_TRY(pf_polygon_triangulate(p->x, idx, n, &r->scratch, tri, NULL, err));
-        for (int32_t t = 0; t < n - 2 && *ok; ++t) {
-            pf_vec3 a = pf_v3_load(p->x + 3 * (size_t)idx[tri[3 * t]]);
-            pf_vec3 b = pf_v3_load(p->x + 3 * (size_t)idx[tri[3 * t + 1]]);
-            pf_vec3 d = pf_v3_load(p->x + 3 * (size_t)idx[tri[3 * t + 2]]);
-            if (check)
-                *ok = pf_v3_dot(pf_v3_sub(a, c), pf_v3_cross(pf_v3_sub(b, c), pf_v3_sub(d, c))) > 0;
-            else
-                PF_TRY(add_tet(r, c, a, b, d, err));
-        }
+        PF_TRY(pf_polygon_triangulate(p->x, idx, n, &r->scratch, local, NULL, err));
+        for (int32_t k = 0; k < 3 * (n - 2); ++k)
+            tri[3 * t + k] = idx[local[k]];
+        t += n - 2;
     }
-    pf_arena_reset(&r->scratch, 0);
+    *ok = true;
+    for (int64_t k = 0; k < ntri && *ok; ++k) {
+        pf_vec3 a = pf_v3_sub(pf_v3_load(p->x + 3 * (size_t)tri[3 * k]), c);
+        pf_vec3 b = pf_v3_sub(pf_v3_load(p->x + 3 * (size_t)tri[3 * k + 1]), c);
+        pf_vec3 d = pf_v3_sub(pf_v3_load(p->x + 3 * (size_t)tri[3 * k + 2]), c);
+        *ok = pf_v3_dot(a, pf_v3_cross(b, d)) > 0;
+    }
+    for (int64_t k = 0; k < ntri && *ok; ++k)
+        PF_TRY(add_tet(r, c, pf_v3_load(p->x + 3 * (size_t)tri[3 * k]),
+                       pf_v3_load(p->x + 3 * (size_t)tri[3 * k + 1]),
+                       pf_v3_load(p->x + 3 * (size_t)tri[3 * k + 2]), err));
     return PF_OK;
 }
 
 /* The plane of a face some node lies beyond (by more than tol), or false when p is convex. */
-static bool reflex_plane(const pf_polyhedron *p, double tol, pf_plane *plane)
+static bool reflex_plane(const pf_polyhedron *p, const pf_plane *planes, double tol,
+                         pf_plane *plane)
 {
     int64_t count = p->face_offsets[p->n_faces];
     double worst = tol;
     bool found = false;
-    for (int32_t f = 0; f < p->n_faces; ++f) {
-        pf_plane pl;
-        if (!face_plane(p, f, &pl))
-            continue;
+    for (int32_t f = 0; f < p->n_faces; ++f)
         for (int64_t k = 0; k < count; ++k) {
-            double d =
-                pf_plane_signed_distance(pl, pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
+            double d = pf_plane_signed_distance(planes[f],
+                                                pf_v3_load(p->x + 3 * (size_t)p->face_nodes[k]));
             if (d > worst) {
                 worst = d;
-                *plane = pl;
+                *plane = planes[f];
                 found = true;
             }
         }
-    }
     return found;
 }
 
 static pf_status add_pieces(rule *r, const pf_polyhedron *p, int32_t n_nodes, double tol,
                             double size, int depth, pf_error *err)
 {
-    pf_plane plane;
-    if (!reflex_plane(p, tol, &plane))
+    pf_plane *planes, plane;
+    PF_TRY(face_planes(r, p, &planes, err));
+    if (!reflex_plane(p, planes, tol, &plane))
         return add_cone(r, p, node_average(p), err);
     pf_vec3 apex;
-    if (star_center(p, STAR_MARGIN * size, &apex)) {
-        bool ok;
-        PF_TRY(star_cone(r, p, apex, true, &ok, err));
+    if (star_center(p, planes, STAR_MARGIN * size, &apex)) {
+        bool ok; /* planes are lost from here: the scratch is reused */
+        PF_TRY(add_star_cone(r, p, apex, &ok, err));
         if (ok)
-            return star_cone(r, p, apex, false, &ok, err);
+            return PF_OK;
     }
     PF_CHECK(depth < MAX_CONVEX_DEPTH, err, PF_ERR_NUMERIC,
              "polyhedron not convex after %d cuts by its reflex faces", MAX_CONVEX_DEPTH);

@@ -17,6 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <pf/basis.h>
 #include <pf/sim.h>
 
 static const char example[] =
@@ -790,6 +791,70 @@ static void test_region_contains(void **state)
     assert_false(pf_region_contains(&plane, pf_v3(nextafter(0.75, 0), 0, 0)));
 }
 
+/* ---- keys of the cg method ------------------------------------------------------------------- */
+
+static void mass_key_is_parsed(void **state)
+{
+    (void)state;
+    int64_t live = pf_alloc_live_bytes();
+    pf_scene s;
+    pf_error err = {0};
+    static const char good[] = "{\"method\": {\"name\": \"cg\", \"mass\": \"lumped\"}}";
+    assert_int_equal(pf_scene_parse(&s, good, sizeof good - 1, "scene.json", &err), PF_OK);
+    assert_true(s.method == PF_METHOD_CG && s.mass == PF_MASS_LUMPED);
+    char *json = NULL;
+    assert_int_equal(pf_scene_to_json(&s, &json, &err), PF_OK);
+    pf_scene t;
+    assert_int_equal(pf_scene_parse(&t, json, strlen(json), "SCEN", &err), PF_OK);
+    assert_true(t.mass == PF_MASS_LUMPED);
+    assert_int_equal(pf_scene_override(&t, "mass", "consistent", &err), PF_OK);
+    assert_true(t.mass == PF_MASS_CONSISTENT);
+    assert_int_equal(pf_scene_override(&t, "mass", "diagonal", &err), PF_ERR_INVALID);
+    assert_string_equal(err.msg, "mass: must be consistent or lumped, got 'diagonal'");
+    pf_free(json);
+    pf_scene_release(&s);
+    pf_scene_release(&t);
+    static const char bad[] = "{\"method\": {\"name\": \"cg\", \"mass\": 1}}";
+    assert_int_equal(pf_scene_parse(&s, bad, sizeof bad - 1, "scene.json", &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "method.mass"));
+    pf_scene_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
+/* method.edge_samples: default 2 (pf_basis_params_default), read, written back, overridden,
+ * refused outside 1..16 with the key named. */
+static void edge_samples_key_is_parsed(void **state)
+{
+    (void)state;
+    int64_t live = pf_alloc_live_bytes();
+    pf_scene s, t;
+    pf_error err = {0};
+    static const char none[] = "{\"method\": \"cg\"}";
+    assert_int_equal(pf_scene_parse(&s, none, sizeof none - 1, "scene.json", &err), PF_OK);
+    assert_int_equal(s.edge_samples, pf_basis_params_default().edge_samples);
+    pf_scene_release(&s);
+    static const char good[] = "{\"method\": {\"name\": \"cg\", \"edge_samples\": 5}}";
+    assert_int_equal(pf_scene_parse(&s, good, sizeof good - 1, "scene.json", &err), PF_OK);
+    assert_int_equal(s.edge_samples, 5);
+    char *json = NULL;
+    assert_int_equal(pf_scene_to_json(&s, &json, &err), PF_OK);
+    assert_int_equal(pf_scene_parse(&t, json, strlen(json), "SCEN", &err), PF_OK);
+    assert_int_equal(t.edge_samples, 5);
+    assert_int_equal(pf_scene_override(&t, "edge_samples", "3", &err), PF_OK);
+    assert_int_equal(t.edge_samples, 3);
+    assert_int_equal(pf_scene_override(&t, "edge_samples", "17", &err), PF_ERR_INVALID);
+    assert_string_equal(err.msg, "edge_samples: must be an integer from 1 to 16, got '17'");
+    assert_int_equal(t.edge_samples, 3);
+    pf_free(json);
+    pf_scene_release(&s);
+    pf_scene_release(&t);
+    static const char bad[] = "{\"method\": {\"name\": \"cg\", \"edge_samples\": 2.5}}";
+    assert_int_equal(pf_scene_parse(&s, bad, sizeof bad - 1, "scene.json", &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "method.edge_samples"));
+    pf_scene_release(&s);
+    assert_int_equal(pf_alloc_live_bytes(), live);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -807,6 +872,8 @@ int main(void)
         cmocka_unit_test(test_static_override_keeps_a_ground_the_file_gave),
         cmocka_unit_test(test_resolve_places_the_ground_and_tolerances),
         cmocka_unit_test(test_region_contains),
+        cmocka_unit_test(mass_key_is_parsed),
+        cmocka_unit_test(edge_samples_key_is_parsed),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -12,6 +12,7 @@
  *   (see each bound's comment); harmonicity by a finite-difference Laplacian.
  * - Forced MFS on a tet and a cube reproduces the closed forms to the boundary error.
  * - C0: two harmonic cells sharing a face agree there to the boundary error.
+ * The face functions alone: test_basis_face.c; the cells: basis_meshes.h.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -29,157 +30,7 @@
 #include <pf/mesh.h>
 #include <pf/split.h>
 
-#include "basis/basis_internal.h"
-
-/* ---- meshes --------------------------------------------------------------------------------- */
-
-/* A one-element mesh from a closed polyhedron given with outward faces. */
-static void mesh_from_poly(pf_mesh *m, const double *x, int32_t nn, const int64_t *off,
-                           const uint32_t *fn, int32_t nf)
-{
-    pf_error err = {0};
-    assert_int_equal(pf_mesh_alloc(m, nn, nf, off[nf], 1, nf, &err), PF_OK);
-    memcpy(m->x, x, 3 * (size_t)nn * sizeof *x);
-    memcpy(m->face_offsets, off, ((size_t)nf + 1) * sizeof *off);
-    memcpy(m->face_nodes, fn, (size_t)off[nf] * sizeof *fn);
-    for (int32_t f = 0; f < nf; ++f)
-        m->elem_faces[f] = (uint32_t)f;
-    m->elem_offsets[1] = nf;
-    assert_int_equal(pf_mesh_validate(m, NULL, &err), PF_OK);
-    assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
-}
-
-static const uint32_t CUBE_FACES[24] = {0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4,
-                                        1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7};
-static const int64_t CUBE_OFF[7] = {0, 4, 8, 12, 16, 20, 24};
-
-static void cube_nodes(double *x, pf_vec3 lo, double h)
-{
-    for (int v = 0; v < 8; ++v) {
-        int i = (v == 1 || v == 2 || v == 5 || v == 6), j = (v == 2 || v == 3 || v == 6 || v == 7);
-        x[3 * v] = lo.x + i * h, x[3 * v + 1] = lo.y + j * h, x[3 * v + 2] = lo.z + (v >= 4) * h;
-    }
-}
-
-/* Cube [0, 2]^3 whose top face is split into four quads (an octree neighbour of depth + 1):
- * the side faces get the top edges' midpoints as fifth nodes. */
-static void make_octree_cell(pf_mesh *m)
-{
-    double x[13 * 3];
-    cube_nodes(x, pf_v3(0, 0, 0), 2);
-    const double mids[5][3] = {{1, 0, 2}, {2, 1, 2}, {1, 2, 2}, {0, 1, 2}, {1, 1, 2}};
-    memcpy(x + 24, mids, sizeof mids);
-    const uint32_t fn[] = {0, 3, 2,  1, 0, 1, 5,  8,  4, 1, 2, 6,  9,  5, 2, 3,  7,  10, 6,  3,
-                           0, 4, 11, 7, 4, 8, 12, 11, 8, 5, 9, 12, 12, 9, 6, 10, 11, 12, 10, 7};
-    const int64_t off[] = {0, 4, 9, 14, 19, 24, 28, 32, 36, 40};
-    mesh_from_poly(m, x, 13, off, fn, 9);
-}
-
-/* The unit cube with the corner (1, 1, 1) cut off by the plane x + y + z = 2.4 (pf_poly_split). */
-static void make_corner_cut(pf_mesh *m)
-{
-    double x[24];
-    cube_nodes(x, pf_v3(0, 0, 0), 1);
-    pf_polyhedron p = {x, 6, CUBE_OFF, CUBE_FACES};
-    pf_plane pl = pf_plane_from_point_normal(pf_v3(0.8, 0.8, 0.8), pf_v3(1, 1, 1));
-    pf_split sp = {0};
-    pf_error err = {0};
-    assert_int_equal(pf_poly_split(&p, 8, &pl, NULL, &sp, &err), PF_OK);
-    assert_int_equal(sp.n_pieces, 2);
-    int32_t k = sp.piece_side[0] < 0 ? 0 : 1; /* the piece below keeps seven corners */
-    int64_t f0 = sp.piece_faces[k], f1 = sp.piece_faces[k + 1];
-    int64_t off[32];
-    uint32_t fn[256];
-    int32_t nf = 0;
-    off[0] = 0;
-    for (int64_t f = f0; f < f1; ++f) {
-        int64_t len = sp.face_offsets[f + 1] - sp.face_offsets[f];
-        memcpy(fn + off[nf], sp.face_nodes + sp.face_offsets[f], (size_t)len * sizeof *fn);
-        off[nf + 1] = off[nf] + len;
-        ++nf;
-    }
-    /* Node 6 (the cut corner) is referenced by no face: drop it, renumbering above it. */
-    double xs[3 * 16];
-    int32_t nn = 0, map[16];
-    for (int32_t v = 0; v < sp.n_nodes; ++v) {
-        bool used = false;
-        for (int64_t q = 0; q < off[nf]; ++q)
-            used |= fn[q] == (uint32_t)v;
-        map[v] = used ? nn : -1;
-        if (used)
-            memcpy(xs + 3 * nn++, sp.x + 3 * v, 3 * sizeof *xs);
-    }
-    for (int64_t q = 0; q < off[nf]; ++q)
-        fn[q] = (uint32_t)map[fn[q]];
-    mesh_from_poly(m, xs, nn, off, fn, nf);
-    pf_split_release(&sp);
-}
-
-/* Elements of src merged by group: faces between two elements of a group disappear. */
-static void merge_cells(const pf_mesh *src, const int32_t *group, int32_t n_groups, pf_mesh *m)
-{
-    pf_error err = {0};
-    int32_t nf = 0, map[256];
-    int64_t nfn = 0, nef = 0;
-    for (int32_t f = 0; f < src->n_faces; ++f) {
-        int32_t a = src->face_elems[2 * f], b = src->face_elems[2 * f + 1];
-        bool inner = a >= 0 && b >= 0 && group[a] == group[b];
-        map[f] = inner ? -1 : nf++;
-        if (!inner) {
-            nfn += src->face_offsets[f + 1] - src->face_offsets[f];
-            nef += (a >= 0) + (b >= 0);
-        }
-    }
-    assert_int_equal(pf_mesh_alloc(m, src->n_nodes, nf, nfn, n_groups, nef, &err), PF_OK);
-    memcpy(m->x, src->x, 3 * (size_t)src->n_nodes * sizeof *m->x);
-    for (int32_t f = 0; f < src->n_faces; ++f)
-        if (map[f] >= 0) {
-            int64_t len = src->face_offsets[f + 1] - src->face_offsets[f];
-            memcpy(m->face_nodes + m->face_offsets[map[f]], src->face_nodes + src->face_offsets[f],
-                   (size_t)len * sizeof *m->face_nodes);
-            m->face_offsets[map[f] + 1] = m->face_offsets[map[f]] + len;
-        }
-    int64_t at = 0;
-    for (int32_t g = 0; g < n_groups; ++g) {
-        for (int32_t e = 0; e < src->n_elems; ++e)
-            if (group[e] == g)
-                for (int64_t q = src->elem_offsets[e]; q < src->elem_offsets[e + 1]; ++q) {
-                    int32_t f = PF_FACE_INDEX(src->elem_faces[q]);
-                    if (map[f] >= 0)
-                        m->elem_faces[at++] =
-                            (uint32_t)map[f] | (src->elem_faces[q] & PF_FACE_REVERSED);
-                }
-        m->elem_offsets[g + 1] = at;
-    }
-    assert_int_equal(pf_mesh_validate(m, NULL, &err), PF_OK);
-    assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
-}
-
-/* A 2 x 2 x 1 block of unit cubes: cells 0, 1, 2 merged into an L (element 0), cell 3 alone
- * (element 1, a closed-form hex). */
-static void make_l_mesh(pf_mesh *m)
-{
-    pf_error err = {0};
-    pf_mesh box = {0};
-    assert_int_equal(pf_mesh_make_box(&box, pf_v3(0, 0, 0), pf_v3(2, 2, 1), 2, 2, 1, &err), PF_OK);
-    assert_int_equal(pf_mesh_derive(&box, &err), PF_OK);
-    /* Cell order of the box: x fastest; cell 3 is (1, 1). */
-    int32_t group[4] = {0, 0, 0, 1};
-    merge_cells(&box, group, 2, m);
-    pf_mesh_release(&box);
-}
-
-static void make_sphere_mesh(pf_mesh *m)
-{
-    pf_error err = {0};
-    pf_surface s = {0};
-    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
-    pf_slice_params p = pf_slice_params_default();
-    p.grid.res = 3;
-    assert_int_equal(pf_mesh_slice(m, &s, &p, NULL, &err), PF_OK);
-    assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
-    pf_surface_release(&s);
-}
+#include "basis_meshes.h"
 
 /* ---- checks ------------------------------------------------------------------------------------
  */
@@ -487,8 +338,6 @@ static const double CORNER_DELTA = 0.017, CORNER_BOUNDARY = 0.017;
 static const double OCTREE_DELTA = 0.075, OCTREE_BOUNDARY = 0.04;
 static const double L_DELTA = 0.085, L_BOUNDARY = 0.06, L_SHARED = 0.23;
 static const double SPHERE_DELTA = 0.28, SPHERE_BOUNDARY = 0.28;
-static const double FACE_TRACE_MEDIAN = 7e-3, FACE_TRACE_MAX = 0.063, FACE_TRACE_L2 = 6e-3,
-                    FACE_TRACE_TRAPEZOID = 5.3e-4;
 static const double LAPLACE_BOUND = 2e-7;
 /* C0 across a face: the two sides differ by at most both their boundary errors (pointwise: the
  * node errors), so the larger of the cells' node bounds. */
@@ -767,91 +616,6 @@ static void test_forced_mfs_matches_closed_forms(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
-/* Face functions (2D MFS) along their own edges against the data they were fitted to, linear
- * between the edge's two nodes and 0 for the others, at 21 points per edge between the
- * collocation points: on every MFS face of the sliced sphere and of a trapezoid. These traces
- * are what two faces meeting at an edge (so cells sharing only an edge) must agree on.
- * Measured: largest error on a face, median over the faces 4.7e-3 and largest 4.2e-2 (a face
- * with a very short edge next to a long one); relative L2 over all faces 4.1e-3. Without the 2D
- * harmonic polynomials (Re, Im (u + iv)^2, (u + iv)^3) these were 1.7e-2, 7.8e-2 and 1.2e-2.
- * The frustum's two trapezoids: 3.5e-4. Bounds: 1.5x. */
-static int cmp_double_asc(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double face_trace_error(const pf_mesh *m, int32_t f, basis_ws *w, double *num, double *den)
-{
-    pf_error err = {0};
-    pf_basis_params p = pf_basis_params_default();
-    face_fn fn;
-    memset(&fn, 0, sizeof fn);
-    assert_int_equal(face_init(&fn, m, f, &err), PF_OK);
-    assert_int_equal(face_solve(&fn, m, f, &p, w, &err), PF_OK);
-    double worst = -1; /* -1: a closed form, not counted */
-    if (fn.kind == FACE_MFS) {
-        worst = 0;
-        for (int32_t a = 0; a < fn.n; ++a) {
-            int32_t b = (a + 1) % fn.n;
-            pf_vec3 xa = pf_v3_load(m->x + 3 * (size_t)fn.nodes[a]);
-            pf_vec3 xb = pf_v3_load(m->x + 3 * (size_t)fn.nodes[b]);
-            for (int j = 0; j < 21; ++j) {
-                double t = (j + 0.5) / 21, v[PF_BASIS_MAX_NODES];
-                face_eval(&fn, pf_v3_add(xa, pf_v3_scale(pf_v3_sub(xb, xa), t)), v);
-                for (int32_t c = 0; c < fn.n; ++c) {
-                    double want = (c == a ? 1 - t : 0) + (c == b ? t : 0);
-                    worst = fmax(worst, fabs(v[c] - want));
-                    *num += (v[c] - want) * (v[c] - want);
-                    *den += want * want;
-                }
-            }
-        }
-    }
-    face_release(&fn);
-    return worst;
-}
-
-static void test_face_traces_match_edge_data(void **state)
-{
-    (void)state;
-    int64_t live = pf_alloc_live_bytes();
-    pf_mesh m = {0};
-    make_sphere_mesh(&m);
-    basis_ws w;
-    memset(&w, 0, sizeof w);
-    double *worst = calloc((size_t)m.n_faces, sizeof *worst), num = 0, den = 0;
-    assert_non_null(worst);
-    int32_t n = 0;
-    for (int32_t f = 0; f < m.n_faces; ++f) {
-        double e = face_trace_error(&m, f, &w, &num, &den);
-        if (e >= 0)
-            worst[n++] = e;
-    }
-    pf_mesh_release(&m);
-    qsort(worst, (size_t)n, sizeof *worst, cmp_double_asc);
-    double l2 = sqrt(num / den);
-    printf("  face traces, %d MFS faces of the sliced sphere: median %.2e, largest %.2e, L2 %.2e\n",
-           (int)n, worst[n / 2], worst[n - 1], l2);
-    assert_true(n > 50);
-    assert_true(worst[n / 2] < FACE_TRACE_MEDIAN && worst[n - 1] < FACE_TRACE_MAX &&
-                l2 < FACE_TRACE_L2);
-    free(worst);
-    /* A trapezoid (no closed form): one face, the bottom of a frustum-like hexahedron. */
-    const double x[24] = {0, 0, 0, 2, 0, 0, 1.5, 1, 0, 0.5, 1, 0,
-                          0, 0, 1, 2, 0, 1, 1.5, 1, 1, 0.5, 1, 1};
-    mesh_from_poly(&m, x, 8, CUBE_OFF, CUBE_FACES, 6);
-    num = den = 0;
-    double tw = 0;
-    for (int32_t f = 0; f < m.n_faces; ++f)
-        tw = fmax(tw, face_trace_error(&m, f, &w, &num, &den));
-    printf("  face traces, trapezoids: largest %.2e\n", tw);
-    assert_true(tw > 0 && tw < FACE_TRACE_TRAPEZOID);
-    pf_mesh_release(&m);
-    ws_release(&w);
-    assert_int_equal(pf_alloc_live_bytes(), live);
-}
-
 /* More kernels, smaller boundary error (the paper's convergence claim). */
 static void test_boundary_error_decreases(void **state)
 {
@@ -901,7 +665,6 @@ int main(void)
         cmocka_unit_test(test_corner_cut_and_octree_cells),
         cmocka_unit_test(test_sliced_sphere_cells),
         cmocka_unit_test(test_forced_mfs_matches_closed_forms),
-        cmocka_unit_test(test_face_traces_match_edge_data),
         cmocka_unit_test(test_boundary_error_decreases),
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_block_eval_matches_pointwise),

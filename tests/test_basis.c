@@ -10,7 +10,8 @@
  *   MFS coefficients, i.e. ~1e-14; 1e-12 leaves a factor of 100.
  * - MFS cells: N_i(x_j) = delta_ij and the boundary error, to bounds measured at the defaults
  *   (see each bound's comment); harmonicity by a finite-difference Laplacian.
- * - Forced MFS on a tet and a cube reproduces the closed forms to the boundary error.
+ * - Forced MFS on a tet and a cube reproduces the closed forms to round-off (both lie in its
+ *   trial space).
  * - C0: two harmonic cells sharing a face agree there to the boundary error.
  * The face functions alone: test_basis_face.c; the cells: basis_meshes.h.
  */

@@ -1,6 +1,7 @@
-/* Scenes: defaults, the JSON reader (docs/scene.md is the reference of every key), command-line
- * overrides, completion against a mesh's bounding box, and region tests. The JSON syntax is
- * checked in scene_json.c; cJSON builds the tree read here.
+/* Scenes: defaults, the JSON reader (docs/scene.md is the reference of every key), completion
+ * against a mesh's bounding box, and region tests. The JSON syntax is checked in scene_json.c;
+ * cJSON builds the tree read here; the value rules it shares with the command-line overrides
+ * (scene_override.c) are in scene_values.c.
  *
  * The reader is strict on purpose: an unknown key, a duplicate key, a wrong type or a value out
  * of range is an error naming the key's full path, so that a typo in a scene never silently
@@ -18,6 +19,7 @@
 #include <pf/io.h>
 
 #include "scene_json.h"
+#include "scene_values.h"
 
 /* ---- defaults -------------------------------------------------------------------------------- */
 
@@ -60,83 +62,6 @@ void pf_scene_release(pf_scene *s)
     release_obstacles(s);
     pf_free(s->json);
     memset(s, 0, sizeof *s);
-}
-
-/* A static scene has no ground unless the file asks for one; override of "static" re-applies
- * this rule, hence ground_given. */
-static void apply_static_ground_rule(pf_scene *s)
-{
-    if (!s->ground_given)
-        s->ground = !s->is_static;
-}
-
-/* ---- value ranges, shared by the file reader and the overrides ------------------------------- */
-
-typedef enum range {
-    RANGE_FINITE,       /* any finite number */
-    RANGE_POSITIVE,     /* > 0 */
-    RANGE_NONNEG,       /* >= 0 */
-    RANGE_POISSON,      /* (-1, 0.5): the bulk and shear moduli are then positive */
-    RANGE_DEGREE,       /* integer 1 or 2 */
-    RANGE_EDGE_SAMPLES, /* integer 1 .. 16 */
-    RANGE_INT_NONNEG,   /* integer >= 0 (fits int32) */
-    RANGE_INT_POS,      /* integer >= 1 (fits int32) */
-} range;
-
-static bool range_is_integer(range r)
-{
-    return r == RANGE_DEGREE || r == RANGE_EDGE_SAMPLES || r == RANGE_INT_NONNEG ||
-           r == RANGE_INT_POS;
-}
-
-static bool in_range(range r, double v)
-{
-    if (!isfinite(v))
-        return false;
-    if (range_is_integer(r) && (v != floor(v) || v > INT32_MAX))
-        return false;
-    switch (r) {
-    case RANGE_FINITE:
-        return true;
-    case RANGE_POSITIVE:
-        return v > 0;
-    case RANGE_NONNEG:
-        return v >= 0;
-    case RANGE_POISSON:
-        return v > -1 && v < 0.5;
-    case RANGE_DEGREE:
-        return v == 1 || v == 2;
-    case RANGE_EDGE_SAMPLES:
-        return v >= 1 && v <= 16;
-    case RANGE_INT_NONNEG:
-        return v >= 0;
-    case RANGE_INT_POS:
-        return v >= 1;
-    }
-    return false;
-}
-
-static const char *range_text(range r)
-{
-    switch (r) {
-    case RANGE_FINITE:
-        return "must be finite";
-    case RANGE_POSITIVE:
-        return "must be > 0";
-    case RANGE_NONNEG:
-        return "must be >= 0";
-    case RANGE_POISSON:
-        return "must be in (-1, 0.5)";
-    case RANGE_DEGREE:
-        return "must be 1 or 2";
-    case RANGE_EDGE_SAMPLES:
-        return "must be an integer from 1 to 16";
-    case RANGE_INT_NONNEG:
-        return "must be an integer >= 0";
-    case RANGE_INT_POS:
-        return "must be an integer >= 1";
-    }
-    return "out of range";
 }
 
 /* The shortest of %.15g / %.17g that reads back as v: "0.5", not "0.50000000000000000". */
@@ -260,23 +185,23 @@ static pf_status begin_object(reader *r, const cJSON *v, const char *const *keys
     return PF_OK;
 }
 
-static pf_status read_number(reader *r, const cJSON *v, range rg, double *out)
+static pf_status read_number(reader *r, const cJSON *v, scene_range rg, double *out)
 {
     if (!cJSON_IsNumber(v))
-        return fail_type(r, v, range_is_integer(rg) ? "an integer" : "a number");
+        return fail_type(r, v, scene_range_is_integer(rg) ? "an integer" : "a number");
     /* cJSON turns a literal beyond the double range (1e999) into an infinity. */
     if (!isfinite(v->valuedouble))
         return fail(r, "must be finite (the number overflows a double)");
-    if (!in_range(rg, v->valuedouble)) {
+    if (!scene_in_range(rg, v->valuedouble)) {
         char got[32];
         format_number(v->valuedouble, got);
-        return fail(r, "%s, got %s", range_text(rg), got);
+        return fail(r, "%s, got %s", scene_range_text(rg), got);
     }
     *out = v->valuedouble;
     return PF_OK;
 }
 
-static pf_status read_int(reader *r, const cJSON *v, range rg, int32_t *out)
+static pf_status read_int(reader *r, const cJSON *v, scene_range rg, int32_t *out)
 {
     double d = 0;
     PF_TRY(read_number(r, v, rg, &d));
@@ -342,56 +267,23 @@ static pf_status read_material(reader *r, const cJSON *v, pf_scene *s)
     return PF_OK;
 }
 
-static bool parse_method_name(const char *text, pf_method *out)
-{
-    if (!strcmp(text, "dg"))
-        *out = PF_METHOD_DG;
-    else if (!strcmp(text, "cg"))
-        *out = PF_METHOD_CG;
-    else
-        return false;
-    return true;
-}
-
-static bool parse_flux_name(const char *text, pf_flux *out)
-{
-    if (!strcmp(text, "ip"))
-        *out = PF_FLUX_IP;
-    else if (!strcmp(text, "bz"))
-        *out = PF_FLUX_BZ;
-    else
-        return false;
-    return true;
-}
-
-static bool parse_mass_name(const char *text, pf_mass *out)
-{
-    if (!strcmp(text, "consistent"))
-        *out = PF_MASS_CONSISTENT;
-    else if (!strcmp(text, "lumped"))
-        *out = PF_MASS_LUMPED;
-    else
-        return false;
-    return true;
-}
-
 static pf_status read_mass(reader *r, const cJSON *v, pf_mass *out)
 {
-    if (!cJSON_IsString(v) || !parse_mass_name(v->valuestring, out))
+    if (!cJSON_IsString(v) || !scene_parse_mass_name(v->valuestring, out))
         return fail_type(r, v, "\"consistent\" or \"lumped\"");
     return PF_OK;
 }
 
 static pf_status read_method_name(reader *r, const cJSON *v, pf_method *out)
 {
-    if (!cJSON_IsString(v) || !parse_method_name(v->valuestring, out))
+    if (!cJSON_IsString(v) || !scene_parse_method_name(v->valuestring, out))
         return fail_type(r, v, "\"dg\" or \"cg\"");
     return PF_OK;
 }
 
 static pf_status read_flux(reader *r, const cJSON *v, pf_flux *out)
 {
-    if (!cJSON_IsString(v) || !parse_flux_name(v->valuestring, out))
+    if (!cJSON_IsString(v) || !scene_parse_flux_name(v->valuestring, out))
         return fail_type(r, v, "\"ip\" or \"bz\"");
     return PF_OK;
 }
@@ -878,7 +770,7 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
         else
             READ_KEY(r, it, read_bool(r, it, &s->is_static));
     }
-    apply_static_ground_rule(s);
+    scene_apply_static_ground_rule(s);
     return PF_OK;
 }
 
@@ -945,120 +837,6 @@ pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err)
         pf_error_prefix(err, "%s", path);
     pf_buffer_release(&buf);
     return st;
-}
-
-/* ---- overrides ------------------------------------------------------------------------------- */
-
-#if defined(__GNUC__)
-__attribute__((format(printf, 4, 5)))
-#endif
-static pf_status
-override_fail(pf_error *err, const char *key, const char *value, const char *fmt, ...)
-{
-    char reason[PF_ERROR_MSG_MAX];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(reason, sizeof reason, fmt, ap);
-    va_end(ap);
-    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: %s, got '%.64s'", key, reason,
-                        value ? value : "");
-}
-
-/* The whole of value as a number in range rg (strtod: decimal or hexadecimal floating point). */
-static pf_status override_number(const char *key, const char *value, range rg, double *out,
-                                 pf_error *err)
-{
-    const char *what = range_is_integer(rg) ? "an integer" : "a number";
-    if (!value || !*value || strchr(" \t\r\n\f\v", value[0]))
-        return override_fail(err, key, value, "must be %s", what);
-    /* Overflow gives an infinity and underflow a tiny or zero value: in_range judges both. */
-    char *end = NULL;
-    double v = strtod(value, &end);
-    if (*end != '\0')
-        return override_fail(err, key, value, "must be %s", what);
-    if (!in_range(rg, v))
-        return override_fail(err, key, value, "%s", range_text(rg));
-    *out = v;
-    return PF_OK;
-}
-
-/* The whole of value as a decimal integer in range rg (strtol, no fractional part). */
-static pf_status override_int(const char *key, const char *value, range rg, int32_t *out,
-                              pf_error *err)
-{
-    if (!value || !*value || strchr(" \t\r\n\f\v", value[0]))
-        return override_fail(err, key, value, "must be an integer");
-    char *end = NULL;
-    errno = 0;
-    long v = strtol(value, &end, 10);
-    if (*end != '\0')
-        return override_fail(err, key, value, "must be an integer");
-    if (errno == ERANGE || v < INT32_MIN || v > INT32_MAX || !in_range(rg, (double)v))
-        return override_fail(err, key, value, "%s", range_text(rg));
-    *out = (int32_t)v;
-    return PF_OK;
-}
-
-/* true / false; NULL or empty means true (a bare --static). */
-static pf_status override_bool(const char *key, const char *value, bool *out, pf_error *err)
-{
-    if (!value || !*value || !strcmp(value, "true"))
-        *out = true;
-    else if (!strcmp(value, "false"))
-        *out = false;
-    else
-        return override_fail(err, key, value, "must be true or false");
-    return PF_OK;
-}
-
-pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_error *err)
-{
-    PF_CHECK(key, err, PF_ERR_INVALID, "override without a key");
-    if (!strcmp(key, "method")) {
-        if (!value || !parse_method_name(value, &s->method))
-            return override_fail(err, key, value, "must be dg or cg");
-        return PF_OK;
-    }
-    if (!strcmp(key, "flux")) {
-        if (!value || !parse_flux_name(value, &s->flux))
-            return override_fail(err, key, value, "must be ip or bz");
-        return PF_OK;
-    }
-    if (!strcmp(key, "mass")) {
-        if (!value || !parse_mass_name(value, &s->mass))
-            return override_fail(err, key, value, "must be consistent or lumped");
-        return PF_OK;
-    }
-    if (!strcmp(key, "degree"))
-        return override_int(key, value, RANGE_DEGREE, &s->degree, err);
-    if (!strcmp(key, "edge_samples"))
-        return override_int(key, value, RANGE_EDGE_SAMPLES, &s->edge_samples, err);
-    if (!strcmp(key, "frames"))
-        return override_int(key, value, RANGE_INT_NONNEG, &s->frames, err);
-    if (!strcmp(key, "substeps"))
-        return override_int(key, value, RANGE_INT_POS, &s->substeps, err);
-    if (!strcmp(key, "dt"))
-        return override_number(key, value, RANGE_POSITIVE, &s->dt, err);
-    if (!strcmp(key, "E"))
-        return override_number(key, value, RANGE_POSITIVE, &s->E, err);
-    if (!strcmp(key, "nu"))
-        return override_number(key, value, RANGE_POISSON, &s->nu, err);
-    if (!strcmp(key, "density"))
-        return override_number(key, value, RANGE_POSITIVE, &s->density, err);
-    if (!strcmp(key, "penalty"))
-        return override_number(key, value, RANGE_NONNEG, &s->penalty, err);
-    if (!strcmp(key, "corotation"))
-        return override_bool(key, value, &s->corotation, err);
-    if (!strcmp(key, "static")) {
-        PF_TRY(override_bool(key, value, &s->is_static, err));
-        apply_static_ground_rule(s);
-        return PF_OK;
-    }
-    return pf_error_set(
-        err, PF_ERR_INVALID, __FILE__, __LINE__,
-        "%.64s: unknown scene option (expected one of: method, degree, flux, "
-        "mass, edge_samples, frames, dt, static, E, nu, density, penalty, substeps, corotation)",
-        key);
 }
 
 /* ---- completion against a mesh, regions ------------------------------------------------------ */

@@ -53,7 +53,10 @@ pf_status pf_scene_json_error_at(const char *text, size_t len, size_t pos, const
 }
 
 /* JSON whitespace (RFC 8259). */
-static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
+static bool is_space(char c)
+{
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r';
+}
 
 static bool only_whitespace(const char *text, size_t len)
 {
@@ -96,8 +99,14 @@ static bool scan_char(scanner *sc, char c)
     return false;
 }
 
-static bool is_digit(char c) { return c >= '0' && c <= '9'; }
-static bool is_alnum(char c) { return is_digit(c) || ((c | 0x20) >= 'a' && (c | 0x20) <= 'z'); }
+static bool is_digit(char c)
+{
+    return c >= '0' && c <= '9';
+}
+static bool is_alnum(char c)
+{
+    return is_digit(c) || ((c | 0x20) >= 'a' && (c | 0x20) <= 'z');
+}
 
 static bool scan_digits(scanner *sc)
 {
@@ -258,13 +267,20 @@ static bool scan_value(scanner *sc)
     scan_space(sc);
     char c = sc->pos < sc->len ? sc->t[sc->pos] : '\0';
     switch (c) {
-    case '{': return scan_container(sc, '}', true);
-    case '[': return scan_container(sc, ']', false);
-    case '"': return scan_string(sc);
-    case 't': return scan_literal(sc, "true");
-    case 'f': return scan_literal(sc, "false");
-    case 'n': return scan_literal(sc, "null");
-    default: return (c == '-' || is_digit(c)) && scan_number(sc);
+    case '{':
+        return scan_container(sc, '}', true);
+    case '[':
+        return scan_container(sc, ']', false);
+    case '"':
+        return scan_string(sc);
+    case 't':
+        return scan_literal(sc, "true");
+    case 'f':
+        return scan_literal(sc, "false");
+    case 'n':
+        return scan_literal(sc, "null");
+    default:
+        return (c == '-' || is_digit(c)) && scan_number(sc);
     }
 }
 
@@ -297,9 +313,8 @@ pf_status pf_scene_json_check(const char *text, size_t len, const char *name, si
     /* A UTF-8 byte-order mark is not JSON but editors write it; positions stay file-relative. */
     size_t skip = len >= 3 && !memcmp(text, "\xEF\xBB\xBF", 3) ? 3 : 0;
     if (only_whitespace(text + skip, len - skip))
-        return pf_scene_json_error_at(text, len, len, name,
-                                      "JSON syntax error: no JSON value (the empty scene is {})",
-                                      err);
+        return pf_scene_json_error_at(
+            text, len, len, name, "JSON syntax error: no JSON value (the empty scene is {})", err);
     size_t pos = 0;
     const char *why = NULL;
     if (locate_syntax_error(text + skip, len - skip, &pos, &why))

@@ -1,0 +1,103 @@
+/* Value rules of scenes shared by the reader and the overrides (scene_values.h). */
+#include "scene_values.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+/* A static scene has no ground unless the file asks for one; override of "static" re-applies
+ * this rule, hence ground_given. */
+void scene_apply_static_ground_rule(pf_scene *s)
+{
+    if (!s->ground_given)
+        s->ground = !s->is_static;
+}
+
+bool scene_range_is_integer(scene_range r)
+{
+    return r == RANGE_DEGREE || r == RANGE_EDGE_SAMPLES || r == RANGE_INT_NONNEG ||
+           r == RANGE_INT_POS;
+}
+
+bool scene_in_range(scene_range r, double v)
+{
+    if (!isfinite(v))
+        return false;
+    if (scene_range_is_integer(r) && (v != floor(v) || v > INT32_MAX))
+        return false;
+    switch (r) {
+    case RANGE_FINITE:
+        return true;
+    case RANGE_POSITIVE:
+        return v > 0;
+    case RANGE_NONNEG:
+        return v >= 0;
+    case RANGE_POISSON:
+        return v > -1 && v < 0.5;
+    case RANGE_DEGREE:
+        return v == 1 || v == 2;
+    case RANGE_EDGE_SAMPLES:
+        return v >= 1 && v <= 16;
+    case RANGE_INT_NONNEG:
+        return v >= 0;
+    case RANGE_INT_POS:
+        return v >= 1;
+    }
+    return false;
+}
+
+const char *scene_range_text(scene_range r)
+{
+    switch (r) {
+    case RANGE_FINITE:
+        return "must be finite";
+    case RANGE_POSITIVE:
+        return "must be > 0";
+    case RANGE_NONNEG:
+        return "must be >= 0";
+    case RANGE_POISSON:
+        return "must be in (-1, 0.5)";
+    case RANGE_DEGREE:
+        return "must be 1 or 2";
+    case RANGE_EDGE_SAMPLES:
+        return "must be an integer from 1 to 16";
+    case RANGE_INT_NONNEG:
+        return "must be an integer >= 0";
+    case RANGE_INT_POS:
+        return "must be an integer >= 1";
+    }
+    return "out of range";
+}
+
+bool scene_parse_method_name(const char *text, pf_method *out)
+{
+    if (!strcmp(text, "dg"))
+        *out = PF_METHOD_DG;
+    else if (!strcmp(text, "cg"))
+        *out = PF_METHOD_CG;
+    else
+        return false;
+    return true;
+}
+
+bool scene_parse_flux_name(const char *text, pf_flux *out)
+{
+    if (!strcmp(text, "ip"))
+        *out = PF_FLUX_IP;
+    else if (!strcmp(text, "bz"))
+        *out = PF_FLUX_BZ;
+    else
+        return false;
+    return true;
+}
+
+bool scene_parse_mass_name(const char *text, pf_mass *out)
+{
+    if (!strcmp(text, "consistent"))
+        *out = PF_MASS_CONSISTENT;
+    else if (!strcmp(text, "lumped"))
+        *out = PF_MASS_LUMPED;
+    else
+        return false;
+    return true;
+}

@@ -1,0 +1,37 @@
+/* Value rules of scenes shared by the file reader (scene.c) and the command-line overrides
+ * (scene_override.c): ranges and their messages, method / flux / mass names, the static-ground
+ * rule. Private to sim/. */
+#ifndef PF_SIM_SCENE_VALUES_H
+#define PF_SIM_SCENE_VALUES_H
+
+#include <stdbool.h>
+
+#include <pf/sim.h>
+
+typedef enum scene_range {
+    RANGE_FINITE,       /* any finite number */
+    RANGE_POSITIVE,     /* > 0 */
+    RANGE_NONNEG,       /* >= 0 */
+    RANGE_POISSON,      /* (-1, 0.5): the bulk and shear moduli are then positive */
+    RANGE_DEGREE,       /* integer 1 or 2 */
+    RANGE_EDGE_SAMPLES, /* integer 1 .. 16 */
+    RANGE_INT_NONNEG,   /* integer >= 0 (fits int32) */
+    RANGE_INT_POS,      /* integer >= 1 (fits int32) */
+} scene_range;
+
+bool scene_range_is_integer(scene_range r);
+/* Finite, integral for the integer ranges (and within int32), inside the range. */
+bool scene_in_range(scene_range r, double v);
+/* "must be ...", for messages. */
+const char *scene_range_text(scene_range r);
+
+/* Names of the scene's enumerations; false for an unknown name (out untouched). */
+bool scene_parse_method_name(const char *text, pf_method *out);
+bool scene_parse_flux_name(const char *text, pf_flux *out);
+bool scene_parse_mass_name(const char *text, pf_mass *out);
+
+/* A static scene has no ground unless the file asks for one; override of "static" re-applies
+ * this rule, hence ground_given. */
+void scene_apply_static_ground_rule(pf_scene *s);
+
+#endif

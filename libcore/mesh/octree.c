@@ -29,60 +29,14 @@
 #include <string.h>
 
 #include "mesh_internal.h"
+#include "octree_internal.h"
 
 pf_octree_params pf_octree_params_default(void)
 {
     return (pf_octree_params){.depth = 5, .min_depth = 2, .slice = false, .merge = 0.05};
 }
 
-/* ---- the tree ------------------------------------------------------------------------------ */
-
-typedef struct leaf {
-    int32_t c[3];                  /* lowest corner, lattice units */
-    int8_t level;                  /* depth */
-    uint8_t crossing;              /* the surface comes near (then level == depth) */
-    uint8_t inside;                /* a whole-cell element */
-    int32_t first_piece, n_pieces; /* slice: pieces of a crossing leaf in octree.pieces */
-} leaf;
-
-typedef struct piece_list {
-    piece *p;
-    int32_t n, cap;
-} piece_list;
-
-typedef struct octree {
-    const pf_surface *s;
-    pf_octree_params p;
-    double o[3];   /* root corner */
-    double h;      /* finest cell edge */
-    double tol;    /* cutting tolerance, model units */
-    double margin; /* the surface counts as near a cell within this distance */
-    int32_t n;     /* lattice units along the root edge, 2^depth */
-    leaf *leaves;
-    int32_t n_leaves, cap_leaves;
-    uint64_t *keys; /* open-addressing map (level, corner) -> leaf, UINT64_MAX empty */
-    int32_t *vals;
-    int64_t slots;
-    int32_t *tris; /* stack of triangle lists */
-    int64_t n_tris, cap_tris;
-    /* slice */
-    pf_split_params split;
-    piece *pieces; /* [n_pieces] final pieces of crossing leaves, snapped */
-    int32_t n_pieces, cap_pieces;
-    int32_t *remap;
-    int32_t cap_remap;
-    int64_t splits;
-} octree;
-
-static double coord(const octree *oc, int a, int64_t i)
-{
-    return oc->o[a] + (double)i * oc->h;
-}
-
-static int32_t cell_size(const octree *oc, int level)
-{
-    return oc->n >> level;
-}
+/* ---- the tree (types: octree_internal.h) ------------------------------------------------ */
 
 static uint64_t leaf_key(int level, int32_t i, int32_t j, int32_t k)
 {
@@ -394,106 +348,6 @@ static pf_status build(octree *oc, const int32_t c[3], int level, int64_t b, int
     for (int q = 0; q < 8; ++q)
         list_release(&octant[q]);
     return st;
-}
-
-/* ---- centre test (without slice) ------------------------------------------------------------- */
-
-typedef struct sort_key {
-    uint64_t key;
-    int32_t leaf;
-} sort_key;
-
-static int compare_key(const void *pa, const void *pb)
-{
-    const sort_key *a = pa, *b = pb;
-    return (a->key > b->key) - (a->key < b->key);
-}
-
-/* Centre of leaf l along axis a in half lattice units (2 c + size). */
-static int32_t half_centre(const octree *oc, const leaf *l, int a)
-{
-    return 2 * l->c[a] + cell_size(oc, l->level);
-}
-
-static double centre_coord(const octree *oc, const leaf *l, int a)
-{
-    return oc->o[a] + half_centre(oc, l, a) * (0.5 * oc->h);
-}
-
-/* Signed ray crossings along rows of leaf centres in x, y and z (as pf_surface_classify_cells):
- * a centre is inside where at least two of the three axes see a non-zero winding number. */
-static pf_status classify_by_rays(octree *oc, pf_error *err)
-{
-    int32_t nl = oc->n_leaves;
-    pf_rayscene *rs = NULL;
-    PF_TRY(pf_rayscene_create(&rs, oc->s->x, oc->s->n_verts, oc->s->tri, oc->s->n_tris, err));
-    sort_key *keys = pf_alloc_array((size_t)nl, sizeof *keys);
-    uint8_t *votes = pf_calloc((size_t)nl, 1);
-    int64_t cap = 256;
-    pf_crossing *buf = pf_alloc_array((size_t)cap, sizeof *buf);
-    pf_status st = PF_OK;
-    if (!keys || !votes || !buf)
-        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for centres");
-    for (int a = 0; a < 3 && st >= 0; ++a) {
-        int b = (a + 1) % 3, c = (a + 2) % 3;
-        for (int32_t q = 0; q < nl; ++q) {
-            const leaf *l = &oc->leaves[q];
-            keys[q] = (sort_key){(uint64_t)half_centre(oc, l, b) << 40 |
-                                     (uint64_t)half_centre(oc, l, c) << 20 |
-                                     (uint64_t)half_centre(oc, l, a),
-                                 q};
-        }
-        qsort(keys, (size_t)nl, sizeof *keys, compare_key);
-        pf_vec3 dir = pf_v3(a == 0, a == 1, a == 2);
-        double start = oc->o[a] - oc->h, span = (oc->n + 2) * oc->h;
-        for (int32_t r0 = 0, r1; st >= 0 && r0 < nl; r0 = r1) {
-            for (r1 = r0 + 1; r1 < nl && keys[r1].key >> 20 == keys[r0].key >> 20; ++r1)
-                ;
-            const leaf *first = &oc->leaves[keys[r0].leaf];
-            double org[3];
-            org[a] = start;
-            org[b] = centre_coord(oc, first, b);
-            org[c] = centre_coord(oc, first, c);
-            int64_t n;
-            for (;;) {
-                st = pf_rayscene_crossings(rs, pf_v3_load(org), dir, span, 1e-7 * oc->h, buf, cap,
-                                           &n, err);
-                if (st < 0 || n <= cap)
-                    break;
-                pf_crossing *grown = pf_realloc_array(buf, (size_t)n, sizeof *buf);
-                if (!grown) {
-                    st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                                      "out of memory for ray crossings");
-                    break;
-                }
-                buf = grown;
-                cap = n;
-            }
-            int64_t next = 0;
-            int winding = 0;
-            for (int32_t q = r0; st >= 0 && q < r1; ++q) {
-                double t = centre_coord(oc, &oc->leaves[keys[q].leaf], a) - start;
-                while (next < n && buf[next].t < t)
-                    winding -= buf[next++].sign;
-                votes[keys[q].leaf] += winding != 0;
-            }
-        }
-    }
-    for (int32_t q = 0; st >= 0 && q < nl; ++q)
-        oc->leaves[q].inside = votes[q] >= 2;
-    pf_free(keys), pf_free(votes), pf_free(buf);
-    pf_rayscene_destroy(&rs);
-    return st;
-}
-
-static void classify_by_winding(octree *oc)
-{
-    for (int32_t q = 0; q < oc->n_leaves; ++q) {
-        leaf *l = &oc->leaves[q];
-        pf_vec3 p = pf_v3(centre_coord(oc, l, 0), centre_coord(oc, l, 1), centre_coord(oc, l, 2));
-        /* orientation-agnostic, as pf_surface_classify_cells */
-        l->inside = fabs(pf_winding_number(oc->s->x, oc->s->tri, oc->s->n_tris, p)) >= 0.5;
-    }
 }
 
 /* ---- face tiling ------------------------------------------------------------------------------
@@ -958,10 +812,10 @@ pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params
     if (st >= 0 && !p.slice) {
         if (ss.closed) {
             stats->method = PF_INSIDE_RAYS;
-            st = classify_by_rays(&oc, err);
+            st = octree_classify_by_rays(&oc, err);
         } else {
             stats->method = PF_INSIDE_WINDING;
-            classify_by_winding(&oc);
+            octree_classify_by_winding(&oc);
         }
     }
     glue g = {0};

@@ -27,6 +27,8 @@
  */
 #include <pf/split.h>
 
+#include "split_internal.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -48,40 +50,6 @@ void pf_split_release(pf_split *s)
     pf_free(s->face_source);
     memset(s, 0, sizeof *s);
 }
-
-/* Polygons produced on either side, in order. */
-typedef struct polys {
-    pf_buffer end;    /* int64_t: end offset of each polygon in nodes */
-    pf_buffer nodes;  /* uint32_t */
-    pf_buffer source; /* int32_t: input face or -1 */
-    pf_buffer side;   /* int8_t */
-    pf_buffer flat;   /* uint8_t: an input face lying on the plane */
-    int32_t n;
-} polys;
-
-typedef struct work {
-    const pf_polyhedron *p;
-    int32_t n_in;    /* input nodes */
-    int32_t n_total; /* plus new nodes */
-    pf_plane pl;
-    double tol;
-    double *x;     /* [3 n_total] */
-    double *dist;  /* [n_in] signed distances */
-    int8_t *cls;   /* [n_total] */
-    uint64_t *cross; /* [n_new] sorted keys lo << 32 | hi of the crossing edges */
-    int64_t n_new;
-    polys out;
-    /* per-face scratch, sized for the largest face */
-    uint32_t *av;
-    int8_t *ac;
-    int8_t *es;
-    double *as;
-    int32_t *zp;
-    uint8_t *zin, *zout, *visited;
-    int32_t *zto;
-} work;
-
-#define BUF(b, T) ((T *)(void *)(b).data)
 
 /* pf_buffer_append with the common case, room left, inline: polygons are built a node at a time. */
 static inline pf_status push(pf_buffer *b, const void *bytes, size_t n, pf_error *err)
@@ -135,9 +103,8 @@ static pf_status check_input(const pf_polyhedron *p, int32_t n_nodes, const pf_p
              PF_ERR_INVALID, "split: empty polyhedron (%d faces, %d nodes)", (int)p->n_faces,
              (int)n_nodes);
     double nn = pf_v3_norm(pl->n);
-    PF_CHECK(pf_v3_isfinite(pl->n) && isfinite(pl->d) && fabs(nn - 1) < 1e-6, err,
-             PF_ERR_INVALID, "split: the plane needs a finite unit normal and offset (|n| = %g)",
-             nn);
+    PF_CHECK(pf_v3_isfinite(pl->n) && isfinite(pl->d) && fabs(nn - 1) < 1e-6, err, PF_ERR_INVALID,
+             "split: the plane needs a finite unit normal and offset (|n| = %g)", nn);
     for (int32_t f = 0; f < p->n_faces; ++f) {
         int64_t k0 = p->face_offsets[f], k1 = p->face_offsets[f + 1];
         PF_CHECK(k1 - k0 >= 3, err, PF_ERR_INVALID, "split: face %d has %lld nodes (needs 3)",
@@ -272,8 +239,8 @@ static pf_status make_new_nodes(work *w, pf_split *out, pf_error *err)
     memcpy(x, p->x, 3 * (size_t)w->n_in * sizeof *x);
     for (int64_t i = 0; i < n_new; ++i) {
         uint32_t a = (uint32_t)(w->cross[i] >> 32), b = (uint32_t)(w->cross[i] & 0xffffffffu);
-        crossing_point(w, a, b, &out->new_edge[2 * i], &out->new_edge[2 * i + 1],
-                       &out->new_t[i], x + 3 * (size_t)(w->n_in + i));
+        crossing_point(w, a, b, &out->new_edge[2 * i], &out->new_edge[2 * i + 1], &out->new_t[i],
+                       x + 3 * (size_t)(w->n_in + i));
         w->cls[w->n_in + i] = 0;
     }
     return PF_OK;
@@ -316,11 +283,6 @@ static void polys_release(polys *o)
     pf_buffer_release(&o->side);
     pf_buffer_release(&o->flat);
     memset(o, 0, sizeof *o);
-}
-
-static int64_t poly_begin(const polys *o, int32_t i)
-{
-    return i == 0 ? 0 : BUF(o->end, int64_t)[i - 1];
 }
 
 /* ---- cutting one face ------------------------------------------------------------------------ */
@@ -385,9 +347,8 @@ static pf_status trace_side(work *w, int32_t f, int32_t m, int32_t nz, int side,
                 v = w->zto[cur];
                 chord = w->es[v] != side;
             }
-            PF_CHECK(v >= 0 && (chord ? w->zout[v] == 1 : w->es[v] == side), err,
-                     PF_ERR_NUMERIC, "split: face %d: the part on one side does not close",
-                     (int)f);
+            PF_CHECK(v >= 0 && (chord ? w->zout[v] == 1 : w->es[v] == side), err, PF_ERR_NUMERIC,
+                     "split: face %d: the part on one side does not close", (int)f);
             cur = v;
         } while (chord || cur != k);
         /* emit the nodes just appended */
@@ -473,23 +434,6 @@ static pf_status split_faces(work *w, pf_error *err)
 
 /* ---- caps ------------------------------------------------------------------------------------ */
 
-typedef struct pedge {
-    uint64_t key;  /* lo << 32 | hi */
-    int32_t poly;
-    int8_t dir;    /* +1: the polygon runs lo -> hi */
-    int8_t side;
-} pedge;
-
-static int compare_pedge(const void *a, const void *b)
-{
-    const pedge *x = a, *y = b;
-    if (x->side != y->side)
-        return x->side - y->side;
-    if (x->key != y->key)
-        return (x->key > y->key) - (x->key < y->key);
-    return (x->poly > y->poly) - (x->poly < y->poly);
-}
-
 static int compare_pedge_key(const void *a, const void *b)
 {
     const pedge *x = a, *y = b;
@@ -500,9 +444,8 @@ static int compare_pedge_key(const void *a, const void *b)
     return (x->poly > y->poly) - (x->poly < y->poly);
 }
 
-/* Edges of the produced polygons (only on-plane ones when zero_only), sorted. */
-static pf_status collect_edges(const work *w, int zero_only, pedge **out, int64_t *n_out,
-                               pf_error *err)
+pf_status split_collect_edges(const work *w, int zero_only, pedge **out, int64_t *n_out,
+                              pf_error *err)
 {
     const uint32_t *nodes = BUF(w->out.nodes, uint32_t);
     const int8_t *side = BUF(w->out.side, int8_t);
@@ -515,8 +458,8 @@ static pf_status collect_edges(const work *w, int zero_only, pedge **out, int64_
             uint32_t a = nodes[k], c = nodes[k + 1 < end ? k + 1 : b];
             if (zero_only && (w->cls[a] != 0 || w->cls[c] != 0))
                 continue;
-            e[n++] = (pedge){.key = edge_key(a, c), .poly = i, .dir = (int8_t)(a < c ? 1 : -1),
-                             .side = side[i]};
+            e[n++] = (pedge){
+                .key = edge_key(a, c), .poly = i, .dir = (int8_t)(a < c ? 1 : -1), .side = side[i]};
         }
     }
     *out = e;
@@ -556,12 +499,12 @@ static pf_status make_caps(work *w, pf_error *err)
 {
     pedge *e = NULL;
     int64_t n = 0;
-    PF_TRY(collect_edges(w, 1, &e, &n, err));
+    PF_TRY(split_collect_edges(w, 1, &e, &n, err));
     qsort(e, (size_t)n, sizeof *e, compare_pedge_key);
     const uint8_t *flat = BUF(w->out.flat, uint8_t);
     const int32_t *source = BUF(w->out.source, int32_t);
-    pf_buffer edges = {0};        /* boundary edges of the cap below, uint32 pairs */
-    pf_buffer constraints = {0};  /* interior edges, uint32 pairs (one direction) */
+    pf_buffer edges = {0};       /* boundary edges of the cap below, uint32 pairs */
+    pf_buffer constraints = {0}; /* interior edges, uint32 pairs (one direction) */
     int32_t *deg = pf_calloc((size_t)w->n_total, sizeof *deg);
     pf_status s = deg ? PF_OK
                       : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
@@ -580,7 +523,8 @@ static pf_status make_caps(work *w, pf_error *err)
             deg[lo]++, deg[hi]++;
         }
         if (j - i == 2 && e[i].side == e[i + 1].side && e[i].dir != e[i + 1].dir &&
-            !flat[e[i].poly] && !flat[e[i + 1].poly] && source[e[i].poly] != source[e[i + 1].poly]) {
+            !flat[e[i].poly] && !flat[e[i + 1].poly] &&
+            source[e[i].poly] != source[e[i + 1].poly]) {
             int32_t f1 = source[e[i].dir > 0 ? e[i].poly : e[i + 1].poly];
             int32_t f2 = source[e[i].dir > 0 ? e[i + 1].poly : e[i].poly];
             if (s == PF_OK && reflex_edge(w, f1, f2, lo, e[i].side)) {
@@ -615,8 +559,8 @@ static pf_status make_caps(work *w, pf_error *err)
     int32_t np = 0;
     if (s == PF_OK)
         s = pf_split_cap_polygons(w->x, w->pl.n, BUF(edges, uint32_t),
-                                  (int64_t)(edges.size / (2 * sizeof(uint32_t))), &off, &nodes,
-                                  &np, err);
+                                  (int64_t)(edges.size / (2 * sizeof(uint32_t))), &off, &nodes, &np,
+                                  err);
     for (int side = -1; side <= 1 && s == PF_OK; side += 2)
         for (int32_t i = 0; i < np && s == PF_OK; ++i)
             s = emit(&w->out, nodes + off[i], off[i + 1] - off[i], -1, side, 0, side > 0, err);
@@ -626,159 +570,6 @@ static pf_status make_caps(work *w, pf_error *err)
     pf_free(e);
     pf_buffer_release(&edges);
     pf_buffer_release(&constraints);
-    return s;
-}
-
-/* ---- pieces ---------------------------------------------------------------------------------- */
-
-static int32_t find_root(int32_t *parent, int32_t i)
-{
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
-
-static void unite(int32_t *parent, int32_t a, int32_t b)
-{
-    a = find_root(parent, a);
-    b = find_root(parent, b);
-    if (a != b)
-        parent[a > b ? a : b] = a < b ? a : b;
-}
-
-typedef struct around {
-    double angle;
-    int32_t poly;
-    int solid_ccw;
-} around;
-
-static int compare_around(const void *a, const void *b)
-{
-    const around *x = a, *y = b;
-    if (x->angle != y->angle)
-        return (x->angle > y->angle) - (x->angle < y->angle);
-    return (x->poly > y->poly) - (x->poly < y->poly);
-}
-
-/* Faces of one side around edge lo-hi, sorted by angle about it; each face is joined to the
- * neighbour across the solid on its inner side. */
-static pf_status pair_around_edge(const work *w, const pedge *g, int64_t k, int32_t *parent,
-                                  pf_error *err)
-{
-    uint32_t lo = (uint32_t)(g[0].key >> 32), hi = (uint32_t)(g[0].key & 0xffffffffu);
-    pf_vec3 t = pf_v3_normalize(pf_v3_sub(pf_v3_load(w->x + 3 * (size_t)hi),
-                                          pf_v3_load(w->x + 3 * (size_t)lo)));
-    pf_vec3 helper = fabs(t.x) <= fabs(t.y) && fabs(t.x) <= fabs(t.z) ? pf_v3(1, 0, 0)
-                     : fabs(t.y) <= fabs(t.z)                         ? pf_v3(0, 1, 0)
-                                                                      : pf_v3(0, 0, 1);
-    pf_vec3 e1 = pf_v3_normalize(pf_v3_cross(helper, t)), e2 = pf_v3_cross(t, e1);
-    around *a = pf_alloc_array((size_t)k, sizeof *a);
-    PF_CHECK(a, err, PF_ERR_NOMEM, "split: cannot allocate edge fan");
-    const uint32_t *nodes = BUF(w->out.nodes, uint32_t);
-    for (int64_t i = 0; i < k; ++i) {
-        int32_t pi = g[i].poly;
-        int64_t b = poly_begin(&w->out, pi), end = BUF(w->out.end, int64_t)[pi];
-        pf_vec3 nrm = pf_polygon_area_vector(w->x, nodes + b, end - b);
-        pf_vec3 dir = g[i].dir > 0 ? t : pf_v3_scale(t, -1);
-        pf_vec3 in_face = pf_v3_cross(nrm, dir);
-        a[i].angle = atan2(pf_v3_dot(in_face, e2), pf_v3_dot(in_face, e1));
-        a[i].poly = pi;
-        a[i].solid_ccw = pf_v3_dot(nrm, pf_v3_cross(t, in_face)) < 0;
-    }
-    qsort(a, (size_t)k, sizeof *a, compare_around);
-    for (int64_t i = 0; i < k; ++i)
-        if (a[i].solid_ccw)
-            unite(parent, a[i].poly, a[(i + 1) % k].poly);
-    pf_free(a);
-    return PF_OK;
-}
-
-/* Reorders the edges so that those of one side along one edge (equal side and key) are adjacent:
- * a counting sort by the lower node, then each node's bucket (a handful of edges) by insertion in
- * compare_pedge order. Linear in edges plus nodes, where a full sort was n log n per split. The
- * pieces do not depend on the order of the groups, nor on the order within one (pair_around_edge
- * sorts its own). */
-static pf_status group_edges(pedge **edges, int64_t n, int32_t n_nodes, pf_error *err)
-{
-    pedge *e = *edges;
-    int64_t *end = pf_calloc((size_t)n_nodes + 1, sizeof *end);
-    pedge *g = pf_alloc_array((size_t)n + 1, sizeof *g);
-    if (!end || !g) {
-        pf_free(end), pf_free(g);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                            "split: cannot allocate %lld edges", (long long)n);
-    }
-    for (int64_t i = 0; i < n; ++i)
-        end[(e[i].key >> 32) + 1]++;
-    for (int32_t v = 0; v < n_nodes; ++v)
-        end[v + 1] += end[v];
-    for (int64_t i = 0; i < n; ++i)
-        g[end[e[i].key >> 32]++] = e[i]; /* end[v]: now the end of node v's bucket */
-    for (int64_t v = 0, begin = 0; v < n_nodes; begin = end[v++])
-        for (int64_t i = begin + 1; i < end[v]; ++i) {
-            pedge x = g[i];
-            int64_t j = i;
-            for (; j > begin && compare_pedge(&g[j - 1], &x) > 0; --j)
-                g[j] = g[j - 1];
-            g[j] = x;
-        }
-    pf_free(end);
-    pf_free(e);
-    *edges = g;
-    return PF_OK;
-}
-
-static pf_status find_pieces(const work *w, int32_t *piece_of, int32_t *n_pieces, pf_error *err)
-{
-    int32_t np = w->out.n;
-    pedge *e = NULL;
-    int64_t n = 0;
-    PF_TRY(collect_edges(w, 0, &e, &n, err));
-    pf_status s = group_edges(&e, n, w->n_total, err);
-    int32_t *parent = s == PF_OK ? pf_alloc_array((size_t)np, sizeof *parent) : NULL;
-    if (s == PF_OK && !parent)
-        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                         "split: cannot allocate components");
-    for (int32_t i = 0; i < np && s == PF_OK; ++i)
-        parent[i] = i;
-    for (int64_t i = 0; i < n && s == PF_OK;) {
-        int64_t j = i, net = 0;
-        while (j < n && e[j].key == e[i].key && e[j].side == e[i].side)
-            net += e[j++].dir;
-        if (net != 0)
-            s = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
-                             "split: a piece is not closed at edge %u-%u",
-                             (unsigned)(e[i].key >> 32), (unsigned)(e[i].key & 0xffffffffu));
-        else if (j - i == 2)
-            unite(parent, e[i].poly, e[i + 1].poly);
-        else
-            s = pair_around_edge(w, e + i, j - i, parent, err);
-        i = j;
-    }
-    if (s == PF_OK) {
-        const int8_t *side = BUF(w->out.side, int8_t);
-        for (int32_t i = 0; i < np; ++i)
-            piece_of[i] = -1;
-        int32_t count = 0;
-        int32_t *id = pf_alloc_array((size_t)np, sizeof *id);
-        if (!id)
-            s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "split: out of memory");
-        for (int32_t i = 0; i < np && id; ++i)
-            id[i] = -1;
-        for (int sd = -1; sd <= 1 && id; sd += 2)
-            for (int32_t i = 0; i < np; ++i) {
-                if (side[i] != sd)
-                    continue;
-                int32_t r = find_root(parent, i);
-                if (id[r] < 0)
-                    id[r] = count++;
-                piece_of[i] = id[r];
-            }
-        pf_free(id);
-        *n_pieces = count;
-    }
-    pf_free(parent);
-    pf_free(e);
     return s;
 }
 
@@ -801,7 +592,8 @@ static pf_status fill_result(work *w, const int32_t *piece_of, int32_t n_pieces,
     if (!out->piece_side || !out->piece_faces || !out->face_offsets || !out->face_nodes ||
         !out->face_source || !fill || !order) {
         pf_free(fill), pf_free(order);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "split: cannot allocate the "
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "split: cannot allocate the "
                             "result");
     }
     const int8_t *side = BUF(w->out.side, int8_t);
@@ -820,7 +612,8 @@ static pf_status fill_result(work *w, const int32_t *piece_of, int32_t n_pieces,
     for (int32_t f = 0; f < np; ++f) {
         int32_t i = order[f];
         int64_t b = poly_begin(&w->out, i), end = BUF(w->out.end, int64_t)[i];
-        memcpy(out->face_nodes + out->face_offsets[f], nodes + b, (size_t)(end - b) * sizeof *nodes);
+        memcpy(out->face_nodes + out->face_offsets[f], nodes + b,
+               (size_t)(end - b) * sizeof *nodes);
         out->face_offsets[f + 1] = out->face_offsets[f] + (end - b);
         out->face_source[f] = source[i];
     }
@@ -865,7 +658,7 @@ static pf_status run(work *w, bool assume_closed, pf_split *out, pf_error *err)
     int32_t *piece_of = pf_alloc_array((size_t)w->out.n + 1, sizeof *piece_of);
     PF_CHECK(piece_of, err, PF_ERR_NOMEM, "split: out of memory");
     int32_t n_pieces = 0;
-    pf_status s = find_pieces(w, piece_of, &n_pieces, err);
+    pf_status s = split_find_pieces(w, piece_of, &n_pieces, err);
     if (s == PF_OK)
         s = fill_result(w, piece_of, n_pieces, out, err);
     pf_free(piece_of);
@@ -913,8 +706,7 @@ pf_status pf_poly_split(const pf_polyhedron *p, int32_t n_nodes, const pf_plane 
     bool extent = prm.tol > 0 ? !all_nodes_equal(p) : diag > 0;
     double rel = prm.rel_tol > 0 ? prm.rel_tol : 1e-10;
     work w = {.p = p, .n_in = n_nodes, .pl = *plane, .tol = prm.tol > 0 ? prm.tol : rel * diag};
-    PF_CHECK(extent && isfinite(w.tol), err, PF_ERR_INVALID,
-             "split: the polyhedron has no extent");
+    PF_CHECK(extent && isfinite(w.tol), err, PF_ERR_INVALID, "split: the polyhedron has no extent");
     pf_status s = run(&w, prm.assume_closed, out, err);
     work_release(&w);
     if (s != PF_OK)

@@ -18,7 +18,7 @@
 #include <stdbool.h>
 #include <string.h>
 
-enum { MAX_POINTS_1D = 16, MAX_CONVEX_DEPTH = 64 };
+enum { MAX_POINTS_1D = 16, MAX_CONVEX_DEPTH = 64, MAX_LOCAL_PLANES = 64 };
 
 /* A star-shaped polyhedron's apex keeps this fraction of its diagonal from every face plane. */
 static const double STAR_MARGIN = 0.02;
@@ -80,7 +80,9 @@ typedef struct rule {
     double node[MAX_POINTS_1D], weight[MAX_POINTS_1D];
     pf_quadrature *out;
     int64_t cap;
-    pf_arena scratch; /* face triangulations of star-shaped cells, made on first use */
+    pf_plane planes[MAX_LOCAL_PLANES]; /* face planes of a polyhedron with few faces */
+    pf_arena scratch; /* face triangulations of star-shaped cells and the planes of polyhedra
+                         with more faces, made on first use */
 } rule;
 
 static pf_status add_tet(rule *r, pf_vec3 v0, pf_vec3 v1, pf_vec3 v2, pf_vec3 v3, pf_error *err)
@@ -138,12 +140,16 @@ static pf_status reserve_scratch(rule *r, size_t bytes, pf_error *err)
     return pf_arena_init(&r->scratch, 2 * bytes, err);
 }
 
-/* The outward unit-normal planes of p's faces, in scratch; a degenerate face gets a zero normal
- * (every point then lies on it at distance -d = 0, never beyond it or violating it). */
+/* The outward unit-normal planes of p's faces (in r->planes, or in scratch for more than
+ * MAX_LOCAL_PLANES faces: no allocation for the usual cell); a degenerate face gets a zero
+ * normal (every point then lies on it at distance -d = 0, never beyond it or violating it). */
 static pf_status face_planes(rule *r, const pf_polyhedron *p, pf_plane **out, pf_error *err)
 {
-    PF_TRY(reserve_scratch(r, (size_t)p->n_faces * sizeof **out + 64, err));
-    pf_plane *pl = pf_arena_push(&r->scratch, (size_t)p->n_faces, sizeof *pl);
+    pf_plane *pl = r->planes;
+    if (p->n_faces > MAX_LOCAL_PLANES) {
+        PF_TRY(reserve_scratch(r, (size_t)p->n_faces * sizeof *pl + 64, err));
+        pl = pf_arena_push(&r->scratch, (size_t)p->n_faces, sizeof *pl);
+    }
     for (int32_t f = 0; f < p->n_faces; ++f) {
         const uint32_t *idx = p->face_nodes + p->face_offsets[f];
         int64_t n = p->face_offsets[f + 1] - p->face_offsets[f];

@@ -10,10 +10,10 @@
  *
  * sweep: a unit cube of 6^3 hexes, DG degree 1, corotated, 4 steps. "obstacle": its boundary
  * nodes against a sphere mesh obstacle (radius 2) of 360 .. 400k triangles whose top cap the
- * cube's bottom already presses 0.03 deep; "surface": the vertices of an embedded sphere of 1k .. 200k vertices (MLS
- * weights) against a plane obstacle its bottom presses. scene: a sphere surface of the given
- * vertex count voxelized at 16 cells (about 2k hexes), MLS weights, on a ground plane 0.2 % of
- * its size above its lowest point, 3 steps. */
+ * cube's bottom already presses 0.03 deep; "surface": the vertices of an embedded sphere of 1k ..
+ * 200k vertices (MLS weights) against a plane obstacle its bottom presses. scene: a sphere surface
+ * of the given vertex count voxelized at 16 cells (about 2k hexes), MLS weights, on a ground plane
+ * 0.2 % of its size above its lowest point, 3 steps. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,8 +38,8 @@ static void base_scene(pf_scene *sc, int substeps)
 }
 
 /* One frame of the scene; per-step stats out. */
-static pf_status run(const pf_scene *sc, const pf_mesh *m, const pf_surface *s,
-                     const pf_weights *w, pf_sim_stats *out, pf_error *err)
+static pf_status run(const pf_scene *sc, const pf_mesh *m, const pf_surface *s, const pf_weights *w,
+                     pf_sim_stats *out, pf_error *err)
 {
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, sc, m, s, w, err));
@@ -149,14 +149,13 @@ static int scene(long vertices)
     pf_sim_stats st;
     if (run(&sc, &m, &s, &w, &st, &err) < 0)
         return fail(&err);
-    printf("elements,unknowns,vertices,steps,contacts_per_step,setup_s,growths,solve_ms,"
+    printf("elements,unknowns,vertices,steps,contacts_per_step,setup_s,factorisations,solve_ms,"
            "assemble_ms,contact_ms,embed_ms,embed_weights_s\n");
     double k = 1e3 / (double)st.steps;
     printf("%d,%lld,%d,%lld,%.1f,%.3f,%d,%.2f,%.2f,%.3f,%.3f,%.3f\n", (int)m.n_elems,
-           (long long)st.dofs, (int)s.n_verts, (long long)st.steps,
-           (double)st.contacts / st.steps, st.setup_seconds, (int)st.pattern_growths,
-           k * (st.factor_seconds + st.solve_seconds), k * st.assemble_seconds,
-           k * st.contact_seconds, k * st.embed_seconds, es.seconds);
+           (long long)st.dofs, (int)s.n_verts, (long long)st.steps, (double)st.contacts / st.steps,
+           st.setup_seconds, (int)st.factorisations, k * (st.factor_seconds + st.solve_seconds),
+           k * st.assemble_seconds, k * st.contact_seconds, k * st.embed_seconds, es.seconds);
     pf_scene_release(&sc);
     pf_weights_release(&w);
     pf_mesh_release(&m);

@@ -253,7 +253,7 @@ static const bad_case bad_cases[] = {
      "corotation, mass, edge_samples)"},
     {"{\"gravty\": [0, 0, 0]}", PF_ERR_INVALID,
      "scene.json: gravty: unknown key (expected one of: material, method, corotation, gravity, "
-     "body_force, damping, fixed, loads, ground, obstacles, time, static)"},
+     "body_force, damping, fixed, loads, ground, obstacles, time, static, solver)"},
     {"{\"fixed\": [{\"box\": [[0,0,0],[1,1,1]]}, {\"plane\": {\"point\": [0,0,0], "
      "\"normal\": [1,0,0], \"tolerance\": 1}}]}",
      PF_ERR_INVALID,
@@ -421,7 +421,7 @@ static void test_nul_byte_and_unterminated_buffer(void **state)
     assert_int_equal(parse(&s, "\xEF\xBB\xBF{\"frames\": 1}", &err), PF_ERR_INVALID);
     assert_string_equal(err.msg, "scene.json: frames: unknown key (expected one of: material, "
                                  "method, corotation, gravity, body_force, damping, fixed, loads, "
-                                 "ground, obstacles, time, static)");
+                                 "ground, obstacles, time, static, solver)");
     pf_scene_release(&s);
     assert_int_equal(parse(&s, "\xEF\xBB\xBF{\"time\": {\"frames\": 1}}", &err), PF_OK);
     assert_int_equal(s.frames, 1);
@@ -633,7 +633,8 @@ static const override_case bad_overrides[] = {
     {"corotation", "1", "corotation: must be true or false, got '1'"},
     {"gravity", "0",
      "gravity: unknown scene option (expected one of: method, degree, flux, "
-     "mass, edge_samples, frames, dt, static, E, nu, density, penalty, substeps, corotation)"},
+     "mass, edge_samples, frames, dt, static, E, nu, density, penalty, substeps, corotation, "
+     "solver, tolerance)"},
 };
 
 static void test_overrides(void **state)

@@ -31,6 +31,10 @@ static const char USAGE[] =
     "  --frames N --dt SECONDS --substeps N     time (dt is the time between frames)\n"
     "  --static           solve K u = f once and write one frame\n"
     "  --no-corotation    linear elasticity (corotation is on by default)\n"
+    "  --solver auto|direct|pcg   linear solves: direct refactorises whenever the matrix\n"
+    "                     changes; pcg iterates on the last factor and refactorises when that\n"
+    "                     pays; auto (default) picks pcg where the matrix changes\n"
+    "  --tolerance TOL    pcg: residual relative to the right-hand side (default 1e-10)\n"
     "Other options:\n"
     "  --input FILE       read the stream from FILE instead of stdin\n"
     "  --quiet            no progress or summary on stderr\n"
@@ -54,6 +58,8 @@ enum {
     OPT_SUBSTEPS,
     OPT_STATIC,
     OPT_NO_COROTATION,
+    OPT_SOLVER,
+    OPT_TOLERANCE,
     OPT_INPUT,
     OPT_QUIET
 };
@@ -107,6 +113,10 @@ static const char *override_key(int id)
         return "static";
     case OPT_NO_COROTATION:
         return "corotation";
+    case OPT_SOLVER:
+        return "solver";
+    case OPT_TOLERANCE:
+        return "tolerance";
     default:
         return NULL;
     }
@@ -128,6 +138,8 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"substeps", true, OPT_SUBSTEPS},
                                             {"static", false, OPT_STATIC},
                                             {"no-corotation", false, OPT_NO_COROTATION},
+                                            {"solver", true, OPT_SOLVER},
+                                            {"tolerance", true, OPT_TOLERANCE},
                                             {"input", true, OPT_INPUT},
                                             {"quiet", false, OPT_QUIET},
                                             {NULL, false, 0}};
@@ -232,6 +244,28 @@ static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error 
     return st;
 }
 
+/* The solver line: method, factorisations by reason, PCG iterations, CPU beside wall seconds. */
+static void print_solver_summary(const pf_solver_stats *ss)
+{
+    fprintf(stderr, "pf-sim: solver %s: %lld solves, %lld factorisations (",
+            pf_solver_method_name(ss->method), (long long)ss->solves,
+            (long long)ss->factorisations);
+    const char *sep = "";
+    for (int k = 0; k < PF_REFACTOR_REASONS; ++k)
+        if (ss->by_reason[k]) {
+            fprintf(stderr, "%s%lld %s", sep, (long long)ss->by_reason[k],
+                    pf_refactor_reason_name((pf_refactor_reason)k));
+            sep = ", ";
+        }
+    fprintf(stderr,
+            "), pcg %lld solves, %.1f iterations mean, %d max; factor %.3f s wall / %.3f s cpu, "
+            "solves %.3f s wall / %.3f s cpu; a factorisation costs %.0f iterations\n",
+            (long long)ss->pcg_solves,
+            ss->pcg_solves ? (double)ss->iterations / (double)ss->pcg_solves : 0.0,
+            (int)ss->max_iterations, ss->factor_seconds, ss->factor_cpu_seconds, ss->solve_seconds,
+            ss->solve_cpu_seconds, ss->factor_iterations);
+}
+
 static void print_summary(const run *r, const pf_sim *sim)
 {
     const pf_sim_stats *st = pf_sim_get_stats(sim);
@@ -254,6 +288,7 @@ static void print_summary(const run *r, const pf_sim *sim)
             (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
             r->embedded ? "surface vertices" : "nodes", (long long)st->contacts,
             st->contact_seconds, st->embed_seconds);
+    print_solver_summary(&st->solver);
 }
 
 /* The frames: one for a static scene, the rest state and scene->frames more otherwise. */

@@ -81,7 +81,10 @@ void pf_free(void *p)
     free(block);
 }
 
-int64_t pf_alloc_live_bytes(void) { return atomic_load(&live_bytes); }
+int64_t pf_alloc_live_bytes(void)
+{
+    return atomic_load(&live_bytes);
+}
 
 pf_status pf_arena_init(pf_arena *a, size_t capacity, pf_error *err)
 {
@@ -148,5 +151,12 @@ double pf_time_seconds(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+double pf_cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }

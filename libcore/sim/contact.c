@@ -8,12 +8,16 @@
  * mat-vec); the narrow phase, the only part whose cost depends on the obstacles, follows the
  * number of points near them. Mesh obstacles answer closest-point queries through Embree.
  *
- * Assembly: the penalties are summed at node level first, C = sum_p k (w_p w_p^T) (x) n n^T and
- * F = sum_p k g w_p n, and only then mapped to the unknowns through the method's nodal map, S^T C S
- * and S^T F (DG paper sec. 8, K_ij = W_i A W_j with W = w S): contacts sharing nodes, as the
- * vertices of a fine surface do, share that work. The matrix pattern holds the couplings of the
- * points that have come near an obstacle only; it grows (and is analysed again) when new ones
- * touch, so a body touching the ground at one end pays fill there alone. */
+ * Rows (contact.h): a boundary node moves with its element's own field (b = point_row), a
+ * surface vertex by beta = W S, its embedding row through the stitching (eq. 32), which reaches
+ * some sixty nodes and, through DG's stitching, hundreds of unknowns. The forces and the
+ * predicted positions use beta; the step's matrix gets the vertex's stiffness through the compact
+ * row b of the element it lies in (point_row: exact for every affine motion) instead of beta:
+ * beta's term would couple all its unknowns pairwise and densify the factor (18x the fill on
+ * the demo scene), b's couples one element's unknowns, which the pattern has. The step then
+ * linearises the exact penalty force with a stiffness that agrees with it on every affine
+ * motion of the body (all that a penalty layer resolves), so resting states are exact and the
+ * matrix keeps the method's pattern, analysed once. */
 #include "contact.h"
 
 #include <math.h>
@@ -26,65 +30,62 @@ enum { CHUNK = 32 };
 typedef struct shape {
     const pf_obstacle *o; /* NULL: the ground */
     pf_obstacle_kind kind;
-    pf_vec3 n;            /* plane: unit normal */
-    double d;             /* plane: n . x = d at rest */
-    pf_vec3 lo, hi;       /* sphere, box, mesh: bounds at rest */
-    double stiffness;     /* per point */
-    double depth;         /* mesh: deepest penetration looked for */
-    pf_rayscene *rs;      /* mesh */
+    pf_vec3 n;        /* plane: unit normal */
+    double d;         /* plane: n . x = d at rest */
+    pf_vec3 lo, hi;   /* sphere, box, mesh: bounds at rest */
+    double stiffness; /* per point */
+    double depth;     /* mesh: deepest penetration looked for */
+    pf_rayscene *rs;  /* mesh */
 } shape;
 
 struct pf_contact {
     const pf_mesh *mesh;
     int64_t n_triples;
-    const int64_t *map_offsets, *map_triple;
-    const double *map_w;
-    /* points: rest positions x0 [3 np] and rows into the nodes (offsets [np + 1], node, w) */
+    /* points: rest positions x0 [3 np], the element each moves with, its share of the penalty
+     * (a node of DG splits it among its elements, method.h); sources: the nodes or surface
+     * vertices they stand for */
     int32_t np;
     double *x0;
-    int64_t *row_offsets;
-    int32_t *row_node;
-    double *row_w;
-    int32_t *order;       /* [np] points along the Morton curve */
+    int32_t *point_elem;
+    double *share;
+    int32_t sources;
+    /* surface vertices: their WGHT rows (borrowed) and the method's nodal map S, with node-level
+     * scratch: S (u + h v) or S u, and the forces before S^T */
+    const pf_weights *weights;
+    const int64_t *map_offsets, *map_triple;
+    const double *map_w;
+    double *node_u, *node_f;
+    int32_t *order; /* [np] points along the Morton curve */
     int32_t n_shapes;
     shape *shapes;
-    pf_vec3 *shift;       /* [n_shapes] each shape's translation at the end of the step */
-    pf_vec3 *velocity;    /* [n_shapes] and its velocity over the step */
-    int32_t *triple_block; /* [n_triples] the matrix block of each triple (from the pattern) */
+    pf_vec3 *shift;        /* [n_shapes] each shape's translation at the end of the step */
+    pf_vec3 *velocity;     /* [n_shapes] and its velocity over the step */
+    int32_t *triple_block; /* [n_triples] the matrix block of each triple */
     /* per-step scratch, allocated once */
-    double *pred;         /* [3 n_triples] u + h v */
-    double *node_u;       /* [3 n_nodes] S (u + h v) */
-    double *pos;          /* [3 np] predicted positions */
-    int64_t max_row;      /* the longest combination of triples of one point */
-    /* The node-level penalty C = sum_p k (w_p w_p^T) (x) n n^T over the contacts, one 3 x 3 block
-     * per pair of nodes i <= j sharing a point row (np_offsets [n_nodes + 1], np_col, c_val
-     * [9 pairs]), the pairs touched this step listed in used; and the node-level force. The
-     * penalty on the unknowns is then S^T C S and S^T F (S the nodal map). */
-    int64_t *np_offsets;
-    int32_t *np_col;
-    double *c_val;
-    uint8_t *c_used;
-    int64_t *used;
-    int64_t n_used;
-    double *node_f;       /* [3 n_nodes] */
-    double damping_beta;  /* Rayleigh beta: damps contact relative to the obstacle's motion */
-    /* the contacts found by pf_contact_detect: point, outward normal, right-hand side gap;
-     * capacity np x n_shapes */
-    int32_t *hit_point;
+    double *pos; /* [3 np] predicted positions */
+    /* every point's compact row (method.h, point_row), triples ascending: crow_offsets [np + 1],
+     * crow_triple, crow_w */
+    int64_t *crow_offsets;
+    int64_t *crow_triple;
+    double *crow_w;
+    double damping_beta; /* Rayleigh beta: damps contact relative to the obstacle's motion */
+    /* the contacts found by pf_contact_detect: shape << 32 | point, outward normal, right-hand
+     * side gap; capacity np x n_shapes; prev_hit: the previous detection's, and whether the set
+     * differs from it */
+    int64_t *hit_point;
+    int64_t *prev_hit;
+    bool set_changed;
+    double power; /* of the last forces on the body, through the obstacles' velocities */
     pf_vec3 *hit_normal;
     double *hit_gap;
     double *hit_k;
     int64_t n_hits;
-    /* points whose couplings are in the matrix pattern, and those to add at the next growth */
-    uint8_t *in_pattern;
-    bool grow;
     pf_contact_stats stats;
 };
 
 /* ---- set-up ------------------------------------------------------------------------------ */
 
-static pf_status count_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count,
-                                      pf_error *err);
+static pf_status count_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count, pf_error *err);
 
 static pf_status make_shapes(pf_contact *c, const pf_contact_setup *s, pf_error *err)
 {
@@ -92,7 +93,8 @@ static pf_status make_shapes(pf_contact *c, const pf_contact_setup *s, pf_error 
     c->shapes = pf_calloc((size_t)sc->n_obstacles + 1, sizeof *c->shapes);
     c->shift = pf_calloc((size_t)sc->n_obstacles + 1, sizeof *c->shift);
     c->velocity = pf_calloc((size_t)sc->n_obstacles + 1, sizeof *c->velocity);
-    PF_CHECK(c->shapes && c->shift && c->velocity, err, PF_ERR_NOMEM, "cannot allocate %d obstacles", (int)sc->n_obstacles);
+    PF_CHECK(c->shapes && c->shift && c->velocity, err, PF_ERR_NOMEM,
+             "cannot allocate %d obstacles", (int)sc->n_obstacles);
     /* the automatic stiffness spreads the nodal total over the points */
     double points_per_node = 1;
     if (s->weights) {
@@ -152,8 +154,7 @@ static pf_status make_shapes(pf_contact *c, const pf_contact_setup *s, pf_error 
 }
 
 /* Flags the nodes of boundary faces (on [n_nodes], may be NULL) and counts them. */
-static pf_status count_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count,
-                                      pf_error *err)
+static pf_status count_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count, pf_error *err)
 {
     pf_boundary b = {0};
     PF_TRY(pf_boundary_extract(m, &b, err));
@@ -174,65 +175,85 @@ static pf_status count_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *co
     return PF_OK;
 }
 
-/* Points: the boundary nodes (each its own row), or the surface vertices (the WGHT rows). */
-static pf_status make_points(pf_contact *c, const pf_contact_setup *s, pf_error *err)
+static pf_status allocate_points(pf_contact *c, int32_t np, pf_error *err)
 {
-    const pf_mesh *m = s->mesh;
-    if (s->weights) {
-        const pf_weights *w = s->weights;
-        PF_CHECK(s->surface && w->rows == s->surface->n_verts && w->cols == m->n_nodes, err,
-                 PF_ERR_INVALID,
-                 "embedding weights of %d x %d do not fit a surface of %d vertices on a mesh of "
-                 "%d nodes",
-                 (int)w->rows, (int)w->cols, s->surface ? (int)s->surface->n_verts : 0,
-                 (int)m->n_nodes);
-        c->np = w->rows;
-        int64_t nnz = w->row_offsets[w->rows];
-        c->x0 = pf_alloc_array(3 * (size_t)c->np + 1, sizeof *c->x0);
-        c->row_offsets = pf_alloc_array((size_t)c->np + 1, sizeof *c->row_offsets);
-        c->row_node = pf_alloc_array((size_t)nnz + 1, sizeof *c->row_node);
-        c->row_w = pf_alloc_array((size_t)nnz + 1, sizeof *c->row_w);
-        PF_CHECK(c->x0 && c->row_offsets && c->row_node && c->row_w, err, PF_ERR_NOMEM,
-                 "cannot allocate %d contact points", (int)c->np);
-        memcpy(c->x0, s->surface->x, 3 * (size_t)c->np * sizeof *c->x0);
-        memcpy(c->row_offsets, w->row_offsets, ((size_t)c->np + 1) * sizeof *c->row_offsets);
-        for (int64_t q = 0; q < nnz; ++q) {
-            c->row_node[q] = (int32_t)w->col[q];
-            c->row_w[q] = w->val[q];
-        }
-        return PF_OK;
-    }
-    uint8_t *on = pf_calloc((size_t)m->n_nodes + 1, 1);
-    PF_CHECK(on, err, PF_ERR_NOMEM, "cannot allocate node flags");
-    int32_t np = 0;
-    pf_status st = count_boundary_nodes(m, on, &np, err);
-    if (st < 0) {
-        pf_free(on);
-        return st;
-    }
     c->np = np;
     c->x0 = pf_alloc_array(3 * (size_t)np + 1, sizeof *c->x0);
-    c->row_offsets = pf_alloc_array((size_t)np + 1, sizeof *c->row_offsets);
-    c->row_node = pf_alloc_array((size_t)np + 1, sizeof *c->row_node);
-    c->row_w = pf_alloc_array((size_t)np + 1, sizeof *c->row_w);
-    if (!c->x0 || !c->row_offsets || !c->row_node || !c->row_w) {
-        pf_free(on);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                            "cannot allocate %d contact points", (int)np);
+    c->point_elem = pf_alloc_array((size_t)np + 1, sizeof *c->point_elem);
+    c->share = pf_alloc_array((size_t)np + 1, sizeof *c->share);
+    PF_CHECK(c->x0 && c->point_elem && c->share, err, PF_ERR_NOMEM,
+             "cannot allocate %d contact points", (int)np);
+    return PF_OK;
+}
+
+/* The surface vertices: each moves with an element using its largest-weight node (the element
+ * it lies in, or a neighbour of it: the compact row is exact for affine motions either way). */
+static pf_status surface_points(pf_contact *c, const pf_contact_setup *s, pf_error *err)
+{
+    const pf_weights *w = s->weights;
+    const pf_mesh *m = s->mesh;
+    PF_CHECK(
+        s->surface && w->rows == s->surface->n_verts && w->cols == m->n_nodes, err, PF_ERR_INVALID,
+        "embedding weights of %d x %d do not fit a surface of %d vertices on a mesh of "
+        "%d nodes",
+        (int)w->rows, (int)w->cols, s->surface ? (int)s->surface->n_verts : 0, (int)m->n_nodes);
+    PF_TRY(allocate_points(c, w->rows, err));
+    memcpy(c->x0, s->surface->x, 3 * (size_t)c->np * sizeof *c->x0);
+    c->weights = w;
+    s->ops->nodal_map(s->method, &c->map_offsets, &c->map_triple, &c->map_w);
+    size_t nn = 3 * (size_t)m->n_nodes + 1;
+    c->node_u = pf_alloc_array(nn, sizeof *c->node_u);
+    c->node_f = pf_calloc(nn, sizeof *c->node_f);
+    PF_CHECK(c->node_u && c->node_f, err, PF_ERR_NOMEM, "cannot allocate contact scratch");
+    for (int32_t p = 0; p < c->np; ++p) {
+        int64_t dominant = -1;
+        double best = -1;
+        for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q)
+            if (fabs(w->val[q]) > best)
+                best = fabs(w->val[q]), dominant = w->col[q];
+        const int32_t *elems = NULL;
+        int32_t n = dominant >= 0 ? s->ops->node_elements(s->method, (int32_t)dominant, &elems) : 0;
+        c->point_elem[p] = n > 0 ? elems[0] : -1;
+        c->share[p] = 1;
     }
+    c->sources = c->np;
+    return PF_OK;
+}
+
+/* The boundary nodes: one point per element moving a node's contact, each with its share. */
+static pf_status node_points(pf_contact *c, const pf_contact_setup *s, pf_error *err)
+{
+    const pf_mesh *m = s->mesh;
+    uint8_t *on = pf_calloc((size_t)m->n_nodes + 1, 1);
+    PF_CHECK(on, err, PF_ERR_NOMEM, "cannot allocate node flags");
+    int32_t nodes = 0;
+    pf_status st = count_boundary_nodes(m, on, &nodes, err);
+    int64_t np = 0;
+    for (int32_t i = 0; st >= 0 && i < m->n_nodes; ++i)
+        if (on[i]) {
+            const int32_t *elems;
+            np += s->ops->node_elements(s->method, i, &elems);
+        }
+    if (st >= 0 && np > INT32_MAX)
+        st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
+                          "%lld contact points are too many", (long long)np);
+    if (st >= 0)
+        st = allocate_points(c, (int32_t)np, err);
     int32_t p = 0;
-    c->row_offsets[0] = 0;
-    for (int32_t i = 0; i < m->n_nodes; ++i) {
+    for (int32_t i = 0; st >= 0 && i < m->n_nodes; ++i) {
         if (!on[i])
             continue;
-        memcpy(c->x0 + 3 * (size_t)p, m->x + 3 * (size_t)i, 3 * sizeof *c->x0);
-        c->row_node[p] = i;
-        c->row_w[p] = 1;
-        c->row_offsets[p + 1] = p + 1;
-        ++p;
+        const int32_t *elems;
+        int32_t n = s->ops->node_elements(s->method, i, &elems);
+        for (int32_t k = 0; k < n; ++k, ++p) {
+            memcpy(c->x0 + 3 * (size_t)p, m->x + 3 * (size_t)i, 3 * sizeof *c->x0);
+            c->point_elem[p] = elems[k];
+            c->share[p] = 1.0 / n;
+        }
     }
+    c->sources = nodes;
     pf_free(on);
-    return PF_OK;
+    return st;
 }
 
 /* Spreads the low 10 bits of v to every third bit. */
@@ -289,89 +310,35 @@ static pf_status order_points(pf_contact *c, pf_error *err)
     return PF_OK;
 }
 
-/* The longest combination of triples any point can have (its nodes' map rows together). */
-static int64_t longest_row(const pf_contact *c)
+/* Every point's compact row, triples sorted ascending (for the pairs of pf_contact_add_compact). */
+static pf_status compact_rows(pf_contact *c, const pf_contact_setup *s, pf_error *err)
 {
-    int64_t longest = 0;
+    int32_t longest = s->ops->max_point_row(s->method);
+    size_t cap = (size_t)c->np * (size_t)longest + 1;
+    c->crow_offsets = pf_calloc((size_t)c->np + 1, sizeof *c->crow_offsets);
+    c->crow_triple = pf_alloc_array(cap, sizeof *c->crow_triple);
+    c->crow_w = pf_alloc_array(cap, sizeof *c->crow_w);
+    PF_CHECK(c->crow_offsets && c->crow_triple && c->crow_w, err, PF_ERR_NOMEM,
+             "cannot allocate the compact rows of %d contact points", (int)c->np);
+    int64_t q = 0;
     for (int32_t p = 0; p < c->np; ++p) {
-        int64_t n = 0;
-        for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q) {
-            int32_t i = c->row_node[q];
-            n += c->map_offsets[i + 1] - c->map_offsets[i];
-        }
-        longest = n > longest ? n : longest;
-    }
-    return longest;
-}
-
-static int compare_i32(const void *pa, const void *pb)
-{
-    int32_t a = *(const int32_t *)pa, b = *(const int32_t *)pb;
-    return (a > b) - (a < b);
-}
-
-/* The pairs of nodes i <= j that share a point's row: node -> points, then per node i the
- * nodes j >= i of its points' rows, each once (stamp), sorted for the binary search. */
-static pf_status node_pairs(pf_contact *c, pf_error *err)
-{
-    int32_t nn = c->mesh->n_nodes;
-    int64_t nnz = c->row_offsets[c->np];
-    int64_t *inv_offsets = pf_calloc((size_t)nn + 2, sizeof *inv_offsets);
-    int32_t *inv = pf_alloc_array((size_t)nnz + 1, sizeof *inv);
-    int32_t *stamp = pf_alloc_array((size_t)nn + 1, sizeof *stamp);
-    c->np_offsets = pf_calloc((size_t)nn + 1, sizeof *c->np_offsets);
-    pf_status st = PF_OK;
-    if (!inv_offsets || !inv || !stamp || !c->np_offsets) {
-        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate node pairs");
-        goto done;
-    }
-    for (int64_t q = 0; q < nnz; ++q)
-        inv_offsets[c->row_node[q] + 2]++;
-    for (int32_t i = 0; i < nn; ++i)
-        inv_offsets[i + 2] += inv_offsets[i + 1];
-    for (int32_t p = 0; p < c->np; ++p)
-        for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q)
-            inv[inv_offsets[c->row_node[q] + 1]++] = p;
-    for (int pass = 0; pass < 2; ++pass) {
-        for (int32_t i = 0; i < nn; ++i)
-            stamp[i] = -1;
-        int64_t w = 0;
-        for (int32_t i = 0; i < nn; ++i) {
-            int64_t first = w;
-            for (int64_t q = inv_offsets[i]; q < inv_offsets[i + 1]; ++q) {
-                int32_t p = inv[q];
-                for (int64_t r = c->row_offsets[p]; r < c->row_offsets[p + 1]; ++r) {
-                    int32_t j = c->row_node[r];
-                    if (j < i || stamp[j] == i)
-                        continue;
-                    stamp[j] = i;
-                    if (pass == 1)
-                        c->np_col[w] = j;
-                    ++w;
-                }
+        int32_t e = c->point_elem[p];
+        int32_t n = e >= 0 ? s->ops->point_row(s->method, e, pf_v3_load(c->x0 + 3 * (size_t)p),
+                                               c->crow_triple + q, c->crow_w + q)
+                           : 0;
+        for (int64_t x = q + 1; x < q + n; ++x) /* insertion sort: a few dozen entries */
+            for (int64_t y = x; y > q && c->crow_triple[y - 1] > c->crow_triple[y]; --y) {
+                int64_t t = c->crow_triple[y];
+                c->crow_triple[y] = c->crow_triple[y - 1];
+                c->crow_triple[y - 1] = t;
+                double w = c->crow_w[y];
+                c->crow_w[y] = c->crow_w[y - 1];
+                c->crow_w[y - 1] = w;
             }
-            if (pass == 0)
-                c->np_offsets[i + 1] = w;
-            else
-                qsort(c->np_col + first, (size_t)(w - first), sizeof *c->np_col, compare_i32);
-        }
-        if (pass == 0) {
-            c->np_col = pf_alloc_array((size_t)w + 1, sizeof *c->np_col);
-            c->c_val = pf_calloc(9 * (size_t)w + 1, sizeof *c->c_val);
-            c->c_used = pf_calloc((size_t)w + 1, 1);
-            c->used = pf_alloc_array((size_t)w + 1, sizeof *c->used);
-            if (!c->np_col || !c->c_val || !c->c_used || !c->used) {
-                st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                                  "cannot allocate %lld node pairs", (long long)w);
-                goto done;
-            }
-        }
+        q += n;
+        c->crow_offsets[p + 1] = q;
     }
-done:
-    pf_free(inv_offsets);
-    pf_free(inv);
-    pf_free(stamp);
-    return st;
+    return PF_OK;
 }
 
 pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_error *err)
@@ -383,36 +350,29 @@ pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_erro
     PF_CHECK(c, err, PF_ERR_NOMEM, "cannot allocate contact");
     c->mesh = s->mesh;
     c->n_triples = s->n_triples;
-    c->map_offsets = s->map_offsets;
-    c->map_triple = s->map_triple;
-    c->map_w = s->map_w;
-    pf_status st = make_points(c, s, err);
+    pf_status st = s->weights ? surface_points(c, s, err) : node_points(c, s, err);
     if (st >= 0)
         st = make_shapes(c, s, err);
     if (st >= 0)
         st = order_points(c, err);
     if (st >= 0) {
         size_t nt = (size_t)c->n_triples + 1;
-        c->max_row = longest_row(c);
-        c->pred = pf_alloc_array(3 * nt, sizeof *c->pred);
-        c->node_u = pf_alloc_array(3 * (size_t)s->mesh->n_nodes + 1, sizeof *c->node_u);
         c->pos = pf_alloc_array(3 * (size_t)c->np + 1, sizeof *c->pos);
-        c->node_f = pf_calloc(3 * (size_t)s->mesh->n_nodes + 1, sizeof *c->node_f);
         c->triple_block = pf_calloc(nt, sizeof *c->triple_block);
         size_t cap = (size_t)c->np * (size_t)c->n_shapes + 1;
         c->hit_point = pf_alloc_array(cap, sizeof *c->hit_point);
+        c->prev_hit = pf_alloc_array(cap, sizeof *c->prev_hit);
         c->hit_normal = pf_alloc_array(cap, sizeof *c->hit_normal);
         c->hit_gap = pf_alloc_array(cap, sizeof *c->hit_gap);
         c->hit_k = pf_alloc_array(cap, sizeof *c->hit_k);
-        c->in_pattern = pf_calloc((size_t)c->np + 1, 1);
-        if (!c->pred || !c->node_u || !c->pos || !c->node_f || !c->triple_block ||
-            !c->hit_point || !c->hit_normal || !c->hit_gap || !c->hit_k || !c->in_pattern)
+        if (!c->pos || !c->triple_block || !c->hit_point || !c->prev_hit || !c->hit_normal ||
+            !c->hit_gap || !c->hit_k)
             st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                               "cannot allocate contact scratch for %lld unknowns",
                               (long long)(3 * c->n_triples));
     }
     if (st >= 0)
-        st = node_pairs(c, err);
+        st = compact_rows(c, s, err);
     if (st < 0) {
         pf_contact_destroy(&c);
         return st;
@@ -421,7 +381,7 @@ pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_erro
     for (int32_t b = 0; b < s->n_blocks; ++b)
         for (int64_t u = s->block_start[b]; u < s->block_start[b + 1]; u += 3)
             c->triple_block[u / 3] = b;
-    c->stats.points = c->np;
+    c->stats.points = c->sources;
     *out = c;
     return PF_OK;
 }
@@ -436,150 +396,14 @@ void pf_contact_destroy(pf_contact **cp)
     pf_free(c->shapes);
     pf_free(c->shift);
     pf_free(c->velocity);
-    void *arrays[] = {c->x0, c->row_offsets, c->row_node, c->row_w, c->order,
-                      c->triple_block, c->pred, c->node_u, c->pos, c->np_offsets,
-                      c->np_col, c->c_val, c->c_used, c->used, c->node_f,
-                      c->hit_point, c->hit_normal, c->hit_gap, c->hit_k, c->in_pattern};
+    void *arrays[] = {c->x0,           c->point_elem, c->share,     c->order,
+                      c->triple_block, c->pos,        c->hit_point, c->prev_hit,
+                      c->hit_normal,   c->hit_gap,    c->hit_k,     c->crow_offsets,
+                      c->crow_triple,  c->crow_w,     c->node_u,    c->node_f};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
     pf_free(c);
     *cp = NULL;
-}
-
-/* ---- pattern ----------------------------------------------------------------------------- */
-
-/* The blocks of point p's combination into blocks[] (distinct, unsorted), with stamp[b] == tag
- * marking those seen; returns their number. */
-static int64_t point_blocks(const pf_contact *c, int32_t p, int32_t *stamp, int32_t tag,
-                            int32_t *blocks)
-{
-    int64_t n = 0;
-    for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q) {
-        int32_t i = c->row_node[q];
-        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r) {
-            int32_t b = c->triple_block[c->map_triple[r]];
-            if (stamp[b] != tag) {
-                stamp[b] = tag;
-                blocks[n++] = b;
-            }
-        }
-    }
-    return n;
-}
-
-bool pf_contact_needs_pattern(const pf_contact *c) { return c->grow; }
-
-pf_status pf_contact_grow_pattern(pf_contact *c, pf_block_matrix *k, pf_error *err)
-{
-    int32_t nb = k->n_blocks;
-    c->grow = false;
-    /* point -> blocks, then block -> points, then for each block j the blocks i < j that share
-     * a point with it, each once (stamp per j) */
-    size_t n = (size_t)nb + 1;
-    int32_t *stamp = pf_alloc_array(n, sizeof *stamp);
-    int32_t *blocks = pf_alloc_array((size_t)c->max_row + 1, sizeof *blocks);
-    int64_t *pb_offsets = pf_calloc((size_t)c->np + 1, sizeof *pb_offsets);
-    int64_t *inv_offsets = pf_calloc(n + 1, sizeof *inv_offsets);
-    int32_t *pb = NULL, *inv = NULL, *pairs = NULL, *size = NULL;
-    pf_status st = PF_OK;
-    if (!stamp || !blocks || !pb_offsets || !inv_offsets) {
-        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate the pattern");
-        goto done;
-    }
-    for (int32_t b = 0; b < nb; ++b)
-        stamp[b] = -1;
-    for (int32_t p = 0; p < c->np; ++p)
-        pb_offsets[p + 1] =
-            pb_offsets[p] + (c->in_pattern[p] ? point_blocks(c, p, stamp, p, blocks) : 0);
-    pb = pf_alloc_array((size_t)pb_offsets[c->np] + 1, sizeof *pb);
-    inv = pf_alloc_array((size_t)pb_offsets[c->np] + 1, sizeof *inv);
-    if (!pb || !inv) {
-        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate the pattern");
-        goto done;
-    }
-    for (int32_t b = 0; b < nb; ++b)
-        stamp[b] = -1;
-    for (int32_t p = 0; p < c->np; ++p) {
-        if (c->in_pattern[p])
-            point_blocks(c, p, stamp, p, pb + pb_offsets[p]);
-        for (int64_t q = pb_offsets[p]; q < pb_offsets[p + 1]; ++q)
-            inv_offsets[pb[q] + 1]++;
-    }
-    for (int32_t b = 0; b < nb; ++b)
-        inv_offsets[b + 1] += inv_offsets[b];
-    {
-        int64_t *fill = pf_alloc_array(n, sizeof *fill);
-        if (!fill) {
-            st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate the pattern");
-            goto done;
-        }
-        memcpy(fill, inv_offsets, n * sizeof *fill);
-        for (int32_t p = 0; p < c->np; ++p)
-            for (int64_t q = pb_offsets[p]; q < pb_offsets[p + 1]; ++q)
-                inv[fill[pb[q]]++] = p;
-        pf_free(fill);
-    }
-    /* two passes: count the pairs, then fill them after the existing ones */
-    int64_t existing = k->adj_offsets[nb] - nb, added = 0;
-    for (int pass = 0; pass < 2; ++pass) {
-        for (int32_t b = 0; b < nb; ++b)
-            stamp[b] = -1;
-        int64_t w = existing;
-        for (int32_t j = 0; j < nb; ++j) {
-            /* the pairs already in the pattern need not be repeated */
-            for (int64_t q = k->adj_offsets[j]; q < k->adj_offsets[j + 1]; ++q)
-                stamp[k->adj[q]] = j;
-            for (int64_t q = inv_offsets[j]; q < inv_offsets[j + 1]; ++q) {
-                int32_t p = inv[q];
-                for (int64_t r = pb_offsets[p]; r < pb_offsets[p + 1]; ++r) {
-                    int32_t i = pb[r];
-                    if (i >= j || stamp[i] == j)
-                        continue;
-                    stamp[i] = j;
-                    if (pass == 1) {
-                        pairs[2 * w] = i;
-                        pairs[2 * w + 1] = j;
-                    }
-                    ++w;
-                }
-            }
-        }
-        if (pass == 0) {
-            added = w - existing;
-            pairs = pf_alloc_array(2 * (size_t)(existing + added) + 2, sizeof *pairs);
-            size = pf_alloc_array(n, sizeof *size);
-            if (!pairs || !size) {
-                st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                                  "cannot allocate %lld block pairs",
-                                  (long long)(existing + added));
-                goto done;
-            }
-            int64_t e = 0;
-            for (int32_t j = 0; j < nb; ++j)
-                for (int64_t q = k->adj_offsets[j]; q < k->adj_offsets[j + 1]; ++q)
-                    if (k->adj[q] != j) {
-                        pairs[2 * e] = k->adj[q];
-                        pairs[2 * e + 1] = j;
-                        ++e;
-                    }
-            for (int32_t b = 0; b < nb; ++b)
-                size[b] = (int32_t)(k->block_start[b + 1] - k->block_start[b]);
-        }
-    }
-    if (added > 0) {
-        pf_block_matrix_release(k);
-        st = pf_block_matrix_create(k, nb, size, existing + added, pairs, err);
-    }
-done:
-    pf_free(stamp);
-    pf_free(blocks);
-    pf_free(pb_offsets);
-    pf_free(inv_offsets);
-    pf_free(pb);
-    pf_free(inv);
-    pf_free(pairs);
-    pf_free(size);
-    return st;
 }
 
 /* ---- narrow phase ------------------------------------------------------------------------ */
@@ -655,8 +479,8 @@ static bool box_meets(const shape *g, pf_vec3 t, pf_vec3 lo, pf_vec3 hi)
 {
     if (g->kind == PF_OBSTACLE_PLANE) {
         /* the corner lowest along n */
-        pf_vec3 low = pf_v3(g->n.x > 0 ? lo.x : hi.x, g->n.y > 0 ? lo.y : hi.y,
-                            g->n.z > 0 ? lo.z : hi.z);
+        pf_vec3 low =
+            pf_v3(g->n.x > 0 ? lo.x : hi.x, g->n.y > 0 ? lo.y : hi.y, g->n.z > 0 ? lo.z : hi.z);
         return pf_v3_dot(g->n, low) < g->d + pf_v3_dot(g->n, t);
     }
     pf_vec3 glo = pf_v3_add(g->lo, t), ghi = pf_v3_add(g->hi, t);
@@ -664,165 +488,41 @@ static bool box_meets(const shape *g, pf_vec3 t, pf_vec3 lo, pf_vec3 hi)
            hi.z >= glo.z;
 }
 
-/* ---- assembly ---------------------------------------------------------------------------- */
-
-/* C_ij += k w_i w_j n n^T for the node pairs of point p's row, F_i += k w_i g n (DG paper sec. 8,
- * at node level: the point's displacement is sum_i w_i (S u)_i). */
-static void add_point(pf_contact *c, int32_t p, double k, pf_vec3 normal, double g)
-{
-    const double nn[3] = {normal.x, normal.y, normal.z};
-    for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q) {
-        int32_t i = c->row_node[q];
-        double wi = k * c->row_w[q];
-        for (int r = 0; r < 3; ++r)
-            c->node_f[3 * (size_t)i + r] += wi * g * nn[r];
-        for (int64_t l = c->row_offsets[p]; l < c->row_offsets[p + 1]; ++l) {
-            int32_t j = c->row_node[l];
-            if (j < i)
-                continue;
-            /* the pair's slot: binary search in node i's sorted list */
-            int64_t lo = c->np_offsets[i], hi = c->np_offsets[i + 1] - 1;
-            while (lo < hi) {
-                int64_t mid = lo + (hi - lo) / 2;
-                if (c->np_col[mid] < j)
-                    lo = mid + 1;
-                else
-                    hi = mid;
-            }
-            double s = wi * c->row_w[l];
-            double *v = c->c_val + 9 * lo;
-            for (int r = 0; r < 3; ++r)
-                for (int cc = 0; cc < 3; ++cc)
-                    v[3 * r + cc] += s * nn[r] * nn[cc];
-            if (!c->c_used[lo]) {
-                c->c_used[lo] = 1;
-                c->used[c->n_used++] = lo;
-            }
-        }
-    }
-}
-
-/* Adds S_i^T C_ij S_j (and its transpose for i < j) to the upper triangle of k, straight into
- * the stored columns (pf_block_matrix: a block's rows start at adj_row within each column of the
- * column block); with i = j only the entries on or above the diagonal of the symmetric term. */
-static void add_node_pair(const pf_contact *c, int32_t i, int32_t j, const double *cij,
-                          pf_block_matrix *k)
-{
-    const int64_t *ti = c->map_triple + c->map_offsets[i];
-    const int64_t *tj = c->map_triple + c->map_offsets[j];
-    const double *wi = c->map_w + c->map_offsets[i], *wj = c->map_w + c->map_offsets[j];
-    int64_t ni = c->map_offsets[i + 1] - c->map_offsets[i];
-    int64_t nj = c->map_offsets[j + 1] - c->map_offsets[j];
-    for (int64_t a0 = 0; a0 < ni;) {
-        int32_t ba = c->triple_block[ti[a0]];
-        int64_t a1 = a0;
-        while (a1 < ni && c->triple_block[ti[a1]] == ba)
-            ++a1;
-        for (int64_t b0 = 0; b0 < nj;) {
-            int32_t bb = c->triple_block[tj[b0]];
-            int64_t b1 = b0;
-            while (b1 < nj && c->triple_block[tj[b1]] == bb)
-                ++b1;
-            int32_t bl = ba < bb ? ba : bb, bh = ba < bb ? bb : ba;
-            int64_t slot = i == j && ba > bb ? -1 : pf_block_matrix_slot(k, bl, bh);
-            if (slot >= 0) { /* always, with the grown pattern (or a mirrored i = j pair) */
-                int64_t off = k->adj_row[slot] - k->block_start[bl];
-                if (ba != bb) {
-                    /* rows from the lower block, columns from the higher: all above the
-                     * diagonal; C_ij itself, or transposed when i's triples are the columns */
-                    bool swap = ba > bb;
-                    const int64_t *tr = swap ? tj : ti, *tc = swap ? ti : tj;
-                    const double *wr = swap ? wj : wi, *wc = swap ? wi : wj;
-                    int64_t r0 = swap ? b0 : a0, r1 = swap ? b1 : a1;
-                    int64_t q0 = swap ? a0 : b0, q1 = swap ? a1 : b1;
-                    for (int64_t q = q0; q < q1; ++q)
-                        for (int cc = 0; cc < 3; ++cc) {
-                            int64_t col = k->col_ptr[3 * tc[q] + cc] + off;
-                            double cw[3];
-                            for (int r = 0; r < 3; ++r)
-                                cw[r] = wc[q] * (swap ? cij[3 * cc + r] : cij[3 * r + cc]);
-                            for (int64_t a = r0; a < r1; ++a) {
-                                double *v = k->val + col + 3 * tr[a];
-                                v[0] += wr[a] * cw[0];
-                                v[1] += wr[a] * cw[1];
-                                v[2] += wr[a] * cw[2];
-                            }
-                        }
-                } else {
-                    for (int64_t a = a0; a < a1; ++a)
-                        for (int64_t b = b0; b < b1; ++b) {
-                            double s = wi[a] * wj[b];
-                            for (int r = 0; r < 3; ++r)
-                                for (int cc = 0; cc < 3; ++cc) {
-                                    int64_t row = 3 * ti[a] + r, col = 3 * tj[b] + cc;
-                                    double v = s * cij[3 * r + cc];
-                                    if (i == j) {
-                                        if (row > col)
-                                            continue;
-                                    } else if (row == col) {
-                                        v *= 2; /* the term and its transpose meet */
-                                    }
-                                    int64_t lo = row < col ? row : col, hi = row < col ? col : row;
-                                    k->val[k->col_ptr[hi] + off + lo] += v;
-                                }
-                        }
-                }
-            }
-            b0 = b1;
-        }
-        a0 = a1;
-    }
-}
-
-/* The node-level terms of this step onto the unknowns (S^T C S, S^T F), then cleared. */
-static void scatter(pf_contact *c, pf_block_matrix *k, double *f)
+/* node_u = S (u + h v) (v NULL: S u). */
+static void stitch(pf_contact *c, const double *u, const double *v, double h)
 {
     for (int32_t i = 0; i < c->mesh->n_nodes; ++i) {
-        const double *fi = c->node_f + 3 * (size_t)i;
-        if (fi[0] == 0 && fi[1] == 0 && fi[2] == 0)
-            continue;
-        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r)
+        double s[3] = {0, 0, 0};
+        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r) {
+            const double *ut = u + 3 * c->map_triple[r], *vt = v ? v + 3 * c->map_triple[r] : NULL;
             for (int d = 0; d < 3; ++d)
-                f[3 * c->map_triple[r] + d] += c->map_w[r] * fi[d];
-    }
-    memset(c->node_f, 0, 3 * (size_t)c->mesh->n_nodes * sizeof *c->node_f);
-    for (int64_t u = 0; u < c->n_used; ++u) {
-        int64_t q = c->used[u];
-        /* the pair's first node: the row of q in np_offsets */
-        int64_t lo = 0, hi = c->mesh->n_nodes - 1;
-        while (lo < hi) {
-            int64_t mid = lo + (hi - lo + 1) / 2;
-            if (c->np_offsets[mid] <= q)
-                lo = mid;
-            else
-                hi = mid - 1;
+                s[d] += c->map_w[r] * (vt ? ut[d] + h * vt[d] : ut[d]);
         }
-        add_node_pair(c, (int32_t)lo, c->np_col[q], c->c_val + 9 * q, k);
-        memset(c->c_val + 9 * q, 0, 9 * sizeof *c->c_val);
-        c->c_used[q] = 0;
+        memcpy(c->node_u + 3 * (size_t)i, s, sizeof s);
     }
-    c->n_used = 0;
 }
 
 int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double *v, double h)
 {
     double t0 = pf_time_seconds();
-    /* predicted nodal displacements S (u + h v), then every point's predicted position */
-    for (int64_t q = 0; q < 3 * c->n_triples; ++q)
-        c->pred[q] = u[q] + h * v[q];
-    for (int32_t i = 0; i < c->mesh->n_nodes; ++i) {
-        double s[3] = {0, 0, 0};
-        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r)
-            for (int d = 0; d < 3; ++d)
-                s[d] += c->map_w[r] * c->pred[3 * c->map_triple[r] + d];
-        memcpy(c->node_u + 3 * (size_t)i, s, sizeof s);
-    }
+    /* every point's predicted position x0 + beta^T (u + h v) */
+    if (c->weights)
+        stitch(c, u, v, h);
     for (int32_t p = 0; p < c->np; ++p) {
-        double s[3] = {c->x0[3 * p], c->x0[3 * p + 1], c->x0[3 * p + 2]};
-        for (int64_t q = c->row_offsets[p]; q < c->row_offsets[p + 1]; ++q)
-            for (int d = 0; d < 3; ++d)
-                s[d] += c->row_w[q] * c->node_u[3 * (size_t)c->row_node[q] + d];
-        memcpy(c->pos + 3 * (size_t)p, s, sizeof s);
+        double x[3] = {c->x0[3 * p], c->x0[3 * p + 1], c->x0[3 * p + 2]};
+        if (c->weights) {
+            const pf_weights *w = c->weights;
+            for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q)
+                for (int d = 0; d < 3; ++d)
+                    x[d] += w->val[q] * c->node_u[3 * (size_t)w->col[q] + d];
+        } else {
+            for (int64_t q = c->crow_offsets[p]; q < c->crow_offsets[p + 1]; ++q) {
+                const double *ut = u + 3 * c->crow_triple[q], *vt = v + 3 * c->crow_triple[q];
+                for (int d = 0; d < 3; ++d)
+                    x[d] += c->crow_w[q] * (ut[d] + h * vt[d]);
+            }
+        }
+        memcpy(c->pos + 3 * (size_t)p, x, sizeof x);
     }
     double t1 = pf_time_seconds();
     c->stats.embed_seconds += t1 - t0;
@@ -831,11 +531,16 @@ int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double
         const pf_obstacle *o = c->shapes[g].o;
         c->shift[g] = o ? pf_obstacle_translation(o, t) : pf_v3(0, 0, 0);
         /* the mean velocity over the step */
-        c->velocity[g] = o && h > 0 ? pf_v3_scale(pf_v3_sub(c->shift[g],
-                                                            pf_obstacle_translation(o, t - h)),
-                                                  1 / h)
-                                    : pf_v3(0, 0, 0);
+        c->velocity[g] =
+            o && h > 0
+                ? pf_v3_scale(pf_v3_sub(c->shift[g], pf_obstacle_translation(o, t - h)), 1 / h)
+                : pf_v3(0, 0, 0);
     }
+    /* the last step's contacts, to tell whether the set changed */
+    int64_t *swap = c->prev_hit;
+    c->prev_hit = c->hit_point;
+    c->hit_point = swap;
+    int64_t prev_hits = c->n_hits;
     c->n_hits = 0;
     for (int32_t c0 = 0; c0 < c->np; c0 += CHUNK) {
         int32_t c1 = c0 + CHUNK < c->np ? c0 + CHUNK : c->np;
@@ -849,10 +554,8 @@ int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double
             const shape *sh = &c->shapes[g];
             if (!box_meets(sh, c->shift[g], lo, hi))
                 continue;
-            bool chunk_in_pattern = true;
             for (int32_t q = c0; q < c1; ++q) {
                 int32_t p = c->order[q];
-                chunk_in_pattern &= c->in_pattern[p] != 0;
                 pf_vec3 x = pf_v3_load(c->pos + 3 * (size_t)p), at, n;
                 if (!penetrates(sh, c->shift[g], x, &at, &n))
                     continue;
@@ -860,33 +563,120 @@ int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double
                  * with the Rayleigh damping beta K the driver applies to it made relative to
                  * the obstacle's velocity */
                 int64_t e = c->n_hits++;
-                c->hit_point[e] = p;
+                c->hit_point[e] = (int64_t)g << 32 | p;
                 c->hit_normal[e] = n;
-                c->hit_k[e] = sh->stiffness;
-                c->hit_gap[e] =
-                    pf_v3_dot(n, pf_v3_sub(at, pf_v3_load(c->x0 + 3 * (size_t)p))) +
-                    c->damping_beta * pf_v3_dot(n, c->velocity[g]);
-                if (!c->in_pattern[p])
-                    c->grow = true;
+                c->hit_k[e] = sh->stiffness * c->share[p];
+                c->hit_gap[e] = pf_v3_dot(n, pf_v3_sub(at, pf_v3_load(c->x0 + 3 * (size_t)p))) +
+                                c->damping_beta * pf_v3_dot(n, c->velocity[g]);
             }
-            /* a chunk near an obstacle joins the pattern whole when one of its points touches:
-             * its neighbours will touch next */
-            if (c->grow && !chunk_in_pattern)
-                for (int32_t q = c0; q < c1; ++q)
-                    c->in_pattern[c->order[q]] = 1;
         }
     }
+    c->set_changed = c->n_hits != prev_hits ||
+                     memcmp(c->hit_point, c->prev_hit, (size_t)c->n_hits * sizeof *c->hit_point);
     c->stats.search_seconds += pf_time_seconds() - t1;
     return c->n_hits;
 }
 
-void pf_contact_assemble(pf_contact *c, pf_block_matrix *k, double *f)
+double pf_contact_obstacle_power(const pf_contact *c)
 {
-    double t0 = pf_time_seconds();
-    for (int64_t e = 0; e < c->n_hits; ++e)
-        add_point(c, c->hit_point[e], c->hit_k[e], c->hit_normal[e], c->hit_gap[e]);
-    scatter(c, k, f);
-    c->stats.search_seconds += pf_time_seconds() - t0;
+    return c->power;
 }
 
-const pf_contact_stats *pf_contact_get_stats(const pf_contact *c) { return &c->stats; }
+bool pf_contact_set_changed(const pf_contact *c)
+{
+    return c->set_changed;
+}
+
+/* Surface vertices: the forces at node level, then S^T onto the unknowns. */
+static void surface_forces(pf_contact *c, const double *u, double *f)
+{
+    const pf_weights *w = c->weights;
+    stitch(c, u, NULL, 0);
+    for (int64_t e = 0; e < c->n_hits; ++e) {
+        int32_t p = (int32_t)(c->hit_point[e] & 0xffffffff);
+        pf_vec3 n = c->hit_normal[e];
+        double d = 0; /* n . u~ */
+        for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q)
+            d += w->val[q] * pf_v3_dot(n, pf_v3_load(c->node_u + 3 * (size_t)w->col[q]));
+        pf_vec3 kn = pf_v3_scale(n, c->hit_k[e] * (c->hit_gap[e] - d));
+        c->power += pf_v3_dot(kn, c->velocity[c->hit_point[e] >> 32]);
+        for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q) {
+            double *fi = c->node_f + 3 * (size_t)w->col[q];
+            fi[0] += w->val[q] * kn.x;
+            fi[1] += w->val[q] * kn.y;
+            fi[2] += w->val[q] * kn.z;
+        }
+    }
+    for (int32_t i = 0; i < c->mesh->n_nodes; ++i) {
+        double *fi = c->node_f + 3 * (size_t)i;
+        if (fi[0] == 0 && fi[1] == 0 && fi[2] == 0)
+            continue;
+        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r)
+            for (int d = 0; d < 3; ++d)
+                f[3 * c->map_triple[r] + d] += c->map_w[r] * fi[d];
+        fi[0] = fi[1] = fi[2] = 0;
+    }
+}
+
+void pf_contact_forces(pf_contact *c, const double *u, double *f)
+{
+    c->power = 0;
+    if (c->weights) {
+        surface_forces(c, u, f);
+        return;
+    }
+    for (int64_t e = 0; e < c->n_hits; ++e) {
+        int32_t p = (int32_t)(c->hit_point[e] & 0xffffffff);
+        pf_vec3 n = c->hit_normal[e];
+        int64_t begin = c->crow_offsets[p], end = c->crow_offsets[p + 1];
+        double d = 0; /* n . u~ */
+        for (int64_t q = begin; q < end; ++q)
+            d += c->crow_w[q] * pf_v3_dot(n, pf_v3_load(u + 3 * c->crow_triple[q]));
+        pf_vec3 kn = pf_v3_scale(n, c->hit_k[e] * (c->hit_gap[e] - d));
+        c->power += pf_v3_dot(kn, c->velocity[c->hit_point[e] >> 32]);
+        for (int64_t q = begin; q < end; ++q) {
+            double *ft = f + 3 * c->crow_triple[q];
+            ft[0] += c->crow_w[q] * kn.x;
+            ft[1] += c->crow_w[q] * kn.y;
+            ft[2] += c->crow_w[q] * kn.z;
+        }
+    }
+}
+
+void pf_contact_add_stiffness(const pf_contact *c, double alpha, pf_block_matrix *k)
+{
+    for (int64_t e = 0; e < c->n_hits; ++e) {
+        int32_t p = (int32_t)(c->hit_point[e] & 0xffffffff);
+        pf_vec3 n = c->hit_normal[e];
+        const double nn[3] = {n.x, n.y, n.z};
+        double s = alpha * c->hit_k[e];
+        int64_t begin = c->crow_offsets[p], end = c->crow_offsets[p + 1];
+        for (int64_t q1 = begin; q1 < end; ++q1) {
+            int64_t t1 = c->crow_triple[q1];
+            int32_t b1 = c->triple_block[t1];
+            for (int64_t q2 = q1; q2 < end; ++q2) {
+                int64_t t2 = c->crow_triple[q2];
+                int32_t b2 = c->triple_block[t2];
+                int64_t slot =
+                    b1 == b2 ? k->adj_offsets[b2 + 1] - 1 : pf_block_matrix_slot(k, b1, b2);
+                if (slot < 0) /* one element's unknowns are always coupled */
+                    continue;
+                double m[9], a = s * c->crow_w[q1] * c->crow_w[q2];
+                for (int i = 0; i < 3; ++i)
+                    for (int j = 0; j < 3; ++j)
+                        m[3 * i + j] = a * nn[i] * nn[j];
+                pf_block_matrix_add_3x3(k, slot, b1, 3 * t1, 3 * t2, m);
+            }
+        }
+    }
+}
+
+int64_t pf_contact_count(const pf_contact *c)
+{
+    return c->n_hits;
+}
+
+const pf_contact_stats *pf_contact_get_stats(const pf_contact *c)
+{
+    return &c->stats;
+}

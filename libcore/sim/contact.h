@@ -1,18 +1,22 @@
 /* Penalty contact for the simulator, for every method (private to libcore/sim).
  *
  * Contact points are the mesh's boundary nodes or, when the simulation has embedding weights, the
- * embedded surface's vertices. A point's displacement is a linear combination of the method's
- * unknown triples: the method's nodal map S (method.h) composed with the point's row of nodes
- * (identity for a node, the WGHT row for a surface vertex), u~(x_c) = sum_t beta_t u_t (DG paper
- * eq. 32). Obstacles (and the ground plane) are tested against the points' positions predicted
- * for the end of the step; a penetrating point with nearest obstacle surface point c and outward
- * normal n adds the penalty energy 1/2 k (n . (x_c + u~ - c))^2, linear in the unknowns: the
- * paper's sec. 8 terms K_ab += k beta_a beta_b n n^T and F_a += k beta_a (n . (c - x_c)) n. */
+ * embedded surface's vertices. A point moves by u~ = sum_t beta_t u_t over the method's unknown
+ * triples: a node with its element's own field (one point per element at the node for DG, whose
+ * fields disagree there, each with its share of the penalty), a surface vertex by its WGHT row
+ * through the method's nodal map S (DG paper eq. 32). Obstacles (and the ground plane) are tested
+ * against the points' positions predicted for the end of the step; a penetrating point with
+ * nearest obstacle surface point c and outward normal n adds the penalty energy
+ * 1/2 k (n . (x_c + u~ - c))^2: the force k beta (n . (c - x_c - u~)) n, and the stiffness
+ * k (beta beta^T) (x) n n^T (DG paper sec. 8), which enters the step's matrix through the point's
+ * compact row b instead of beta (contact.c says why). */
 #ifndef PF_SIM_CONTACT_H
 #define PF_SIM_CONTACT_H
 
 #include <pf/sim.h>
 #include <pf/solve.h>
+
+#include "method.h"
 
 typedef struct pf_contact pf_contact;
 
@@ -20,14 +24,14 @@ typedef struct pf_contact pf_contact;
 typedef struct pf_contact_setup {
     const pf_scene *scene; /* resolved; mesh obstacles loaded (pf_scene_load_obstacles) */
     const pf_mesh *mesh;
-    int64_t n_triples;     /* unknowns / 3 */
-    const int64_t *map_offsets, *map_triple; /* the method's nodal map (method.h) */
-    const double *map_w;
+    int64_t n_triples;        /* unknowns / 3 */
+    const pf_method_ops *ops; /* the method's nodal map and compact rows (method.h) */
+    const void *method;
     const pf_surface *surface; /* embedded surface and its weights, or both NULL: nodes */
     const pf_weights *weights;
     double auto_stiffness; /* the method's automatic stiffness per boundary node */
     double model_size;     /* the mesh's bounding-box diagonal */
-    int32_t n_blocks;      /* the matrix's blocks: block_start [n_blocks + 1] unknowns */
+    int32_t n_blocks;      /* the system matrix's blocks: block_start [n_blocks + 1] unknowns */
     const int64_t *block_start;
 } pf_contact_setup;
 
@@ -45,23 +49,28 @@ pf_status pf_contact_create(pf_contact **c, const pf_contact_setup *setup, pf_er
 void pf_contact_destroy(pf_contact **c);
 
 /* Finds the points whose position predicted by u + h v lies inside an obstacle or below the
- * ground at time t (the end of the step), and keeps them for pf_contact_assemble. Returns their
- * number. A contact whose couplings are not in the matrix pattern yet asks for growth
- * (pf_contact_needs_pattern): contact only costs pattern and fill where it happens. Allocates
- * nothing. */
+ * ground at time t (the end of the step), and keeps them for the calls below until the next
+ * detection. Returns their number. Allocates nothing. */
 int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double *v, double h);
 
-/* True after a detection found points outside the pattern. */
-bool pf_contact_needs_pattern(const pf_contact *c);
+/* Adds the detected contacts' penalty forces at state u, k beta (g - n . u~) n, to f
+ * [3 n_triples] (DG paper sec. 8). Allocates nothing. */
+void pf_contact_forces(pf_contact *c, const double *u, double *f);
 
-/* Rebuilds k's pattern (values zero) from its current pairs plus every pair of blocks a point in
- * the pattern set may couple: the blocks of the triples in one point's combination. The caller
- * analyses the new pattern again (a growth event, not a steady-state step). PF_ERR_NOMEM. */
-pf_status pf_contact_grow_pattern(pf_contact *c, pf_block_matrix *k, pf_error *err);
+/* Adds alpha sum over the contacts of k (b b^T) (x) n n^T to k, b the point's compact row: the
+ * contact stiffness within one element's couplings (k's pattern has them). */
+void pf_contact_add_stiffness(const pf_contact *c, double alpha, pf_block_matrix *k);
 
-/* Adds the linearised penalty of the detected contacts to k (pattern grown) and f, DG paper
- * sec. 8. Allocates nothing. */
-void pf_contact_assemble(pf_contact *c, pf_block_matrix *k, double *f);
+/* The power the moving obstacles deliver through the last pf_contact_forces: the sum over the
+ * contacts of the penalty force times the obstacle's velocity (0 for fixed obstacles). */
+double pf_contact_obstacle_power(const pf_contact *c);
+
+/* Whether the last detection found another set of contacts (points and obstacles) than the one
+ * before: the step's matrix then gains or loses terms. */
+bool pf_contact_set_changed(const pf_contact *c);
+
+/* The number of contacts found by the last detection. */
+int64_t pf_contact_count(const pf_contact *c);
 
 const pf_contact_stats *pf_contact_get_stats(const pf_contact *c);
 

@@ -24,19 +24,27 @@ typedef struct pf_method_ops {
     void (*mass_mul)(const void *m, double alpha, const double *x, double *y);
     /* Loads and body forces, constant in time, added to f. */
     void (*external_forces)(const void *m, double *f);
-    /* The linear map S from the unknowns to the nodal displacements, with which the driver
-     * handles all contact (ground, obstacles; at nodes or at embedded-surface vertices through
-     * WGHT, DG paper sec. 8) for every method. The unknowns are read as consecutive (x, y, z)
-     * triples, u_t = (u[3 t], u[3 t + 1], u[3 t + 2]), each weighted alike in the three
-     * components; node i moves by
-     *     sum_{q in [offsets[i], offsets[i + 1])}  w[q] u_{triple[q]}.
-     * DG: the stitching of eq. 30 (triples are an element's monomial coefficients); a conforming
-     * method: weight 1 on the node's own free triple, no entry for a fixed node. Triples are
-     * sorted ascending within each node. The arrays (offsets [n_nodes + 1], triple and w
-     * [offsets[n_nodes]]) are the method's, valid until destroy. Contact couples the blocks of
-     * every triple a contact point reaches: the driver adds those pairs to the pattern. */
+    /* The linear map S from the unknowns to the nodal displacements, with which the driver moves
+     * embedded-surface vertices in contact (through WGHT, DG paper sec. 8, eq. 32). The unknowns
+     * are read as consecutive (x, y, z) triples, u_t = (u[3 t], u[3 t + 1], u[3 t + 2]), each
+     * weighted alike in the three components; node i moves by sum_{q in [offsets[i], offsets[i +
+     * 1])}  w[q] u_{triple[q]}. DG: the stitching of eq. 30 (triples are an element's monomial
+     * coefficients); a conforming method: weight 1 on the node's own free triple, no entry for a
+     * fixed node. Triples are sorted ascending within each node. The arrays (offsets [n_nodes + 1],
+     * triple and w [offsets[n_nodes]]) are the method's, valid until destroy. */
     void (*nodal_map)(const void *m, const int64_t **offsets, const int64_t **triple,
                       const double **w);
+    /* Contact's compact rows (contact.c): a point x in element e moves by sum w u_t over up to
+     * max_point_row triples that point_row returns, exact for every affine field and within one
+     * element's couplings of the pattern: a contact node's motion, and an embedded vertex's in
+     * the step's matrix. DG: e's basis at
+     * x; CG: the point's node when x is one of e's free nodes, else the least-norm affine
+     * weights over e's free nodes. node_elements: the elements whose own fields move a contact
+     * at node i (*elems, the count returned; each takes an equal share of the penalty): DG every
+     * element at the node (its fields disagree there), CG one (they agree). */
+    int32_t (*point_row)(const void *m, int32_t e, pf_vec3 x, int64_t *triple, double *w);
+    int32_t (*max_point_row)(const void *m);
+    int32_t (*node_elements)(const void *m, int32_t i, const int32_t **elems);
     /* The automatic contact stiffness per point: ten times an element's stiffness. */
     double (*ground_stiffness)(const void *m);
     /* DG only (NULL otherwise): the penalty factor, and the mass shift that lifts the rigid modes

@@ -48,6 +48,7 @@ void pf_scene_default(pf_scene *s)
         .dt = 1.0 / 30.0,
         .frames = 60,
         .substeps = 10,
+        .solver = pf_solver_params_default(),
     };
 }
 
@@ -320,6 +321,32 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
             READ_KEY(r, it, read_int(r, it, RANGE_EDGE_SAMPLES, &s->edge_samples));
         else
             READ_KEY(r, it, read_corotation(r, it, s));
+    }
+    return PF_OK;
+}
+
+static pf_status read_solver_name(reader *r, const cJSON *v, pf_solver_method *out)
+{
+    if (!cJSON_IsString(v) || !scene_parse_solver_name(v->valuestring, out))
+        return fail_type(r, v, "\"auto\", \"direct\" or \"pcg\"");
+    return PF_OK;
+}
+
+static pf_status read_solver(reader *r, const cJSON *v, pf_solver_params *p)
+{
+    if (cJSON_IsString(v))
+        return read_solver_name(r, v, &p->method);
+    if (!cJSON_IsObject(v))
+        return fail_type(r, v, "\"auto\", \"direct\", \"pcg\" or an object");
+    static const char *const keys[] = {"method", "tolerance", "max_iterations", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "method"))
+            READ_KEY(r, it, read_solver_name(r, it, &p->method));
+        else if (!strcmp(it->string, "tolerance"))
+            READ_KEY(r, it, read_number(r, it, RANGE_OPEN_UNIT, &p->tolerance));
+        else
+            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &p->max_iterations));
     }
     return PF_OK;
 }
@@ -741,7 +768,7 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
     }
     static const char *const keys[] = {"material", "method", "corotation", "gravity", "body_force",
                                        "damping",  "fixed",  "loads",      "ground",  "obstacles",
-                                       "time",     "static", NULL};
+                                       "time",     "static", "solver",     NULL};
     PF_TRY(begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;
@@ -767,6 +794,8 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
             READ_KEY(r, it, read_obstacles(r, it, s));
         else if (!strcmp(k, "time"))
             READ_KEY(r, it, read_time(r, it, s));
+        else if (!strcmp(k, "solver"))
+            READ_KEY(r, it, read_solver(r, it, &s->solver));
         else
             READ_KEY(r, it, read_bool(r, it, &s->is_static));
     }

@@ -92,6 +92,13 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
             return override_fail(err, key, value, "must be consistent or lumped");
         return PF_OK;
     }
+    if (!strcmp(key, "solver")) {
+        if (!value || !scene_parse_solver_name(value, &s->solver.method))
+            return override_fail(err, key, value, "must be auto, direct or pcg");
+        return PF_OK;
+    }
+    if (!strcmp(key, "tolerance"))
+        return override_number(key, value, RANGE_OPEN_UNIT, &s->solver.tolerance, err);
     if (!strcmp(key, "degree"))
         return override_int(key, value, RANGE_DEGREE, &s->degree, err);
     if (!strcmp(key, "edge_samples"))
@@ -120,6 +127,7 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
     return pf_error_set(
         err, PF_ERR_INVALID, __FILE__, __LINE__,
         "%.64s: unknown scene option (expected one of: method, degree, flux, "
-        "mass, edge_samples, frames, dt, static, E, nu, density, penalty, substeps, corotation)",
+        "mass, edge_samples, frames, dt, static, E, nu, density, penalty, substeps, corotation, "
+        "solver, tolerance)",
         key);
 }

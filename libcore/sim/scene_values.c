@@ -42,6 +42,8 @@ bool scene_in_range(scene_range r, double v)
         return v >= 0;
     case RANGE_INT_POS:
         return v >= 1;
+    case RANGE_OPEN_UNIT:
+        return v > 0 && v < 1;
     }
     return false;
 }
@@ -65,6 +67,8 @@ const char *scene_range_text(scene_range r)
         return "must be an integer >= 0";
     case RANGE_INT_POS:
         return "must be an integer >= 1";
+    case RANGE_OPEN_UNIT:
+        return "must be in (0, 1)";
     }
     return "out of range";
 }
@@ -100,4 +104,9 @@ bool scene_parse_mass_name(const char *text, pf_mass *out)
     else
         return false;
     return true;
+}
+
+bool scene_parse_solver_name(const char *text, pf_solver_method *out)
+{
+    return pf_solver_method_parse(text, out);
 }

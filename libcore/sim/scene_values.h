@@ -17,6 +17,7 @@ typedef enum scene_range {
     RANGE_EDGE_SAMPLES, /* integer 1 .. 16 */
     RANGE_INT_NONNEG,   /* integer >= 0 (fits int32) */
     RANGE_INT_POS,      /* integer >= 1 (fits int32) */
+    RANGE_OPEN_UNIT,    /* (0, 1) */
 } scene_range;
 
 bool scene_range_is_integer(scene_range r);
@@ -29,6 +30,7 @@ const char *scene_range_text(scene_range r);
 bool scene_parse_method_name(const char *text, pf_method *out);
 bool scene_parse_flux_name(const char *text, pf_flux *out);
 bool scene_parse_mass_name(const char *text, pf_mass *out);
+bool scene_parse_solver_name(const char *text, pf_solver_method *out);
 
 /* A static scene has no ground unless the file asks for one; override of "static" re-applies
  * this rule, hence ground_given. */

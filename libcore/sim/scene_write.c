@@ -90,6 +90,10 @@ static cJSON *scene_object(const pf_scene *s)
 
     cJSON_AddItemToObject(root, "gravity", vector(s->gravity));
     cJSON_AddItemToObject(root, "body_force", vector(s->body_force));
+    cJSON *solver = cJSON_AddObjectToObject(root, "solver");
+    cJSON_AddStringToObject(solver, "method", pf_solver_method_name(s->solver.method));
+    cJSON_AddNumberToObject(solver, "tolerance", s->solver.tolerance);
+    cJSON_AddNumberToObject(solver, "max_iterations", s->solver.max_iterations);
     cJSON *damping = cJSON_AddObjectToObject(root, "damping");
     cJSON_AddNumberToObject(damping, "alpha", s->damping_alpha);
     cJSON_AddNumberToObject(damping, "beta", s->damping_beta);

@@ -6,8 +6,10 @@
  * contact with the ground and the obstacles adds its linearised penalty, DG paper sec. 8, at the
  * positions predicted by u + h v, against the obstacles where they are at the end of the step):
  *     ((1 + h alpha) M + (h beta + h^2) K) v' = M v + h (f - K u),     u' = u + h v'.
- * The matrix changes every step when corotation or contact is on: the pattern is analysed once,
- * the numeric factorisation redone per step; without either it is factored once. */
+ * Contact's stiffness couples one element's unknowns per contact point (contact.c), so the pattern
+ * is the method's, analysed once: embedded contact costs no fill. The solver (pf/solve.h) decides
+ * when to factorise: direct whenever the matrix changed (the reference), pcg on the last factor
+ * until refactorising pays. */
 #include <pf/sim.h>
 
 #include <math.h>
@@ -27,10 +29,16 @@ struct pf_sim {
     double *f, *ku, *rhs;
     double *u_prev, *v_prev; /* the state before the frame, restored on failure */
     pf_block_matrix k;
-    pf_cholesky *chol;
-    bool factored_once;  /* linear, contact-free dynamics reuse the first factorisation */
+    pf_solver *solver;
+    bool assembled;      /* the system matrix has been assembled once (it changes afterwards only
+                            with corotation) */
     pf_contact *contact; /* NULL without ground and obstacles, and in static scenes */
     double model_size;
+    /* the energy check (energy_is_bounded): the kinetic energy when the first frame began, the
+     * work of the loads, body forces and moving obstacles since, the elastic energy the start
+     * can release, and a floor below which kinetic energy is noise */
+    bool energy_started;
+    double kinetic0, work, fixed_energy, energy_floor;
     double time;
     int32_t frame;
     pf_sim_stats stats;
@@ -49,13 +57,16 @@ static pf_status allocate_state(pf_sim *s, pf_error *err)
     return PF_OK;
 }
 
-static pf_status factor_timed(pf_sim *s, int64_t *failed, pf_error *err)
+/* The solver's statistics into the simulator's. */
+static void sync_solver_stats(pf_sim *s)
 {
-    double t0 = pf_time_seconds();
-    pf_status st = pf_cholesky_factor(s->chol, &s->k, failed, err);
-    s->stats.factor_seconds += pf_time_seconds() - t0;
-    s->stats.factorisations++;
-    return st;
+    const pf_solver_stats *ss = pf_solver_get_stats(s->solver);
+    s->stats.solver = *ss;
+    s->stats.factorisations = ss->factorisations;
+    s->stats.factor_seconds = ss->factor_seconds;
+    s->stats.solve_seconds = ss->solve_seconds;
+    s->stats.matrix_nnz = ss->matrix_nnz;
+    s->stats.factor_nnz = ss->factor_nnz;
 }
 
 /* The automatic BZ penalty. BZ is positive definite for any eta > 0 (sec. 3.3), so the search
@@ -72,8 +83,26 @@ static double bz_default_penalty(int32_t degree)
     return degree >= 2 ? 32 : 1;
 }
 
+/* Whether K at rest, plus the rigid-mode shift, is positive definite. */
+static bool definite_at(pf_sim *s, const double *u, double shift)
+{
+    memset(s->f, 0, (size_t)s->n * sizeof *s->f);
+    s->ops->stiffness(s->method, u, false, &s->k, s->f);
+    s->ops->add_mass(s->method, shift, &s->k);
+    pf_error ignored = {0};
+    return pf_solver_factor(s->solver, &s->k, NULL, &ignored) == PF_OK;
+}
+
 /* DG paper sec. 9.1: start low and double eta until the stiffness is positive definite (with a
- * tiny mass shift lifting a free body's rigid modes). */
+ * tiny mass shift lifting a free body's rigid modes). Definiteness at rest is not enough once
+ * corotation turns the elements: an element's rotation relative to its neighbours is resisted by
+ * the penalty alone, and the lagged rotations of the semi-implicit step feed it back. Measured
+ * with IP degree 1 and that smallest eta (2 on both), a clamped 8 x 2 x 2 box of 32 hexes and a
+ * 4 x 1 x 1 box of 256 hexes under gravity explode (tip at 20 and 2660 model units after 30 and
+ * 40 frames), while 2 x and 4 x that eta settle at the CG answer (5.2-5.5 and 7.2-7.5; CG 5.2
+ * and 7.6). Corotated dynamics therefore take 8 x the smallest definite eta, one doubling of
+ * margin beyond the largest failure seen; the DG paper reports 10-100 in practice. */
+enum { COROTATED_PENALTY_MARGIN = 8 };
 static pf_status choose_penalty(pf_sim *s, pf_error *err)
 {
     if (!s->ops->set_penalty)
@@ -89,11 +118,11 @@ static pf_status choose_penalty(pf_sim *s, pf_error *err)
     double shift = s->ops->rigid_mode_shift(s->method);
     for (double eta = 1; eta <= 1048576; eta *= 2) {
         s->ops->set_penalty(s->method, eta);
-        memset(s->f, 0, (size_t)s->n * sizeof *s->f);
-        s->ops->stiffness(s->method, s->u, false, &s->k, s->f);
-        s->ops->add_mass(s->method, shift, &s->k);
-        pf_error ignored = {0};
-        if (factor_timed(s, NULL, &ignored) == PF_OK) {
+        if (definite_at(s, s->u, shift)) {
+            /* corotated dynamics need a margin over definiteness at rest (see above) */
+            if (s->scene->corotation && !s->scene->is_static)
+                eta *= COROTATED_PENALTY_MARGIN;
+            s->ops->set_penalty(s->method, eta);
             s->stats.penalty = eta;
             return PF_OK;
         }
@@ -117,9 +146,10 @@ static pf_status setup_contact(pf_sim *s, const pf_surface *surface, const pf_we
                            .weights = weights,
                            .auto_stiffness = s->ops->ground_stiffness(s->method),
                            .model_size = s->model_size,
+                           .ops = s->ops,
+                           .method = s->method,
                            .n_blocks = s->k.n_blocks,
                            .block_start = s->k.block_start};
-    s->ops->nodal_map(s->method, &cs.map_offsets, &cs.map_triple, &cs.map_w);
     PF_TRY(pf_contact_create(&s->contact, &cs, err));
     if (!s->contact)
         return PF_OK;
@@ -166,8 +196,10 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
         st = s->ops->pattern(s->method, &s->k, err);
     if (st >= 0)
         st = setup_contact(s, surface, weights, err);
-    if (st >= 0)
-        st = pf_cholesky_create(&s->chol, &s->k, err);
+    if (st >= 0) {
+        bool changes = !scene->is_static && (scene->corotation || s->contact);
+        st = pf_solver_create(&s->solver, &s->k, &scene->solver, changes, err);
+    }
     if (st >= 0)
         st = choose_penalty(s, err);
     if (st < 0) {
@@ -176,8 +208,7 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
     }
     s->ops->external_forces(s->method, s->f_ext);
     s->stats.dofs = s->n;
-    s->stats.matrix_nnz = s->k.col_ptr[s->k.n];
-    s->stats.factor_nnz = pf_cholesky_factor_nnz(s->chol);
+    sync_solver_stats(s);
     s->stats.setup_seconds = pf_time_seconds() - t0;
     *out = s;
     return PF_OK;
@@ -194,7 +225,7 @@ void pf_sim_destroy(pf_sim **sim)
     for (size_t k = 0; k < sizeof vectors / sizeof *vectors; ++k)
         pf_free(vectors[k]);
     pf_block_matrix_release(&s->k);
-    pf_cholesky_destroy(&s->chol);
+    pf_solver_destroy(&s->solver);
     pf_contact_destroy(&s->contact);
     pf_free(s);
     *sim = NULL;
@@ -226,22 +257,6 @@ static bool state_is_sane(const pf_sim *s)
     return true;
 }
 
-/* New contact points whose couplings the pattern lacks: the pattern grows and is analysed again
- * (a growth event; the steady state allocates nothing). */
-static pf_status grow_pattern(pf_sim *s, pf_error *err)
-{
-    double t0 = pf_time_seconds();
-    PF_TRY(pf_contact_grow_pattern(s->contact, &s->k, err));
-    pf_cholesky_destroy(&s->chol);
-    PF_TRY(pf_cholesky_create(&s->chol, &s->k, err));
-    s->factored_once = false;
-    s->stats.matrix_nnz = s->k.col_ptr[s->k.n];
-    s->stats.factor_nnz = pf_cholesky_factor_nnz(s->chol);
-    s->stats.pattern_growths++;
-    s->stats.setup_seconds += pf_time_seconds() - t0;
-    return PF_OK;
-}
-
 static pf_status step(pf_sim *s, double h, pf_error *err)
 {
     const pf_scene *sc = s->scene;
@@ -249,71 +264,161 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     int64_t contacts = 0;
     const pf_contact_stats *cs = s->contact ? pf_contact_get_stats(s->contact) : NULL;
     double embed0 = cs ? cs->embed_seconds : 0, search0 = cs ? cs->search_seconds : 0;
-    if (s->contact) {
+    if (s->contact)
         contacts = pf_contact_detect(s->contact, s->time + h, s->u, s->v, h);
-        if (pf_contact_needs_pattern(s->contact))
-            PF_TRY(grow_pattern(s, err));
-    }
     double t0 = pf_time_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
-    if (s->contact) {
-        pf_contact_assemble(s->contact, &s->k, s->f);
+    if (contacts > 0) {
+        pf_contact_forces(s->contact, s->u, s->f);
+        s->stats.contacts += contacts;
+    }
+    if (cs) {
         s->stats.embed_seconds += cs->embed_seconds - embed0;
         s->stats.contact_seconds += cs->search_seconds - search0;
     }
-    s->stats.contacts += contacts;
     t0 = pf_time_seconds();
-    /* rhs = M v + h (f - K u); then k := (h beta + h^2) K + (1 + h alpha) M */
+    /* rhs = M v + h (f - K u), f with the contact forces at u; then
+     * k := (h beta + h^2) (K + C) + (1 + h alpha) M, C the contact stiffness */
+    double kscale = h * sc->damping_beta + h * h;
     pf_block_matrix_mul(&s->k, 1, s->u, 0, s->ku);
     for (size_t q = 0; q < n; ++q)
         s->rhs[q] = h * (s->f[q] - s->ku[q]);
     s->ops->mass_mul(s->method, 1, s->v, s->rhs);
-    bool refactor = sc->corotation || contacts > 0 || !s->factored_once;
-    if (refactor) {
-        double kscale = h * sc->damping_beta + h * h;
-        for (int64_t q = 0; q < s->k.col_ptr[s->k.n]; ++q)
-            s->k.val[q] *= kscale;
-        s->ops->add_mass(s->method, 1 + h * sc->damping_alpha, &s->k);
-    }
+    for (int64_t q = 0; q < s->k.col_ptr[s->k.n]; ++q)
+        s->k.val[q] *= kscale;
+    s->ops->add_mass(s->method, 1 + h * sc->damping_alpha, &s->k);
+    if (contacts > 0)
+        pf_contact_add_stiffness(s->contact, kscale, &s->k);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
-    if (refactor) {
-        int64_t failed = -1;
-        pf_status st = factor_timed(s, &failed, err);
-        if (st < 0) {
-            s->factored_once = false;
+    /* the matrix changed: new terms when contacts came or went, a drift of its values with
+     * corotation or contacts that stay (their normals may turn) */
+    pf_matrix_change change = PF_MATRIX_SAME;
+    if (!s->assembled || (s->contact && pf_contact_set_changed(s->contact)))
+        change = PF_MATRIX_NEW;
+    else if (sc->corotation || contacts > 0)
+        change = PF_MATRIX_DRIFTED;
+    s->assembled = true;
+    int64_t failed = -1;
+    /* v' from the last velocity (the warm start) */
+    pf_status st = pf_solver_solve(s->solver, &s->k, change, s->rhs, s->v, &failed, err);
+    sync_solver_stats(s);
+    if (st < 0) {
+        if (failed >= 0)
             pf_error_prefix(err, "element %d", (int)s->ops->element_of_dof(s->method, failed));
-            return st;
-        }
-        /* Linear dynamics without contact keep this factorisation; with contact it changes. */
-        s->factored_once = !sc->corotation && contacts == 0;
+        return st;
     }
-    double t1 = pf_time_seconds();
-    PF_TRY(pf_cholesky_solve(s->chol, s->rhs, s->v, err));
     for (size_t q = 0; q < n; ++q)
         s->u[q] += h * s->v[q];
-    s->stats.solve_seconds += pf_time_seconds() - t1;
+    /* the work of the constant forces and of moving obstacles over the step */
+    double power = 0;
+    for (size_t q = 0; q < n; ++q)
+        power += s->f_ext[q] * s->v[q];
+    if (contacts > 0)
+        power += pf_contact_obstacle_power(s->contact);
+    s->work += h * power;
     s->stats.steps++;
     return PF_OK;
+}
+
+/* A dissipative step (semi-implicit Euler with damping) keeps the kinetic energy below what the
+ * body had plus what was done on it: T(t) <= T(0) + W(t) + E_0, W the work of the loads, body
+ * forces and moving obstacles, E_0 the elastic energy the start can release (initial_energy),
+ * elastic and penalty energy being >= 0. Corotation's lagged rotations
+ * add a little; a growth beyond four times the bound is an instability feeding itself (an
+ * exploding clamped beam: the bound is exceeded within a few frames of the start of growth,
+ * long before the displacement looks absurd). */
+static bool energy_is_bounded(const pf_sim *s, double *kinetic, double *bound)
+{
+    pf_vec3 p, l;
+    s->ops->momentum(s->method, s->u, s->v, kinetic, &p, &l);
+    *bound = s->kinetic0 + fmax(s->work, 0) + s->fixed_energy;
+    return *kinetic <= 4 * *bound + s->energy_floor;
+}
+
+/* The elastic energy the start can release: 1/2 u^T K u of a deformed initial state (an upper
+ * bound of its corotated energy), and 1/2 f^T K^-1 f, what the constant loads with prescribed
+ * displacements release in the linear regime, in scenes that prescribe one (one factorisation;
+ * the loads' own work is counted as it happens). */
+static pf_status initial_energy(pf_sim *s, pf_error *err)
+{
+    size_t n = (size_t)s->n;
+    bool moves = false, deformed = false;
+    for (int32_t k = 0; k < s->scene->n_fixed; ++k)
+        moves |= pf_v3_max_abs(s->scene->fixed[k].displacement) > 0;
+    for (size_t q = 0; q < n; ++q)
+        deformed |= s->u[q] != 0;
+    if (!moves && !deformed)
+        return PF_OK;
+    memcpy(s->f, s->f_ext, n * sizeof *s->f);
+    memset(s->ku, 0, n * sizeof *s->ku);
+    s->ops->stiffness(s->method, s->ku, false, &s->k, s->f);
+    s->assembled = false;
+    if (deformed) {
+        pf_block_matrix_mul(&s->k, 1, s->u, 0, s->rhs);
+        for (size_t q = 0; q < n; ++q)
+            s->fixed_energy += 0.5 * s->u[q] * s->rhs[q];
+    }
+    if (!moves)
+        return PF_OK;
+    memset(s->ku, 0, n * sizeof *s->ku);
+    PF_TRY(pf_solver_solve(s->solver, &s->k, PF_MATRIX_NEW, s->f, s->ku, NULL, err));
+    pf_solver_reset(s->solver);
+    double e = 0;
+    for (size_t q = 0; q < n; ++q)
+        e += 0.5 * s->f[q] * s->ku[q];
+    s->fixed_energy += fabs(e);
+    return PF_OK;
+}
+
+/* The energy check's starting values: the kinetic energy now, and the floor: 1e-12 of the body
+ * moving its own size in a time step (kinetic energy below that is round-off). */
+static void start_energy(pf_sim *s)
+{
+    pf_vec3 p, l;
+    double a[9] = {0}, b[3] = {s->model_size / s->scene->dt, 0, 0}, t;
+    s->ops->momentum(s->method, s->u, s->v, &s->kinetic0, &p, &l);
+    s->ops->affine(s->method, a, b, s->rhs); /* a uniform velocity, for the body's mass */
+    s->ops->momentum(s->method, s->u, s->rhs, &t, &p, &l);
+    s->energy_floor = 1e-12 * t;
+    s->work = 0;
+    s->energy_started = true;
 }
 
 pf_status pf_sim_frame(pf_sim *s, pf_error *err)
 {
     const pf_scene *sc = s->scene;
     size_t n = (size_t)s->n;
+    if (!s->energy_started) {
+        start_energy(s);
+        pf_status st = initial_energy(s, err);
+        if (st < 0) {
+            pf_error_prefix(err, "energy of the initial state");
+            return st;
+        }
+    }
     memcpy(s->u_prev, s->u, n * sizeof *s->u);
     memcpy(s->v_prev, s->v, n * sizeof *s->v);
     double h = sc->dt / sc->substeps;
     for (int32_t k = 0; k < sc->substeps; ++k) {
         pf_status st = step(s, h, err);
+        double kinetic = 0, bound = 0;
         if (st >= 0 && !state_is_sane(s))
             st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
                               "the simulation diverged (element %d first)", (int)worst_element(s));
+        else if (st >= 0 && k + 1 == sc->substeps && !energy_is_bounded(s, &kinetic, &bound))
+            st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
+                              "the simulation diverged: kinetic energy %.3g exceeds four times "
+                              "what the body had and was given (%.3g), element %d moved most; "
+                              "a larger penalty (DG), a smaller time step or more damping may "
+                              "help",
+                              kinetic, bound, (int)worst_element(s));
         if (st < 0) {
             memcpy(s->u, s->u_prev, n * sizeof *s->u);
             memcpy(s->v, s->v_prev, n * sizeof *s->v);
-            s->factored_once = false;
+            pf_solver_reset(s->solver);
+            s->assembled = false;
             pf_error_prefix(err, "frame %d, step %d", (int)s->frame + 1, (int)k + 1);
             return st;
         }
@@ -331,17 +436,19 @@ pf_status pf_sim_solve_static(pf_sim *s, pf_error *err)
     s->ops->stiffness(s->method, s->u, false, &s->k, s->f);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
     int64_t failed = -1;
-    pf_status st = factor_timed(s, &failed, err);
+    pf_status st = pf_solver_solve(s->solver, &s->k, PF_MATRIX_NEW, s->f, s->u, &failed, err);
+    sync_solver_stats(s);
     if (st < 0) {
-        pf_error_prefix(err, "static solve, element %d",
-                        (int)s->ops->element_of_dof(s->method, failed));
+        if (failed >= 0)
+            pf_error_prefix(err, "static solve, element %d",
+                            (int)s->ops->element_of_dof(s->method, failed));
+        else
+            pf_error_prefix(err, "static solve");
         return st;
     }
-    double t1 = pf_time_seconds();
-    PF_TRY(pf_cholesky_solve(s->chol, s->f, s->u, err));
-    s->stats.solve_seconds += pf_time_seconds() - t1;
     memset(s->v, 0, n * sizeof *s->v);
-    s->factored_once = false; /* the factorisation is K's, not the dynamic system's */
+    s->assembled = false;
+    pf_solver_reset(s->solver); /* its factor is K's, not the dynamic system's */
     if (!state_is_sane(s))
         return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
                             "static solve gave a non-finite displacement (element %d first)",

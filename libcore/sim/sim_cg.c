@@ -3,8 +3,8 @@
  * by their centroid; every node of a selected face is fixed strongly at the region's displacement
  * (its unknowns removed; the prescribed displacement enters the right-hand side). Corotation warps
  * each element's stiffness with its shape-matching rotation (pf_cg_rotations). Mass: consistent
- * (the default) or lumped (scene key method.mass). Contact is the driver's, through the nodal map
- * (the identity on free nodes). */
+ * (the default) or lumped (scene key method.mass). Contact is the driver's, through an element's
+ * nodes (point_row). */
 #include "method.h"
 
 #include <math.h>
@@ -103,6 +103,18 @@ static void external_forces(const void *m, double *f)
             f[3 * (size_t)i + d] += nodal[3 * (size_t)c->map.block_node[i] + d];
 }
 
+/* (lambda + 2 mu) h, h the mean element size (half the nodes' bounding-box diagonal), times ten:
+ * the DG method's rule. */
+static double ground_stiffness(const void *m)
+{
+    const cg_method *c = m;
+    double h = 0;
+    for (int32_t e = 0; e < c->cg.n_elems; ++e)
+        h += c->cg.size[e];
+    h /= c->cg.n_elems > 0 ? c->cg.n_elems : 1;
+    return 10 * (c->cg.lambda + 2 * c->cg.mu) * h;
+}
+
 /* The nodal map of method.h: weight 1 on a free node's own triple. A fixed node has no entry: no
  * unknown moves it, so contact there has nothing to act on (its prescribed displacement is not
  * seen by the contact search). */
@@ -137,16 +149,80 @@ static void nodal_map(const void *m, const int64_t **offsets, const int64_t **tr
     *w = c->map_w;
 }
 
-/* (lambda + 2 mu) h, h the mean element size (half the nodes' bounding-box diagonal), times ten:
- * the DG method's rule. */
-static double ground_stiffness(const void *m)
+/* The least-norm weights lambda over e's free nodes with sum lambda = 1 and
+ * sum lambda x_j = x (affine fields reproduced): in coordinates centred at the nodes' mean,
+ * lambda_j = 1/f + d_j . S^-1 d, S = sum d_j d_j^T. Falls back to the nearest free node when
+ * they span no volume. */
+static int32_t point_row(const void *m, int32_t e, pf_vec3 x, int64_t *triple, double *w)
 {
     const cg_method *c = m;
-    double h = 0;
-    for (int32_t e = 0; e < c->cg.n_elems; ++e)
-        h += c->cg.size[e];
-    h /= c->cg.n_elems > 0 ? c->cg.n_elems : 1;
-    return 10 * (c->cg.lambda + 2 * c->cg.mu) * h;
+    const int32_t *nodes;
+    int32_t k = pf_basis_elem_nodes(&c->cg.basis, e, &nodes), f = 0;
+    for (int32_t a = 0; a < k; ++a) /* a node point is its own unknowns */
+        if (c->map.node_block[nodes[a]] >= 0 &&
+            pf_v3_norm(pf_v3_sub(pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]), x)) == 0) {
+            triple[0] = c->map.node_block[nodes[a]];
+            w[0] = 1;
+            return 1;
+        }
+    pf_vec3 mean = {0, 0, 0};
+    for (int32_t a = 0; a < k; ++a)
+        if (c->map.node_block[nodes[a]] >= 0) {
+            mean = pf_v3_add(mean, pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]));
+            triple[f++] = c->map.node_block[nodes[a]];
+        }
+    if (f == 0)
+        return 0;
+    mean = pf_v3_scale(mean, 1.0 / f);
+    pf_mat3 s = {{{0}}};
+    int32_t nearest = 0;
+    double best = INFINITY;
+    for (int32_t a = 0, q = 0; a < k; ++a) {
+        if (c->map.node_block[nodes[a]] < 0)
+            continue;
+        pf_vec3 xa = pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]), d = pf_v3_sub(xa, mean);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                s.m[i][j] += pf_v3_get(d, i) * pf_v3_get(d, j);
+        double dist = pf_v3_norm(pf_v3_sub(xa, x));
+        if (dist < best)
+            best = dist, nearest = q;
+        ++q;
+    }
+    double det;
+    pf_mat3 inv = pf_m3_inverse(s, &det);
+    double scale = pf_m3_norm(s);
+    if (!(fabs(det) > 1e-12 * scale * scale * scale)) {
+        triple[0] = triple[nearest];
+        w[0] = 1;
+        return 1;
+    }
+    pf_vec3 y = pf_m3_mulv(inv, pf_v3_sub(x, mean));
+    for (int32_t a = 0, q = 0; a < k; ++a)
+        if (c->map.node_block[nodes[a]] >= 0) {
+            pf_vec3 d = pf_v3_sub(pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]), mean);
+            w[q++] = 1.0 / f + pf_v3_dot(d, y);
+        }
+    return f;
+}
+
+static int32_t max_point_row(const void *m)
+{
+    const cg_method *c = m;
+    int32_t longest = 0;
+    for (int32_t e = 0; e < c->cg.n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t k = pf_basis_elem_nodes(&c->cg.basis, e, &nodes);
+        longest = k > longest ? k : longest;
+    }
+    return longest;
+}
+
+static int32_t node_elements(const void *m, int32_t i, const int32_t **elems)
+{
+    const cg_method *c = m;
+    *elems = c->map.node_elem + i;
+    return c->map.node_elem[i] >= 0 ? 1 : 0;
 }
 
 static int32_t element_of_dof(const void *m, int64_t k)
@@ -264,11 +340,14 @@ static const pf_method_ops CG_OPS = {
     .add_mass = add_mass,
     .mass_mul = mass_mul,
     .external_forces = external_forces,
-    .nodal_map = nodal_map,
     .ground_stiffness = ground_stiffness,
     .set_penalty = NULL,
     .rigid_mode_shift = NULL,
     .element_of_dof = element_of_dof,
+    .nodal_map = nodal_map,
+    .point_row = point_row,
+    .max_point_row = max_point_row,
+    .node_elements = node_elements,
     .nodal_displacements = nodal_displacements,
     .von_mises = von_mises,
     .momentum = momentum,

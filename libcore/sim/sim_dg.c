@@ -2,8 +2,7 @@
  * element's monomials (pf/fem.h). Fixed regions are weak Dirichlet conditions on their faces
  * (sec. 4.2); rotations come from the linear part of each element's displacement (sec. 6.1).
  *
- * Contact is the driver's (contact.c): this method gives it the stitching (eq. 30) as the map
- * from its coefficients to nodal displacements. */
+ * Contact is the driver's (contact.c): this method gives it an element's basis at a point. */
 #include "method.h"
 
 #include <math.h>
@@ -26,7 +25,10 @@ typedef struct dg_method {
     double *map_w;        /* [map_offsets[n_nodes]] */
 } dg_method;
 
-static int64_t n_dofs(const void *m) { return ((const dg_method *)m)->dg.n_dofs; }
+static int64_t n_dofs(const void *m)
+{
+    return ((const dg_method *)m)->dg.n_dofs;
+}
 
 static pf_status pattern(const void *m, pf_block_matrix *k, pf_error *err)
 {
@@ -84,6 +86,33 @@ static void external_forces(const void *m, double *f)
         pf_dg_add_body_force(&d->dg, body, f);
 }
 
+/* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
+static double ground_stiffness(const void *m)
+{
+    const dg_method *d = m;
+    double h = 0;
+    for (int32_t e = 0; e < d->dg.n_elems; ++e)
+        h += d->dg.frame[e].scale;
+    h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
+    return 10 * (d->dg.lambda + 2 * d->dg.mu) * h;
+}
+
+static void set_penalty(void *m, double eta)
+{
+    ((dg_method *)m)->terms.eta = eta;
+}
+
+/* 1e-6 of the stiffest element's K/M ratio (lambda + 2 mu) / (rho h^2): lifts the six rigid
+ * modes of a free body without hiding a real indefiniteness. */
+static double rigid_mode_shift(const void *m)
+{
+    const dg_method *d = m;
+    double h = INFINITY;
+    for (int32_t e = 0; e < d->dg.n_elems; ++e)
+        h = fmin(h, d->dg.frame[e].scale);
+    return 1e-6 * (d->dg.lambda + 2 * d->dg.mu) / (d->dg.density * h * h);
+}
+
 /* Stitching (eq. 30) as a matrix: node i averages u|_K(x_i) = sum_a phi_a(x_i) u_{K,a} over the
  * |N_i| elements K at it, so triple (K, a) gets weight phi_a(x_i) / |N_i|. */
 static pf_status build_nodal_map(dg_method *d, pf_error *err)
@@ -131,28 +160,26 @@ static void nodal_map(const void *m, const int64_t **offsets, const int64_t **tr
     *w = d->map_w;
 }
 
-/* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
-static double ground_stiffness(const void *m)
+static int32_t point_row(const void *m, int32_t e, pf_vec3 x, int64_t *triple, double *w)
 {
-    const dg_method *d = m;
-    double h = 0;
-    for (int32_t e = 0; e < d->dg.n_elems; ++e)
-        h += d->dg.frame[e].scale;
-    h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
-    return 10 * (d->dg.lambda + 2 * d->dg.mu) * h;
+    const pf_dg *dg = &((const dg_method *)m)->dg;
+    const pf_frame *fr = &dg->frame[e];
+    pf_moment_monomials(pf_v3_scale(pf_v3_sub(x, fr->center), 1 / fr->scale), dg->degree, w);
+    for (int a = 0; a < dg->nb; ++a)
+        triple[a] = (int64_t)e * dg->nb + a;
+    return dg->nb;
 }
 
-static void set_penalty(void *m, double eta) { ((dg_method *)m)->terms.eta = eta; }
-
-/* 1e-6 of the stiffest element's K/M ratio (lambda + 2 mu) / (rho h^2): lifts the six rigid
- * modes of a free body without hiding a real indefiniteness. */
-static double rigid_mode_shift(const void *m)
+static int32_t max_point_row(const void *m)
 {
-    const dg_method *d = m;
-    double h = INFINITY;
-    for (int32_t e = 0; e < d->dg.n_elems; ++e)
-        h = fmin(h, d->dg.frame[e].scale);
-    return 1e-6 * (d->dg.lambda + 2 * d->dg.mu) / (d->dg.density * h * h);
+    return ((const dg_method *)m)->dg.nb;
+}
+
+static int32_t node_elements(const void *m, int32_t i, const int32_t **elems)
+{
+    const pf_dg *dg = &((const dg_method *)m)->dg;
+    *elems = dg->node_elem + dg->node_offsets[i];
+    return (int32_t)(dg->node_offsets[i + 1] - dg->node_offsets[i]);
 }
 
 static int32_t element_of_dof(const void *m, int64_t k)
@@ -183,9 +210,12 @@ static void von_mises(const void *m, const double *u, double *out)
             for (int j = 0; j < 3; ++j)
                 eps[i][j] = 0.5 * (rf.m[i][j] + rf.m[j][i]) - (i == j);
         double tr = eps[0][0] + eps[1][1] + eps[2][2];
-        double sigma[6] = {lambda * tr + 2 * mu * eps[0][0], lambda * tr + 2 * mu * eps[1][1],
-                           lambda * tr + 2 * mu * eps[2][2], 2 * mu * eps[0][1],
-                           2 * mu * eps[1][2],              2 * mu * eps[2][0]};
+        double sigma[6] = {lambda * tr + 2 * mu * eps[0][0],
+                           lambda * tr + 2 * mu * eps[1][1],
+                           lambda * tr + 2 * mu * eps[2][2],
+                           2 * mu * eps[0][1],
+                           2 * mu * eps[1][2],
+                           2 * mu * eps[2][0]};
         out[e] = pf_von_mises(sigma);
     }
 }
@@ -277,11 +307,14 @@ static const pf_method_ops DG_OPS = {
     .add_mass = add_mass,
     .mass_mul = mass_mul,
     .external_forces = external_forces,
-    .nodal_map = nodal_map,
     .ground_stiffness = ground_stiffness,
     .set_penalty = set_penalty,
     .rigid_mode_shift = rigid_mode_shift,
     .element_of_dof = element_of_dof,
+    .nodal_map = nodal_map,
+    .point_row = point_row,
+    .max_point_row = max_point_row,
+    .node_elements = node_elements,
     .nodal_displacements = nodal_displacements,
     .von_mises = von_mises,
     .momentum = momentum,
@@ -338,8 +371,8 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     PF_CHECK(d, err, PF_ERR_NOMEM, "cannot allocate the DG method");
     d->scene = scene;
     d->mesh = mesh;
-    pf_status st = pf_dg_create(&d->dg, mesh, scene->degree, scene->E, scene->nu, scene->density,
-                                err);
+    pf_status st =
+        pf_dg_create(&d->dg, mesh, scene->degree, scene->E, scene->nu, scene->density, err);
     if (st >= 0) {
         d->x0 = pf_alloc_array((size_t)(d->dg.n_dofs ? d->dg.n_dofs : 1), sizeof *d->x0);
         d->rot = pf_alloc_array(9 * (size_t)(d->dg.n_elems ? d->dg.n_elems : 1), sizeof *d->rot);

@@ -199,6 +199,18 @@ void pf_block_matrix_add(pf_block_matrix *a, int64_t slot, int32_t i, int32_t j,
     }
 }
 
+void pf_block_matrix_add_3x3(pf_block_matrix *a, int64_t slot, int32_t bi, int64_t ri, int64_t cj,
+                             const double m[9])
+{
+    int64_t row0 = a->adj_row[slot] + (ri - a->block_start[bi]);
+    for (int c = 0; c < 3; ++c) {
+        double *v = a->val + a->col_ptr[cj + c] + row0;
+        for (int r = 0; r < 3; ++r)
+            if (ri != cj || r <= c)
+                v[r] += m[3 * r + c];
+    }
+}
+
 void pf_block_matrix_add_diagonal(pf_block_matrix *a, const double *d)
 {
     if (!d)

@@ -17,6 +17,7 @@ struct pf_cholesky {
     cholmod_factor *factor;
     cholmod_dense *x, *y, *e; /* solve2 results and workspace, kept between solves */
     int64_t n, nnz;
+    double flops; /* of one numeric factorisation, from the analysis */
     solve_threads_forced forced;
     bool factored;
 };
@@ -46,8 +47,8 @@ pf_status pf_cholesky_create(pf_cholesky **c, const pf_block_matrix *a, pf_error
     pf_cholesky *ch = pf_calloc(1, sizeof *ch);
     PF_CHECK(ch, err, PF_ERR_NOMEM, "cannot allocate a solver");
     cholmod_l_start(&ch->cc);
-    ch->cc.print = 0;                         /* errors come back as pf_error, never on stderr */
-    ch->cc.quick_return_if_not_posdef = 1;    /* the penalty search expects failures: fail fast */
+    ch->cc.print = 0;                      /* errors come back as pf_error, never on stderr */
+    ch->cc.quick_return_if_not_posdef = 1; /* the penalty search expects failures: fail fast */
     /* Supernodal LL' always: CHOLMOD's simplicial LDL' would accept an indefinite matrix (negative
      * pivots in D), and definiteness is what the penalty search and the step tests rely on. The
      * block structure makes supernodes wide, so it is also the fast choice. */
@@ -64,6 +65,7 @@ pf_status pf_cholesky_create(pf_cholesky **c, const pf_block_matrix *a, pf_error
                             "sparse Cholesky analysis of %lld unknowns failed (CHOLMOD status %d)",
                             (long long)a->n, status);
     }
+    ch->flops = ch->cc.fl;
     *c = ch;
     return PF_OK;
 }
@@ -72,8 +74,8 @@ pf_status pf_cholesky_factor(pf_cholesky *c, const pf_block_matrix *a, int64_t *
                              pf_error *err)
 {
     PF_CHECK(a->n == c->n && a->col_ptr[a->n] == c->nnz, err, PF_ERR_INVALID,
-             "matrix pattern changed since the analysis (%lld unknowns, was %lld)",
-             (long long)a->n, (long long)c->n);
+             "matrix pattern changed since the analysis (%lld unknowns, was %lld)", (long long)a->n,
+             (long long)c->n);
     cholmod_sparse s = wrap_matrix(a);
     c->factored = false;
     solve_threads_saved threads = solve_threads_enter(&c->forced);
@@ -110,8 +112,7 @@ pf_status pf_cholesky_solve(pf_cholesky *c, const double *b, double *x, pf_error
     solve_threads_saved threads = solve_threads_enter(&c->forced);
     int ok = cholmod_l_solve2(CHOLMOD_A, c->factor, &rhs, NULL, &c->x, NULL, &c->y, &c->e, &c->cc);
     solve_threads_leave(threads);
-    PF_CHECK(ok && c->x, err, PF_ERR_NOMEM, "out of memory solving %lld unknowns",
-             (long long)c->n);
+    PF_CHECK(ok && c->x, err, PF_ERR_NOMEM, "out of memory solving %lld unknowns", (long long)c->n);
     memcpy(x, c->x->x, (size_t)c->n * sizeof *x);
     return PF_OK;
 }
@@ -131,9 +132,15 @@ int64_t pf_cholesky_factor_nnz(const pf_cholesky *c)
     return nnz;
 }
 
+double pf_cholesky_factor_flops(const pf_cholesky *c)
+{
+    return c->flops;
+}
+
 void pf_cholesky_force_threads(pf_cholesky *c, bool openmp_serial, int blas)
 {
-    c->forced = (solve_threads_forced){.active = true, .openmp_serial = openmp_serial, .blas = blas};
+    c->forced =
+        (solve_threads_forced){.active = true, .openmp_serial = openmp_serial, .blas = blas};
 }
 
 void pf_cholesky_destroy(pf_cholesky **c)

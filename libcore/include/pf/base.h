@@ -134,6 +134,9 @@ void pf_buffer_release(pf_buffer *b);
 
 /* Wall-clock seconds from a monotonic clock, for timing reports. */
 double pf_time_seconds(void);
+/* CPU seconds this process has used, all threads (on a shared machine the honest cost beside
+ * the wall time). */
+double pf_cpu_seconds(void);
 
 /* OpenBLAS's thread count for a stretch of BLAS / LAPACK calls (base/blas_threads.c says why pf
  * runs its own calls on one: results independent of the core count, and small products).

@@ -13,6 +13,7 @@
 #include <pf/base.h>
 #include <pf/geom.h>
 #include <pf/mesh.h>
+#include <pf/solve.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -134,6 +135,10 @@ typedef struct pf_scene {
     int32_t frames;   /* frames to write after the rest frame (default 60) */
     int32_t substeps; /* time steps per frame (default 10) */
 
+    /* linear solves (pf/solve.h): method auto | direct | pcg, the PCG tolerance relative to the
+     * right-hand side (default 1e-10) and its iteration limit per factor (default 200) */
+    pf_solver_params solver;
+
     char *json; /* the scene text as read (NUL-terminated), for the SCEN chunk; NULL without file */
 } pf_scene;
 
@@ -161,10 +166,11 @@ pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err);
 
 /* A command-line override of one common key: key is one of method (dg|cg), degree, flux (ip|bz),
  * mass (consistent|lumped), edge_samples, frames, dt, static, E, nu, density, penalty, substeps,
- * corotation. Booleans (static, corotation) take true or false, NULL or empty meaning true. Numbers
- * must be the whole of value (strtod / base-10 strtol) and obey the same ranges as the file. static
- * re-applies the rule "no ground in a static scene unless the file gave one". PF_ERR_INVALID "key:
- * reason, got 'value'" for an unknown key or a bad value (s then unchanged). */
+ * corotation, solver (auto|direct|pcg), tolerance (the solver's). Booleans (static, corotation)
+ * take true or false, NULL or empty meaning true. Numbers must be the whole of value (strtod /
+ * base-10 strtol) and obey the same ranges as the file. static re-applies the rule "no ground in a
+ * static scene unless the file gave one". PF_ERR_INVALID "key: reason, got 'value'" for an unknown
+ * key or a bad value (s then unchanged). */
 pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_error *err);
 
 /* Completes the scene for a mesh with bounding box lo..hi (model units, lo <= hi). When
@@ -213,8 +219,6 @@ typedef struct pf_sim_stats {
     double contact_seconds;  /* contact search (broad and narrow phase) and penalty assembly */
     double embed_seconds;    /* predicted positions of the contact points (embedding mat-vec) */
     int32_t contact_points;  /* boundary nodes or embedded-surface vertices (0: no contact) */
-    int32_t pattern_growths; /* times contact needed new couplings: pattern and analysis redone
-                                (their time counts as setup) */
     double factor_seconds;
     double solve_seconds;
     int64_t steps, factorisations;
@@ -225,6 +229,9 @@ typedef struct pf_sim_stats {
     int32_t harmonic_elems;    /* elements with MFS harmonic functions */
     int64_t kernels;           /* MFS kernels of all harmonic elements (edge_samples sets them) */
     double basis_seconds;      /* shape-function set-up (part of setup_seconds) */
+    /* the linear solves: method, factorisations and why, PCG iterations (factorisations,
+     * factor_seconds, solve_seconds, matrix_nnz and factor_nnz above repeat its counts) */
+    pf_solver_stats solver;
 } pf_sim_stats;
 
 /* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles loaded with

@@ -13,6 +13,7 @@
 #ifndef PF_SOLVE_H
 #define PF_SOLVE_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include <pf/base.h>
@@ -64,6 +65,13 @@ void pf_block_matrix_zero(pf_block_matrix *a);
 void pf_block_matrix_add(pf_block_matrix *a, int64_t slot, int32_t i, int32_t j, const double *b,
                          int64_t ld);
 
+/* Adds the 3 x 3 matrix m (row-major) at rows ri .. ri + 2 and columns cj .. cj + 2, ri <= cj,
+ * rows in block bi, columns in a block coupled with bi at the given slot (its transpose at the
+ * mirrored place comes with it: only the upper triangle is stored). For ri = cj, m is taken as
+ * symmetric and its upper triangle read. */
+void pf_block_matrix_add_3x3(pf_block_matrix *a, int64_t slot, int32_t bi, int64_t ri, int64_t cj,
+                             const double m[9]);
+
 /* Adds d[k] to the diagonal entry of every unknown k (d [n]); d = NULL adds nothing. */
 void pf_block_matrix_add_diagonal(pf_block_matrix *a, const double *d);
 
@@ -94,7 +102,116 @@ pf_status pf_cholesky_solve(pf_cholesky *c, const double *b, double *x, pf_error
 /* Non-zeros in the factor, for statistics. */
 int64_t pf_cholesky_factor_nnz(const pf_cholesky *c);
 
+/* Floating-point operations of one numeric factorisation, as CHOLMOD's analysis counts them
+ * (deterministic: the solver policy compares costs with it, never with clocks). */
+double pf_cholesky_factor_flops(const pf_cholesky *c);
+
 void pf_cholesky_destroy(pf_cholesky **c);
+
+/* ==== the solver policy ======================================================================
+ * A sequence of symmetric positive definite systems A_k x = b_k on one pattern (a simulation's
+ * steps; A's values may change between solves). Methods:
+ *   direct  the reference: factorise whenever the caller says the matrix changed.
+ *   pcg     conjugate gradients on the current A, preconditioned by the most recent factor,
+ *           warm-started from x's value on entry. A new factorisation happens when the
+ *           iterations spent since the last one, beyond what a fresh factor needs, cost more
+ *           than a factorisation (both counted in flops from CHOLMOD's analysis, so the decision
+ *           is deterministic), when the matrix gained or lost terms (PF_MATRIX_NEW: a contact
+ *           set that changed), or when PCG fails.
+ *   auto    direct when the matrix never changes or a factorisation costs less than three
+ *           iterations; pcg otherwise.
+ * Every decision depends on the inputs only: the same sequence of systems gives the same bits. */
+
+typedef enum pf_solver_method {
+    PF_SOLVER_AUTO = 0,
+    PF_SOLVER_DIRECT = 1,
+    PF_SOLVER_PCG = 2,
+} pf_solver_method;
+
+/* "auto", "direct", "pcg"; pf_solver_method_parse returns false for another name. */
+const char *pf_solver_method_name(pf_solver_method m);
+bool pf_solver_method_parse(const char *name, pf_solver_method *m);
+
+typedef struct pf_solver_params {
+    pf_solver_method method; /* default auto */
+    double tolerance;        /* PCG stops at ||b - A x|| <= tolerance ||b|| (default 1e-10) */
+    int32_t max_iterations;  /* PCG iterations of one solve before it gives up on a factor and
+                                refactorises (default 200; fewer when a factorisation costs
+                                less than that many iterations) */
+} pf_solver_params;
+
+pf_solver_params pf_solver_params_default(void);
+
+/* How the matrix differs from the previous solve's: not at all; by a drift of its values (the
+ * rotations of a corotated step); or by terms that appeared or vanished (contacts), which an old
+ * factor does not precondition well. */
+typedef enum pf_matrix_change {
+    PF_MATRIX_SAME = 0,
+    PF_MATRIX_DRIFTED = 1,
+    PF_MATRIX_NEW = 2,
+} pf_matrix_change;
+
+/* Why a factorisation happened. */
+typedef enum pf_refactor_reason {
+    PF_REFACTOR_FIRST = 0,   /* no factor of the system yet */
+    PF_REFACTOR_CHANGED = 1, /* direct: the matrix changed */
+    PF_REFACTOR_COST = 2,    /* pcg: the iterations since the last one outweighed it */
+    PF_REFACTOR_FAILED = 3,  /* pcg: no convergence (or breakdown) with the old factor */
+    PF_REFACTOR_OTHER = 4,   /* a factorisation of another matrix (pf_solver_factor) */
+    PF_REFACTOR_NEW = 5,     /* pcg: PF_MATRIX_NEW */
+    PF_REFACTOR_REASONS = 6,
+} pf_refactor_reason;
+
+/* "first", "changed", "cost", "pcg-failed", "other", "new-terms". */
+const char *pf_refactor_reason_name(pf_refactor_reason r);
+
+typedef struct pf_solver_stats {
+    pf_solver_method method; /* as resolved (never auto) */
+    int64_t solves;
+    int64_t factorisations;
+    int64_t by_reason[PF_REFACTOR_REASONS];
+    int64_t pcg_solves;     /* solves that iterated (on a factor of an earlier matrix) */
+    int64_t iterations;     /* PCG iterations, all solves */
+    int32_t max_iterations; /* the most of one solve */
+    int64_t matrix_nnz;     /* stored (upper) entries */
+    int64_t factor_nnz;
+    double factor_flops, iteration_flops; /* the cost model's units (solver.c) */
+    double factor_iterations;             /* a factorisation's cost in iterations */
+    double factor_seconds, solve_seconds; /* wall */
+    double factor_cpu_seconds, solve_cpu_seconds;
+} pf_solver_stats;
+
+typedef struct pf_solver pf_solver;
+
+/* Analyses a's pattern (values unused). matrix_changes: whether the caller's matrix will change
+ * between solves (for auto). params NULL: the defaults. PF_ERR_INVALID for a tolerance outside
+ * (0, 1) or max_iterations < 1; the statuses of pf_cholesky_create. */
+pf_status pf_solver_create(pf_solver **s, const pf_block_matrix *a, const pf_solver_params *params,
+                           bool matrix_changes, pf_error *err);
+void pf_solver_destroy(pf_solver **s);
+
+/* Solves A x = b, A = a's current values (a's pattern the analysed one). change: how a's values
+ * differ from the previous solve's. x holds the initial guess on entry (PCG's warm start) and
+ * the solution on return; b [n], not aliased with x. A PCG solve that fails on an old factor
+ * (max_iterations, or a factorisation's worth of iterations, reached; or a breakdown) is redone
+ * exactly on a fresh factor and counted as such (PF_REFACTOR_FAILED). Errors: PF_ERR_NUMERIC
+ * "matrix not positive definite" with *failed_column (may be NULL) the unknown whose pivot
+ * failed, or for a non-finite result; PF_ERR_NOMEM. */
+pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_change change,
+                          const double *b, double *x, int64_t *failed_column, pf_error *err);
+
+/* Factorises a itself (a matrix on the analysed pattern that is not the system's, e.g. a
+ * definiteness test): the next solve factorises again. Statuses as pf_cholesky_factor. */
+pf_status pf_solver_factor(pf_solver *s, const pf_block_matrix *a, int64_t *failed_column,
+                           pf_error *err);
+
+/* Forgets the factor (the next solve factorises): after a failed step whose state was undone. */
+void pf_solver_reset(pf_solver *s);
+
+/* The residual ||b - A x|| / ||b|| of the last solve (0 for b = 0). */
+double pf_solver_last_residual(const pf_solver *s);
+
+const pf_solver_stats *pf_solver_get_stats(const pf_solver *s);
 
 #ifdef __cplusplus
 }

@@ -269,6 +269,10 @@ static void print_solver_summary(const pf_solver_stats *ss)
 static void print_summary(const run *r, const pf_sim *sim)
 {
     const pf_sim_stats *st = pf_sim_get_stats(sim);
+    char samples[64] = "";
+    if (st->contact_samples > 0)
+        snprintf(samples, sizeof samples, " and %d samples on large triangles",
+                 (int)st->contact_samples);
     if (r->scene.method == PF_METHOD_CG)
         fprintf(stderr,
                 "pf-sim: cg, %d elements (%d closed forms, MFS skipped; %d harmonic, %lld "
@@ -283,10 +287,10 @@ static void print_summary(const run *r, const pf_sim *sim)
                 (long long)st->steps);
     fprintf(stderr,
             "setup %.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at "
-            "%d %s: %lld contacts, search %.3f s, positions %.3f s\n",
+            "%d %s%s: %lld contacts, search %.3f s, positions %.3f s\n",
             st->setup_seconds, st->assemble_seconds, st->factor_seconds,
             (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
-            r->embedded ? "surface vertices" : "nodes", (long long)st->contacts,
+            r->embedded ? "surface vertices" : "nodes", samples, (long long)st->contacts,
             st->contact_seconds, st->embed_seconds);
     print_solver_summary(&st->solver);
 }

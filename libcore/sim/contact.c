@@ -52,6 +52,8 @@ struct pf_contact {
     /* surface vertices: their WGHT rows (borrowed) and the method's nodal map S, with node-level
      * scratch: S (u + h v) or S u, and the forces before S^T */
     const pf_weights *weights;
+    int32_t n_weighted; /* points [0, n_weighted) are the vertices, the rest samples */
+    int32_t samples;
     const int64_t *map_offsets, *map_triple;
     const double *map_w;
     double *node_u, *node_f;
@@ -186,8 +188,105 @@ static pf_status allocate_points(pf_contact *c, int32_t np, pf_error *err)
     return PF_OK;
 }
 
+/* The mean element size: the cube root of the mean element volume. */
+static double element_size(const pf_mesh *m)
+{
+    double v = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        v += pf_mesh_elem_volume(m, e);
+    return m->n_elems > 0 ? cbrt(fabs(v) / m->n_elems) : 0;
+}
+
+/* Subdivisions of a triangle for samples about h apart (1: none), at most MAX_SUBDIVISION. */
+enum { MAX_SUBDIVISION = 64 };
+static int32_t subdivisions(const double *x, const uint32_t *t, double h)
+{
+    double longest = 0;
+    for (int k = 0; k < 3; ++k)
+        longest = fmax(longest, pf_v3_norm(pf_v3_sub(pf_v3_load(x + 3 * (size_t)t[k]),
+                                                     pf_v3_load(x + 3 * (size_t)t[(k + 1) % 3]))));
+    double n = h > 0 ? ceil(longest / h) : 1;
+    return n < 1 ? 1 : n > MAX_SUBDIVISION ? MAX_SUBDIVISION : (int32_t)n;
+}
+
+/* The element of the boundary node nearest to x (an element at the surface near x). */
+static int32_t nearest_element(const pf_contact_setup *s, const int32_t *bnodes, int32_t nb,
+                               pf_vec3 x)
+{
+    int32_t best = -1;
+    double dist = INFINITY;
+    for (int32_t k = 0; k < nb; ++k) {
+        double d = pf_v3_norm(pf_v3_sub(pf_v3_load(s->mesh->x + 3 * (size_t)bnodes[k]), x));
+        if (d < dist)
+            dist = d, best = bnodes[k];
+    }
+    const int32_t *elems = NULL;
+    return best >= 0 && s->ops->node_elements(s->method, best, &elems) > 0 ? elems[0] : -1;
+}
+
+/* Samples on the surface's triangles larger than the mesh's elements: the centroids of the n^2
+ * sub-triangles of a triangle cut n times along each edge, n = its longest edge over the
+ * element size. A vertex holds the surface up where it is, and a coarse surface (a box of 8
+ * vertices over a fine mesh) has none where the mesh would sink through the ground: the samples
+ * are points of the body there, moving with the element at them (compact rows). */
+static pf_status count_samples(const pf_contact_setup *s, int64_t *count, pf_error *err)
+{
+    const pf_surface *sf = s->surface;
+    double h = element_size(s->mesh);
+    *count = 0;
+    for (int32_t t = 0; t < sf->n_tris; ++t) {
+        int32_t n = subdivisions(sf->x, sf->tri + 3 * (size_t)t, h);
+        *count += n > 1 ? (int64_t)n * n : 0;
+    }
+    PF_CHECK(*count + sf->n_verts <= INT32_MAX, err, PF_ERR_TOO_LARGE,
+             "%lld contact samples are too many", (long long)*count);
+    return PF_OK;
+}
+
+static pf_status place_samples(pf_contact *c, const pf_contact_setup *s, int32_t first,
+                               pf_error *err)
+{
+    const pf_surface *sf = s->surface;
+    double h = element_size(s->mesh);
+    uint8_t *on = pf_calloc((size_t)s->mesh->n_nodes + 1, 1);
+    int32_t nb = 0;
+    PF_CHECK(on, err, PF_ERR_NOMEM, "cannot allocate node flags");
+    pf_status st = count_boundary_nodes(s->mesh, on, &nb, err);
+    int32_t *bnodes = st >= 0 ? pf_alloc_array((size_t)nb + 1, sizeof *bnodes) : NULL;
+    if (st >= 0 && !bnodes)
+        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot list boundary nodes");
+    for (int32_t i = 0, k = 0; st >= 0 && i < s->mesh->n_nodes; ++i)
+        if (on[i])
+            bnodes[k++] = i;
+    int32_t p = first;
+    for (int32_t t = 0; st >= 0 && t < sf->n_tris; ++t) {
+        const uint32_t *tri = sf->tri + 3 * (size_t)t;
+        int32_t n = subdivisions(sf->x, tri, h);
+        if (n == 1)
+            continue;
+        pf_vec3 a = pf_v3_load(sf->x + 3 * (size_t)tri[0]);
+        pf_vec3 ab = pf_v3_sub(pf_v3_load(sf->x + 3 * (size_t)tri[1]), a);
+        pf_vec3 ac = pf_v3_sub(pf_v3_load(sf->x + 3 * (size_t)tri[2]), a);
+        /* sub-triangle centroids: (i + 1/3, j + 1/3) and (i + 2/3, j + 2/3) in units of 1/n */
+        for (int32_t i = 0; i < n; ++i)
+            for (int32_t j = 0; i + j < n; ++j)
+                for (int up = 0; up < 2 && (up == 0 || i + j + 1 < n); ++up) {
+                    double u = (i + (up ? 2.0 : 1.0) / 3) / n, v = (j + (up ? 2.0 : 1.0) / 3) / n;
+                    pf_vec3 x = pf_v3_add(a, pf_v3_add(pf_v3_scale(ab, u), pf_v3_scale(ac, v)));
+                    memcpy(c->x0 + 3 * (size_t)p, &x, sizeof x);
+                    c->point_elem[p] = nearest_element(s, bnodes, nb, x);
+                    c->share[p] = 1;
+                    ++p;
+                }
+    }
+    pf_free(bnodes);
+    pf_free(on);
+    return st;
+}
+
 /* The surface vertices: each moves with an element using its largest-weight node (the element
- * it lies in, or a neighbour of it: the compact row is exact for affine motions either way). */
+ * it lies in, or a neighbour of it: the compact row is exact for affine motions either way); then
+ * the samples of the triangles larger than the elements. */
 static pf_status surface_points(pf_contact *c, const pf_contact_setup *s, pf_error *err)
 {
     const pf_weights *w = s->weights;
@@ -197,15 +296,18 @@ static pf_status surface_points(pf_contact *c, const pf_contact_setup *s, pf_err
         "embedding weights of %d x %d do not fit a surface of %d vertices on a mesh of "
         "%d nodes",
         (int)w->rows, (int)w->cols, s->surface ? (int)s->surface->n_verts : 0, (int)m->n_nodes);
-    PF_TRY(allocate_points(c, w->rows, err));
-    memcpy(c->x0, s->surface->x, 3 * (size_t)c->np * sizeof *c->x0);
+    int64_t samples = 0;
+    PF_TRY(count_samples(s, &samples, err));
+    PF_TRY(allocate_points(c, (int32_t)(w->rows + samples), err));
+    c->n_weighted = w->rows;
+    memcpy(c->x0, s->surface->x, 3 * (size_t)w->rows * sizeof *c->x0);
     c->weights = w;
     s->ops->nodal_map(s->method, &c->map_offsets, &c->map_triple, &c->map_w);
     size_t nn = 3 * (size_t)m->n_nodes + 1;
     c->node_u = pf_alloc_array(nn, sizeof *c->node_u);
     c->node_f = pf_calloc(nn, sizeof *c->node_f);
     PF_CHECK(c->node_u && c->node_f, err, PF_ERR_NOMEM, "cannot allocate contact scratch");
-    for (int32_t p = 0; p < c->np; ++p) {
+    for (int32_t p = 0; p < c->n_weighted; ++p) {
         int64_t dominant = -1;
         double best = -1;
         for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q)
@@ -216,8 +318,9 @@ static pf_status surface_points(pf_contact *c, const pf_contact_setup *s, pf_err
         c->point_elem[p] = n > 0 ? elems[0] : -1;
         c->share[p] = 1;
     }
-    c->sources = c->np;
-    return PF_OK;
+    c->sources = c->n_weighted;
+    c->samples = (int32_t)samples;
+    return place_samples(c, s, c->n_weighted, err);
 }
 
 /* The boundary nodes: one point per element moving a node's contact, each with its share. */
@@ -382,6 +485,7 @@ pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_erro
         for (int64_t u = s->block_start[b]; u < s->block_start[b + 1]; u += 3)
             c->triple_block[u / 3] = b;
     c->stats.points = c->sources;
+    c->stats.samples = c->samples;
     *out = c;
     return PF_OK;
 }
@@ -510,7 +614,7 @@ int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double
         stitch(c, u, v, h);
     for (int32_t p = 0; p < c->np; ++p) {
         double x[3] = {c->x0[3 * p], c->x0[3 * p + 1], c->x0[3 * p + 2]};
-        if (c->weights) {
+        if (p < c->n_weighted) {
             const pf_weights *w = c->weights;
             for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q)
                 for (int d = 0; d < 3; ++d)
@@ -587,13 +691,16 @@ bool pf_contact_set_changed(const pf_contact *c)
     return c->set_changed;
 }
 
-/* Surface vertices: the forces at node level, then S^T onto the unknowns. */
+/* Surface vertices (the samples are compact points): the forces at node level, then S^T onto
+ * the unknowns. */
 static void surface_forces(pf_contact *c, const double *u, double *f)
 {
     const pf_weights *w = c->weights;
     stitch(c, u, NULL, 0);
     for (int64_t e = 0; e < c->n_hits; ++e) {
         int32_t p = (int32_t)(c->hit_point[e] & 0xffffffff);
+        if (p >= c->n_weighted)
+            continue;
         pf_vec3 n = c->hit_normal[e];
         double d = 0; /* n . u~ */
         for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q)
@@ -621,12 +728,12 @@ static void surface_forces(pf_contact *c, const double *u, double *f)
 void pf_contact_forces(pf_contact *c, const double *u, double *f)
 {
     c->power = 0;
-    if (c->weights) {
+    if (c->weights)
         surface_forces(c, u, f);
-        return;
-    }
     for (int64_t e = 0; e < c->n_hits; ++e) {
         int32_t p = (int32_t)(c->hit_point[e] & 0xffffffff);
+        if (p < c->n_weighted)
+            continue;
         pf_vec3 n = c->hit_normal[e];
         int64_t begin = c->crow_offsets[p], end = c->crow_offsets[p + 1];
         double d = 0; /* n . u~ */

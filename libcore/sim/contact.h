@@ -37,7 +37,8 @@ typedef struct pf_contact_setup {
 
 /* Time spent, seconds, since creation. */
 typedef struct pf_contact_stats {
-    int32_t points;        /* contact points */
+    int32_t points;        /* contact points: boundary nodes or surface vertices */
+    int32_t samples;       /* and samples on surface triangles larger than the elements */
     double embed_seconds;  /* predicted positions of the points (the embedding mat-vec) */
     double search_seconds; /* broad and narrow phase, and assembly of the penalty terms */
 } pf_contact_stats;

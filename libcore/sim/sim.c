@@ -154,6 +154,7 @@ static pf_status setup_contact(pf_sim *s, const pf_surface *surface, const pf_we
     if (!s->contact)
         return PF_OK;
     s->stats.contact_points = pf_contact_get_stats(s->contact)->points;
+    s->stats.contact_samples = pf_contact_get_stats(s->contact)->samples;
     return PF_OK;
 }
 

@@ -219,6 +219,7 @@ typedef struct pf_sim_stats {
     double contact_seconds;  /* contact search (broad and narrow phase) and penalty assembly */
     double embed_seconds;    /* predicted positions of the contact points (embedding mat-vec) */
     int32_t contact_points;  /* boundary nodes or embedded-surface vertices (0: no contact) */
+    int32_t contact_samples; /* points on embedded-surface triangles larger than the elements */
     double factor_seconds;
     double solve_seconds;
     int64_t steps, factorisations;

@@ -506,8 +506,10 @@ static int32_t fake_node_elements(const void *m, int32_t i, const int32_t **elem
 /* The penalty terms against a dense computation of DG paper sec. 8, 6 surface points on random
  * WGHT rows of 3 nodes, all below a tilted plane, at a random state u: the forces
  * F = sum_p k (n . (c_p - x_p) - n . beta_p^T u) beta_p (x) n with beta_p = W_p S, and the matrix
- * sum_p k (b_p (x) n) (b_p (x) n)^T with b_p the compact row of the element of the point's
- * largest-weight node, entry by entry to 1e-13 (sums of a few products of numbers below 10). */
+ * sum_p k ((1 + e) b_p b_p^T + diag(|r_t| (|r|_1 + |b|_1))) (x) n n^T with b_p the compact row of
+ * the element of the point's largest-weight node, r = beta - b, e = |r|_1 / |b|_1, entry by entry
+ * to 1e-13 (sums of a few products of numbers below 10); and that matrix majorises the exact
+ * term sum_p k (beta_p beta_p^T) (x) n n^T. */
 static void penalty_matches_dense_sum(void **state)
 {
     (void)state;
@@ -588,6 +590,7 @@ static void penalty_matches_dense_sum(void **state)
     pf_contact_add_stiffness(c, 0.5, &k);
     pf_vec3 n = pf_v3_normalize(pf_v3(1, 2, 3));
     double nn[3] = {n.x, n.y, n.z}, dense[3 * NT][3 * NT] = {{0}}, fd[3 * NT] = {0};
+    double exact[3 * NT][3 * NT] = {{0}};
     for (int p = 0; p < NP; ++p) {
         double beta[NT] = {0}, b[NT] = {0}, nu = 0;
         for (int q = 0; q < ROW; ++q) {
@@ -604,11 +607,30 @@ static void penalty_matches_dense_sum(void **state)
         for (int q = 0; q < 3; ++q)
             b[t3[q]] += b3[q];
         double gap = 1 * n.z - pf_v3_dot(n, x); /* n . (c - x) with c on the plane */
+        double l1_r = 0, l1_b = 0;
+        for (int t = 0; t < NT; ++t)
+            l1_r += fabs(beta[t] - b[t]), l1_b += fabs(b[t]);
+        double e = l1_r / l1_b;
         for (int a = 0; a < 3 * NT; ++a) {
             fd[a] += 3 * (gap - nu) * beta[a / 3] * nn[a % 3];
-            for (int bb = 0; bb < 3 * NT; ++bb)
-                dense[a][bb] += 3 * b[a / 3] * nn[a % 3] * b[bb / 3] * nn[bb % 3];
+            for (int bb = 0; bb < 3 * NT; ++bb) {
+                dense[a][bb] += 3 * (1 + e) * b[a / 3] * nn[a % 3] * b[bb / 3] * nn[bb % 3];
+                if (a / 3 == bb / 3)
+                    dense[a][bb] += 3 * fabs(beta[a / 3] - b[a / 3]) * (l1_r + l1_b) *
+                                    nn[a % 3] * nn[bb % 3];
+                exact[a][bb] += 3 * beta[a / 3] * nn[a % 3] * beta[bb / 3] * nn[bb % 3];
+            }
         }
+    }
+    /* the matrix is at least the exact term: x^T (K - C) x >= 0 */
+    for (int trial = 0; trial < 20; ++trial) {
+        double x[3 * NT], excess = 0;
+        for (int a = 0; a < 3 * NT; ++a)
+            x[a] = uniform(&r);
+        for (int a = 0; a < 3 * NT; ++a)
+            for (int bb = 0; bb < 3 * NT; ++bb)
+                excess += x[a] * (0.5 * dense[a][bb] - 0.5 * exact[a][bb]) * x[bb];
+        assert_true(excess >= -1e-13);
     }
     for (int a = 0; a < 3 * NT; ++a) {
         if (fabs(f[a] - fd[a]) > 1e-13)

@@ -57,6 +57,9 @@ struct pf_contact {
     const int64_t *map_offsets, *map_triple;
     const double *map_w;
     double *node_u, *node_f;
+    double *acc;      /* [n_triples] a vertex's beta - b, zero between vertices */
+    uint8_t *mark;    /* [n_triples] triples in touched */
+    int64_t *touched; /* [n_triples] */
     int32_t *order; /* [np] points along the Morton curve */
     int32_t n_shapes;
     shape *shapes;
@@ -306,7 +309,12 @@ static pf_status surface_points(pf_contact *c, const pf_contact_setup *s, pf_err
     size_t nn = 3 * (size_t)m->n_nodes + 1;
     c->node_u = pf_alloc_array(nn, sizeof *c->node_u);
     c->node_f = pf_calloc(nn, sizeof *c->node_f);
-    PF_CHECK(c->node_u && c->node_f, err, PF_ERR_NOMEM, "cannot allocate contact scratch");
+    size_t nt = (size_t)s->n_triples + 1;
+    c->acc = pf_calloc(nt, sizeof *c->acc);
+    c->mark = pf_calloc(nt, sizeof *c->mark);
+    c->touched = pf_alloc_array(nt, sizeof *c->touched);
+    PF_CHECK(c->node_u && c->node_f && c->acc && c->mark && c->touched, err, PF_ERR_NOMEM,
+             "cannot allocate contact scratch");
     for (int32_t p = 0; p < c->n_weighted; ++p) {
         int64_t dominant = -1;
         double best = -1;
@@ -503,7 +511,8 @@ void pf_contact_destroy(pf_contact **cp)
     void *arrays[] = {c->x0,           c->point_elem, c->share,     c->order,
                       c->triple_block, c->pos,        c->hit_point, c->prev_hit,
                       c->hit_normal,   c->hit_gap,    c->hit_k,     c->crow_offsets,
-                      c->crow_triple,  c->crow_w,     c->node_u,    c->node_f};
+                      c->crow_triple,  c->crow_w,     c->node_u,    c->node_f,
+                      c->acc,          c->mark,       c->touched};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
     pf_free(c);
@@ -750,31 +759,101 @@ void pf_contact_forces(pf_contact *c, const double *u, double *f)
     }
 }
 
-void pf_contact_add_stiffness(const pf_contact *c, double alpha, pf_block_matrix *k)
+/* k += a (b b^T) (x) n n^T over point p's compact row, scaled by scale. */
+static void add_compact(const pf_contact *c, int32_t p, pf_vec3 n, double a, pf_block_matrix *k)
+{
+    const double nn[3] = {n.x, n.y, n.z};
+    int64_t begin = c->crow_offsets[p], end = c->crow_offsets[p + 1];
+    for (int64_t q1 = begin; q1 < end; ++q1) {
+        int64_t t1 = c->crow_triple[q1];
+        int32_t b1 = c->triple_block[t1];
+        for (int64_t q2 = q1; q2 < end; ++q2) {
+            int64_t t2 = c->crow_triple[q2];
+            int32_t b2 = c->triple_block[t2];
+            int64_t slot = b1 == b2 ? k->adj_offsets[b2 + 1] - 1 : pf_block_matrix_slot(k, b1, b2);
+            if (slot < 0) /* one element's unknowns are always coupled */
+                continue;
+            double m[9], w = a * c->crow_w[q1] * c->crow_w[q2];
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    m[3 * i + j] = w * nn[i] * nn[j];
+            pf_block_matrix_add_3x3(k, slot, b1, 3 * t1, 3 * t2, m);
+        }
+    }
+}
+
+/* For a surface vertex, r = beta - b over the triples (beta = W S, b its compact row) in the
+ * scratch acc (touched triples listed in c->touched), returning ||r||_1 and ||b||_1. */
+static int64_t remainder_row(const pf_contact *c, int32_t p, double *l1_r, double *l1_b)
+{
+    const pf_weights *w = c->weights;
+    int64_t n = 0;
+    for (int64_t q = w->row_offsets[p]; q < w->row_offsets[p + 1]; ++q) {
+        int32_t i = (int32_t)w->col[q];
+        for (int64_t r = c->map_offsets[i]; r < c->map_offsets[i + 1]; ++r) {
+            int64_t t = c->map_triple[r];
+            if (!c->mark[t]) {
+                c->mark[t] = 1;
+                c->touched[n++] = t;
+            }
+            c->acc[t] += w->val[q] * c->map_w[r];
+        }
+    }
+    *l1_b = 0;
+    for (int64_t q = c->crow_offsets[p]; q < c->crow_offsets[p + 1]; ++q) {
+        int64_t t = c->crow_triple[q];
+        if (!c->mark[t]) {
+            c->mark[t] = 1;
+            c->touched[n++] = t;
+        }
+        c->acc[t] -= c->crow_w[q];
+        *l1_b += fabs(c->crow_w[q]);
+    }
+    *l1_r = 0;
+    for (int64_t k = 0; k < n; ++k)
+        *l1_r += fabs(c->acc[c->touched[k]]);
+    return n;
+}
+
+/* The stiffness of a contact at a surface vertex: beta = b + r, and for any e > 0
+ *     beta beta^T <= (1 + e) b b^T + (1 + 1/e) r r^T,   r r^T <= diag(|r_t| ||r||_1)
+ * (Young's inequality, then Gershgorin). With e = ||r||_1 / ||b||_1 the matrix gets
+ * (1 + e) b b^T + diag(|r_t| (||r||_1 + ||b||_1)): at least the exact term, so that the step,
+ * whose forces use beta exactly, stays as implicit as the exact one would be (a weaker matrix
+ * would leave the difference explicit: an MLS-embedded bunny on CG blew up within five frames
+ * with b b^T alone), and within the pattern: b within one element, the rest on the diagonal. */
+static void add_surface_vertex(const pf_contact *c, int32_t p, pf_vec3 n, double a,
+                               pf_block_matrix *k)
+{
+    double l1_r, l1_b;
+    int64_t touched = remainder_row(c, p, &l1_r, &l1_b);
+    double e = l1_b > 0 ? l1_r / l1_b : 0;
+    add_compact(c, p, n, a * (1 + e), k);
+    const double nn[3] = {n.x, n.y, n.z};
+    for (int64_t q = 0; q < touched; ++q) {
+        int64_t t = c->touched[q];
+        double d = a * fabs(c->acc[t]) * (l1_r + l1_b), m[9];
+        c->acc[t] = 0;
+        c->mark[t] = 0;
+        if (d == 0)
+            continue;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                m[3 * i + j] = d * nn[i] * nn[j];
+        int32_t b = c->triple_block[t];
+        pf_block_matrix_add_3x3(k, k->adj_offsets[b + 1] - 1, b, 3 * t, 3 * t, m);
+    }
+}
+
+void pf_contact_add_stiffness(pf_contact *c, double alpha, pf_block_matrix *k)
 {
     for (int64_t e = 0; e < c->n_hits; ++e) {
         int32_t p = (int32_t)(c->hit_point[e] & 0xffffffff);
-        pf_vec3 n = c->hit_normal[e];
-        const double nn[3] = {n.x, n.y, n.z};
-        double s = alpha * c->hit_k[e];
-        int64_t begin = c->crow_offsets[p], end = c->crow_offsets[p + 1];
-        for (int64_t q1 = begin; q1 < end; ++q1) {
-            int64_t t1 = c->crow_triple[q1];
-            int32_t b1 = c->triple_block[t1];
-            for (int64_t q2 = q1; q2 < end; ++q2) {
-                int64_t t2 = c->crow_triple[q2];
-                int32_t b2 = c->triple_block[t2];
-                int64_t slot =
-                    b1 == b2 ? k->adj_offsets[b2 + 1] - 1 : pf_block_matrix_slot(k, b1, b2);
-                if (slot < 0) /* one element's unknowns are always coupled */
-                    continue;
-                double m[9], a = s * c->crow_w[q1] * c->crow_w[q2];
-                for (int i = 0; i < 3; ++i)
-                    for (int j = 0; j < 3; ++j)
-                        m[3 * i + j] = a * nn[i] * nn[j];
-                pf_block_matrix_add_3x3(k, slot, b1, 3 * t1, 3 * t2, m);
-            }
-        }
+        double a = alpha * c->hit_k[e];
+        if (p < c->n_weighted)
+            add_surface_vertex(c, p, c->hit_normal[e], a, k);
+        else
+            add_compact(c, p, c->hit_normal[e], a, k);
     }
 }
 

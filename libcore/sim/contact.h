@@ -58,9 +58,11 @@ int64_t pf_contact_detect(pf_contact *c, double t, const double *u, const double
  * [3 n_triples] (DG paper sec. 8). Allocates nothing. */
 void pf_contact_forces(pf_contact *c, const double *u, double *f);
 
-/* Adds alpha sum over the contacts of k (b b^T) (x) n n^T to k, b the point's compact row: the
- * contact stiffness within one element's couplings (k's pattern has them). */
-void pf_contact_add_stiffness(const pf_contact *c, double alpha, pf_block_matrix *k);
+/* Adds alpha times the contacts' stiffness to k: k (b b^T) (x) n n^T for a point whose row is
+ * its compact row b; for a surface vertex (row beta) a matrix at least as stiff, built from b and
+ * the diagonal (contact.c): within one element's couplings and the diagonal, which k's pattern
+ * has. */
+void pf_contact_add_stiffness(pf_contact *c, double alpha, pf_block_matrix *k);
 
 /* The power the moving obstacles deliver through the last pf_contact_forces: the sum over the
  * contacts of the penalty force times the obstacle's velocity (0 for fixed obstacles). */

@@ -256,12 +256,9 @@ static void pcg_is_deterministic(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(demo_scene_agrees),
-        cmocka_unit_test(spinning_body_agrees),
-        cmocka_unit_test(cantilevers_agree),
-        cmocka_unit_test(resting_on_mesh_obstacle_agrees),
-        cmocka_unit_test(failing_pcg_falls_back),
-        cmocka_unit_test(pcg_is_deterministic),
+        cmocka_unit_test(demo_scene_agrees),      cmocka_unit_test(spinning_body_agrees),
+        cmocka_unit_test(cantilevers_agree),      cmocka_unit_test(resting_on_mesh_obstacle_agrees),
+        cmocka_unit_test(failing_pcg_falls_back), cmocka_unit_test(pcg_is_deterministic),
     };
     if (getenv("PF_TEST_FILTER"))
         cmocka_set_test_filter(getenv("PF_TEST_FILTER"));

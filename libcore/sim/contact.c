@@ -60,7 +60,7 @@ struct pf_contact {
     double *acc;      /* [n_triples] a vertex's beta - b, zero between vertices */
     uint8_t *mark;    /* [n_triples] triples in touched */
     int64_t *touched; /* [n_triples] */
-    int32_t *order; /* [np] points along the Morton curve */
+    int32_t *order;   /* [np] points along the Morton curve */
     int32_t n_shapes;
     shape *shapes;
     pf_vec3 *shift;        /* [n_shapes] each shape's translation at the end of the step */
@@ -200,7 +200,9 @@ static double element_size(const pf_mesh *m)
     return m->n_elems > 0 ? cbrt(fabs(v) / m->n_elems) : 0;
 }
 
-/* Subdivisions of a triangle for samples about h apart (1: none), at most MAX_SUBDIVISION. */
+/* Subdivisions of a triangle for samples about h apart: none (1) up to twice h, where the
+ * vertices and their neighbours' hold the surface within about an element; at most
+ * MAX_SUBDIVISION. */
 enum { MAX_SUBDIVISION = 64 };
 static int32_t subdivisions(const double *x, const uint32_t *t, double h)
 {
@@ -208,7 +210,7 @@ static int32_t subdivisions(const double *x, const uint32_t *t, double h)
     for (int k = 0; k < 3; ++k)
         longest = fmax(longest, pf_v3_norm(pf_v3_sub(pf_v3_load(x + 3 * (size_t)t[k]),
                                                      pf_v3_load(x + 3 * (size_t)t[(k + 1) % 3]))));
-    double n = h > 0 ? ceil(longest / h) : 1;
+    double n = h > 0 && longest > 2 * h ? ceil(longest / h) : 1;
     return n < 1 ? 1 : n > MAX_SUBDIVISION ? MAX_SUBDIVISION : (int32_t)n;
 }
 
@@ -508,11 +510,10 @@ void pf_contact_destroy(pf_contact **cp)
     pf_free(c->shapes);
     pf_free(c->shift);
     pf_free(c->velocity);
-    void *arrays[] = {c->x0,           c->point_elem, c->share,     c->order,
-                      c->triple_block, c->pos,        c->hit_point, c->prev_hit,
-                      c->hit_normal,   c->hit_gap,    c->hit_k,     c->crow_offsets,
-                      c->crow_triple,  c->crow_w,     c->node_u,    c->node_f,
-                      c->acc,          c->mark,       c->touched};
+    void *arrays[] = {c->x0,     c->point_elem,   c->share,       c->order,      c->triple_block,
+                      c->pos,    c->hit_point,    c->prev_hit,    c->hit_normal, c->hit_gap,
+                      c->hit_k,  c->crow_offsets, c->crow_triple, c->crow_w,     c->node_u,
+                      c->node_f, c->acc,          c->mark,        c->touched};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
     pf_free(c);

@@ -19,7 +19,7 @@ awk 'BEGIN { pi = 3.14159265358979; nl = 12; nm = 24; print "v 0 0 1"
 cat >"$tmp/scene.json" <<'JSON'
 {"ground": {"point": [0, 0, -0.02], "stiffness": 1e5},
  "damping": {"alpha": 6, "beta": 0.002},
- "time": {"frames": 40, "substeps": 4}}
+ "time": {"frames": 90, "substeps": 4}}
 JSON
 "$bin/pf-voxelize" "$tmp/model.obj" --res 8 --quiet |
   "$bin/pf-embed" --method mls --quiet 2>/dev/null |
@@ -27,20 +27,21 @@ JSON
   "$bin/pf-render" --out "$tmp/frames" --quiet --size 160x120
 check "pf-sim contacts at the 266 surface vertices" grep -q "contact at 266 surface vertices" "$tmp/sim.err"
 check "the surface touched the ground" bash -c "! grep -q ': 0 contacts' '$tmp/sim.err'"
-check "the pipeline renders 41 frames" test "$(ls "$tmp/frames" | wc -l)" = 41
+check "the pipeline renders 91 frames" test "$(ls "$tmp/frames" | wc -l)" = 91
 
-# At rest on its own surface (1.33 s, the bounce damped as e^{-3 t}): the rendered surface
-# vertices below the ground carry the body's weight through their penalty, sum k d = m g (m: the
-# voxel mesh's volume, 0.7289, times the density 1000) to 2 % (the residual motion), and the
-# lowest of them lies within a centimetre of the ground (about 25 vertices share the load at a
-# mean depth of 3e-3, the pole deepest), while the voxel mesh's bottom is up to half a cell
-# (0.09) away from the surface.
-"$bin/pf-export" --obj "$tmp/obj" --frames 40 --quiet "$tmp/sim.pfs"
+# At rest on its own surface (3 s; the bounce damps as e^{-3 t}, and the vertices' contact
+# stiffness in the step's matrix, which majorises the exact one, slows the last settling: 4.5 %
+# of the weight short at 1.33 s, 0.3 % at 3 s): the rendered surface vertices below the ground
+# carry the body's weight through their penalty, sum k d = m g (m: the voxel mesh's volume,
+# 0.7289, times the density 1000) to 2 %, and the lowest of them lies within a centimetre of the
+# ground (about 25 vertices share the load at a mean depth of 3e-3, the pole deepest), while the
+# voxel mesh's bottom is up to half a cell (0.09) away from the surface.
+"$bin/pf-export" --obj "$tmp/obj" --frames 90 --quiet "$tmp/sim.pfs"
 load=$(awk '$1 == "v" && $4 < -0.02 { s += -0.02 - $4 } END { printf "%.1f", s * 1e5 }' \
-  "$tmp/obj/frame_00040.obj")
+  "$tmp/obj/frame_00090.obj")
 check "the surface vertices' penalty $load carries the weight 7150.3" \
   awk -v f="$load" 'BEGIN { exit !(f > 0.98 * 7150.3 && f < 1.02 * 7150.3) }'
-low=$(awk '$1 == "v" && (n == 0 || $4 < m) { m = $4; n = 1 } END { print m }' "$tmp/obj/frame_00040.obj")
+low=$(awk '$1 == "v" && (n == 0 || $4 < m) { m = $4; n = 1 } END { print m }' "$tmp/obj/frame_00090.obj")
 check "lowest surface vertex $low rests on the ground at -0.02" \
   awk -v z="$low" 'BEGIN { exit !(z < -0.02 && z > -0.035) }'
 

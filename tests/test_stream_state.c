@@ -7,7 +7,9 @@
  *       the same box with its second hex split in halves (mesh 2, 16 nodes, 3 hexes); a triangle
  *       (SURF) embedded in each (WGHT per mesh); frames 0 and 1 on mesh 1, 2 and 3 on mesh 2, each
  *       with its STRS
- *   test_stream_state --write-unknown-mesh FILE    the same with frame 3 naming mesh 9 */
+ *   test_stream_state --write-unknown-mesh FILE    the same with frame 3 naming mesh 9
+ *   test_stream_state --write-bare FILE            the same as --write-two-meshes without SURF
+ *       and WGHT (the tools then draw and export the meshes' boundaries) */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -88,8 +90,8 @@ static void write_frame(pf_stream_writer *wr, const pf_mesh *m, uint32_t k, uint
     pf_frame_data_release(&fr);
 }
 
-/* The two-mesh stream; bad_id: frame 3 names mesh 9. */
-static void write_two_meshes(FILE *f, bool bad_id)
+/* The two-mesh stream; bad_id: frame 3 names mesh 9; bare: no SURF and WGHT. */
+static void write_stream(FILE *f, bool bad_id, bool bare)
 {
     pf_error err = {0};
     pf_mesh m1 = {0}, m2 = {0};
@@ -103,13 +105,16 @@ static void write_two_meshes(FILE *f, bool bad_id)
     assert_int_equal(pf_stream_writer_create(&wr, f, "two meshes", &err), PF_OK);
     assert_int_equal(pf_stream_write_info(wr, "test_stream_state", "0", "", &err), PF_OK);
     assert_int_equal(pf_stream_write_mesh(wr, &m1, &err), PF_OK);
-    assert_int_equal(pf_stream_write_surface(wr, &s, &err), PF_OK);
-    assert_int_equal(pf_stream_write_weights(wr, &w1, &err), PF_OK);
+    if (!bare) {
+        assert_int_equal(pf_stream_write_surface(wr, &s, &err), PF_OK);
+        assert_int_equal(pf_stream_write_weights(wr, &w1, &err), PF_OK);
+    }
     write_frame(wr, &m1, 0, 1);
     write_frame(wr, &m1, 1, 1);
     /* the change: a new MESH and recomputed WGHT before the first frame on it */
     assert_int_equal(pf_stream_write_mesh(wr, &m2, &err), PF_OK);
-    assert_int_equal(pf_stream_write_weights(wr, &w2, &err), PF_OK);
+    if (!bare)
+        assert_int_equal(pf_stream_write_weights(wr, &w2, &err), PF_OK);
     write_frame(wr, &m2, 2, 2);
     write_frame(wr, &m2, 3, bad_id ? 9 : 2);
     assert_int_equal(pf_stream_writer_finish(wr, &err), PF_OK);
@@ -119,6 +124,11 @@ static void write_two_meshes(FILE *f, bool bad_id)
     pf_surface_release(&s);
     pf_mesh_release(&m1);
     pf_mesh_release(&m2);
+}
+
+static void write_two_meshes(FILE *f, bool bad_id)
+{
+    write_stream(f, bad_id, false);
 }
 
 /* Feeds every chunk of f to s (frames checked by their header alone when skip); the first
@@ -311,21 +321,23 @@ static void test_weights_need_surface(void **state)
     pf_mesh_release(&m);
 }
 
-static int write_file(const char *path, bool bad_id)
+static int write_file(const char *path, bool bad_id, bool bare)
 {
     FILE *f = fopen(path, "wb");
     if (!f)
         return 1;
-    write_two_meshes(f, bad_id);
+    write_stream(f, bad_id, bare);
     return fclose(f) == 0 ? 0 : 1;
 }
 
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "--write-two-meshes") == 0)
-        return write_file(argv[2], false);
+        return write_file(argv[2], false, false);
     if (argc == 3 && strcmp(argv[1], "--write-unknown-mesh") == 0)
-        return write_file(argv[2], true);
+        return write_file(argv[2], true, false);
+    if (argc == 3 && strcmp(argv[1], "--write-bare") == 0)
+        return write_file(argv[2], false, true);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_two_meshes),
         cmocka_unit_test(test_two_meshes_skipped_frames),

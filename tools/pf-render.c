@@ -281,15 +281,9 @@ static pf_status finish_ffmpeg(encoder *enc, const char *file, pf_error *err)
 /* ---- the stream's state ---------------------------------------------------------------------- */
 
 typedef struct scene {
-    pf_mesh mesh;
-    bool have_mesh;
-    pf_surface surface;
-    bool have_surface, surface_closed;
-    pf_weights weights;
-    bool have_weights;
-    pf_stress_data stress; /* the latest STRS */
-    bool have_stress;
-    double *x;          /* [3 surface.n_verts] displaced surface */
+    pf_stream_state st; /* the latest MESH, SURF, WGHT, STRS (von Mises) and SCEN */
+    bool surface_closed;
+    double *x;          /* [3 st.surface.n_verts] displaced surface */
     pf_scene sim_scene; /* the simulation's scene (SCEN), for its ground plane */
     bool have_sim_scene;
     /* its obstacles at rest, as triangles (obstacle[k] of the scene is shape[k], empty when it
@@ -301,10 +295,7 @@ typedef struct scene {
 
 static void scene_release(scene *s)
 {
-    pf_mesh_release(&s->mesh);
-    pf_surface_release(&s->surface);
-    pf_weights_release(&s->weights);
-    pf_stress_data_release(&s->stress);
+    pf_stream_state_release(&s->st);
     pf_scene_release(&s->sim_scene);
     for (int32_t k = 0; k < s->n_obstacle_shapes; ++k)
         pf_surface_release(&s->obstacle_shape[k]);
@@ -384,8 +375,8 @@ static void take_obstacles(scene *s, const char *tool)
         return;
     s->n_obstacle_shapes = sc->n_obstacles;
     pf_vec3 lo = pf_v3(-0.5, -0.5, -0.5), hi = pf_v3(0.5, 0.5, 0.5);
-    if (s->have_mesh)
-        pf_mesh_bounds(&s->mesh, &lo, &hi);
+    if (s->st.have_mesh)
+        pf_mesh_bounds(&s->st.mesh, &lo, &hi);
     pf_vec3 c = pf_v3_scale(pf_v3_add(lo, hi), 0.5);
     double size = fmax(pf_v3_dist(lo, hi), 1e-3);
     int32_t most = 0;
@@ -404,17 +395,12 @@ static void take_obstacles(scene *s, const char *tool)
 
 /* The simulation's scene, for the ground it simulated against. A scene this pf cannot read is
  * ignored: the picture then keeps its default ground under the lowest point. */
-static void take_scene(scene *s, const pf_chunk *c, const char *tool)
+static void take_scene(scene *s, const char *tool)
 {
-    char *json = NULL;
-    size_t size = 0;
     pf_error err = {0};
     pf_scene_release(&s->sim_scene);
-    s->have_sim_scene = false;
-    if (pf_stream_decode_scene(c, &json, &size, &err) == PF_OK &&
-        pf_scene_parse(&s->sim_scene, json, size, "SCEN", &err) == PF_OK)
-        s->have_sim_scene = true;
-    pf_free(json);
+    s->have_sim_scene = pf_scene_parse(&s->sim_scene, s->st.scene_json, s->st.scene_size, "SCEN",
+                                       &err) == PF_OK;
     for (int32_t k = 0; k < s->n_obstacle_shapes; ++k)
         pf_surface_release(&s->obstacle_shape[k]);
     PF_FREE(s->obstacle_shape);
@@ -432,10 +418,10 @@ static bool sim_ground_height(scene *s, double *height)
     if (!s->have_sim_scene || !sc->ground)
         return false;
     if (sc->ground_auto) {
-        if (!s->have_mesh)
+        if (!s->st.have_mesh)
             return false;
         pf_vec3 lo, hi;
-        pf_mesh_bounds(&s->mesh, &lo, &hi);
+        pf_mesh_bounds(&s->st.mesh, &lo, &hi);
         pf_scene_resolve(sc, lo, hi);
     }
     pf_vec3 n = pf_v3_normalize(sc->ground_normal);
@@ -445,87 +431,28 @@ static bool sim_ground_height(scene *s, double *height)
     return true;
 }
 
-static pf_status take_mesh(scene *s, const pf_chunk *c, pf_error *err)
+/* A chunk other than FRAM into the reader state, and what the picture derives from it: the
+ * surface's scratch and closedness, one von Mises value per element, the parsed scene. */
+static pf_status take_chunk(scene *s, const pf_chunk *c, const char *tool, pf_error *err)
 {
-    pf_mesh_release(&s->mesh);
-    s->have_mesh = false;
-    PF_TRY(pf_stream_decode_mesh(c, &s->mesh, err));
-    s->have_mesh = true;
-    /* weights and stresses refer to the old mesh */
-    s->have_weights = false;
-    s->have_stress = false;
-    return PF_OK;
-}
-
-static pf_status take_surface(scene *s, const pf_chunk *c, pf_error *err)
-{
-    pf_surface_release(&s->surface);
-    s->have_surface = s->have_weights = false;
-    PF_TRY(pf_stream_decode_surface(c, &s->surface, err));
-    pf_surface_stats st;
-    PF_TRY(pf_surface_compute_stats(&s->surface, &st, err));
-    s->surface_closed = st.closed && st.manifold;
-    pf_free(s->x);
-    s->x = pf_alloc_array(3 * (size_t)s->surface.n_verts + 1, sizeof *s->x);
-    PF_CHECK(s->x, err, PF_ERR_NOMEM, "out of memory for a surface of %d vertices",
-             (int)s->surface.n_verts);
-    s->have_surface = true;
-    return PF_OK;
-}
-
-static pf_status take_weights(scene *s, const pf_chunk *c, pf_error *err)
-{
-    pf_weights_release(&s->weights);
-    s->have_weights = false;
-    PF_TRY(pf_stream_decode_weights(c, &s->weights, err));
-    const pf_weights *w = &s->weights;
-    PF_CHECK(s->have_surface && w->surface_id == s->surface.id && w->rows == s->surface.n_verts,
-             err, PF_ERR_FORMAT,
-             "chunk WGHT at byte %llu: weights for surface %llu with %d vertices, but the "
-             "latest SURF is %s",
-             (unsigned long long)c->offset, (unsigned long long)w->surface_id, (int)w->rows,
-             s->have_surface ? "another" : "missing");
-    PF_CHECK(s->have_mesh && w->mesh_id == s->mesh.id && w->cols == s->mesh.n_nodes, err,
-             PF_ERR_FORMAT,
-             "chunk WGHT at byte %llu: weights for mesh %llu with %d nodes, but the latest MESH "
-             "is %s",
-             (unsigned long long)c->offset, (unsigned long long)w->mesh_id, (int)w->cols,
-             s->have_mesh ? "another" : "missing");
-    s->have_weights = true;
-    return PF_OK;
-}
-
-static pf_status check_frame(const scene *s, const pf_chunk *c, const pf_frame_data *f,
-                             pf_error *err)
-{
-    PF_CHECK(s->have_mesh, err, PF_ERR_FORMAT, "chunk FRAM at byte %llu: a frame before any MESH",
-             (unsigned long long)c->offset);
-    PF_CHECK(f->mesh_id == s->mesh.id && f->n_nodes == s->mesh.n_nodes, err, PF_ERR_FORMAT,
-             "chunk FRAM at byte %llu: frame %u is for mesh %llu with %d nodes, the latest MESH "
-             "is mesh %llu with %d nodes",
-             (unsigned long long)c->offset, (unsigned)f->index, (unsigned long long)f->mesh_id,
-             (int)f->n_nodes, (unsigned long long)s->mesh.id, (int)s->mesh.n_nodes);
-    return PF_OK;
-}
-
-static pf_status take_stress(scene *s, const pf_chunk *c, pf_error *err)
-{
-    pf_stress_data_release(&s->stress);
-    s->have_stress = false;
-    PF_TRY(pf_stream_decode_stress(c, &s->stress, err));
-    PF_CHECK(s->have_mesh && s->stress.mesh_id == s->mesh.id &&
-                 s->stress.n_elems == s->mesh.n_elems,
-             err, PF_ERR_FORMAT,
-             "chunk STRS at byte %llu: stress of mesh %llu with %d elements does not match the "
-             "latest MESH",
-             (unsigned long long)c->offset, (unsigned long long)s->stress.mesh_id,
-             (int)s->stress.n_elems);
-    /* one scalar per element: von Mises, computed in place from 6 components */
-    if (s->stress.components == 6)
-        for (int32_t e = 0; e < s->stress.n_elems; ++e)
-            s->stress.values[e] = pf_render_von_mises(s->stress.values + 6 * (size_t)e);
-    s->stress.components = 1;
-    s->have_stress = true;
+    PF_TRY(pf_stream_state_take(&s->st, c, err));
+    if (strcmp(c->tag, "SURF") == 0) {
+        pf_surface_stats st;
+        PF_TRY(pf_surface_compute_stats(&s->st.surface, &st, err));
+        s->surface_closed = st.closed && st.manifold;
+        pf_free(s->x);
+        s->x = pf_alloc_array(3 * (size_t)s->st.surface.n_verts + 1, sizeof *s->x);
+        PF_CHECK(s->x, err, PF_ERR_NOMEM, "out of memory for a surface of %d vertices",
+                 (int)s->st.surface.n_verts);
+    } else if (strcmp(c->tag, "STRS") == 0) {
+        pf_stress_data *st = &s->st.stress; /* von Mises in place from 6 components */
+        if (st->components == 6)
+            for (int32_t e = 0; e < st->n_elems; ++e)
+                st->values[e] = pf_render_von_mises(st->values + 6 * (size_t)e);
+        st->components = 1;
+    } else if (strcmp(c->tag, "SCEN") == 0) {
+        take_scene(s, tool);
+    }
     return PF_OK;
 }
 
@@ -534,8 +461,8 @@ static pf_status take_stress(scene *s, const pf_chunk *c, pf_error *err)
 static bool draws_surface(const scene *s, mode m)
 {
     if (m == MODE_MESH)
-        return !s->have_mesh;
-    return s->have_weights || !s->have_mesh;
+        return !s->st.have_mesh;
+    return s->st.have_weights || !s->st.have_mesh;
 }
 
 /* The positions of the drawn geometry of a frame (u NULL: at rest), as their bounding box. */
@@ -546,16 +473,16 @@ static void frame_bounds(scene *s, mode m, const double *u, pf_vec3 *lo, pf_vec3
     const double *x;
     int32_t n;
     if (draws_surface(s, m)) {
-        x = s->surface.x;
-        if (u && s->have_weights) {
-            pf_weights_apply(&s->weights, s->surface.x, u, s->x);
+        x = s->st.surface.x;
+        if (u && s->st.have_weights) {
+            pf_weights_apply(&s->st.weights, s->st.surface.x, u, s->x);
             x = s->x;
         }
-        n = s->surface.n_verts;
+        n = s->st.surface.n_verts;
         u = NULL;
     } else {
-        x = s->mesh.x;
-        n = s->mesh.n_nodes;
+        x = s->st.mesh.x;
+        n = s->st.mesh.n_nodes;
     }
     for (int32_t i = 0; i < n; ++i) {
         pf_vec3 p = pf_v3_load(x + 3 * (size_t)i);
@@ -597,34 +524,20 @@ static void grow_stress(survey *sv, const pf_stress_data *st)
 static pf_status survey_chunk(scene *s, survey *sv, mode m, const pf_chunk *c, int64_t *frames,
                               pf_error *err)
 {
-    if (strcmp(c->tag, "MESH") == 0)
-        return take_mesh(s, c, err);
-    if (strcmp(c->tag, "SURF") == 0)
-        return take_surface(s, c, err);
-    if (strcmp(c->tag, "WGHT") == 0)
-        return take_weights(s, c, err);
-    if (strcmp(c->tag, "SCEN") == 0) {
-        take_scene(s, c, NULL);
+    if (strcmp(c->tag, "FRAM") != 0) {
+        PF_TRY(take_chunk(s, c, NULL, err));
+        if (strcmp(c->tag, "STRS") == 0)
+            grow_stress(sv, &s->st.stress);
         return PF_OK;
     }
-    if (strcmp(c->tag, "STRS") == 0) {
-        PF_TRY(take_stress(s, c, err));
-        grow_stress(sv, &s->stress);
-        return PF_OK;
-    }
-    if (strcmp(c->tag, "FRAM") != 0)
-        return PF_OK;
     pf_frame_data f = {0};
-    PF_TRY(pf_stream_decode_frame(c, &f, err));
-    pf_status st = check_frame(s, c, &f, err);
-    if (st == PF_OK) {
-        pf_vec3 lo, hi;
-        frame_bounds(s, m, f.u, &lo, &hi);
-        grow_box(sv, lo, hi);
-        ++*frames;
-    }
+    PF_TRY(pf_stream_state_frame(&s->st, c, &f, err));
+    pf_vec3 lo, hi;
+    frame_bounds(s, m, f.u, &lo, &hi);
+    grow_box(sv, lo, hi);
+    ++*frames;
     pf_frame_data_release(&f);
-    return st;
+    return PF_OK;
 }
 
 /* Reads the whole file once; errors end the survey quietly (the rendering pass reports them). */
@@ -645,7 +558,7 @@ static void survey_file(FILE *f, const char *name, mode m, survey *sv)
         }
     }
     /* no frames: the rest shape is what is drawn */
-    if (frames == 0 && (s.have_mesh || s.have_surface)) {
+    if (frames == 0 && (s.st.have_mesh || s.st.have_surface)) {
         pf_vec3 lo, hi;
         frame_bounds(&s, m, NULL, &lo, &hi);
         grow_box(sv, lo, hi);
@@ -666,7 +579,7 @@ typedef struct render {
     survey sv;      /* from pass 1, or grown frame by frame on a pipe */
     bool from_file; /* sv covers the whole animation */
     pf_boundary boundary;
-    uint64_t boundary_mesh; /* mesh id the boundary was extracted from */
+    uint64_t boundary_mesh; /* the MESH (state's mesh_serial) the boundary was extracted from */
     bool have_boundary;
     pf_render_geometry geom;
     pf_renderer *renderer;
@@ -685,12 +598,12 @@ typedef struct render {
 
 static pf_status ensure_boundary(render *rd, pf_error *err)
 {
-    if (rd->have_boundary && rd->boundary_mesh == rd->s.mesh.id)
+    if (rd->have_boundary && rd->boundary_mesh == rd->s.st.mesh_serial)
         return PF_OK;
     pf_boundary_release(&rd->boundary);
     rd->have_boundary = false;
-    PF_TRY(pf_boundary_extract(&rd->s.mesh, &rd->boundary, err));
-    rd->boundary_mesh = rd->s.mesh.id;
+    PF_TRY(pf_boundary_extract(&rd->s.st.mesh, &rd->boundary, err));
+    rd->boundary_mesh = rd->s.st.mesh_serial;
     rd->have_boundary = true;
     return PF_OK;
 }
@@ -699,18 +612,18 @@ static pf_status stress_paint(render *rd, pf_paint *p, bool on_surface, pf_error
 {
     scene *s = &rd->s;
     p->kind = PF_PAINT_ELEM_VALUE;
-    p->values = s->stress.values;
+    p->values = s->st.stress.values;
     p->lo = rd->sv.stress_lo;
     p->hi = rd->sv.stress_hi > rd->sv.stress_lo ? rd->sv.stress_hi : rd->sv.stress_lo + 1;
     if (!on_surface)
         return PF_OK;
     pf_free(rd->node_values);
     pf_free(rd->vert_values);
-    rd->node_values = pf_alloc_array((size_t)s->mesh.n_nodes + 1, sizeof *rd->node_values);
-    rd->vert_values = pf_alloc_array((size_t)s->surface.n_verts + 1, sizeof *rd->vert_values);
+    rd->node_values = pf_alloc_array((size_t)s->st.mesh.n_nodes + 1, sizeof *rd->node_values);
+    rd->vert_values = pf_alloc_array((size_t)s->st.surface.n_verts + 1, sizeof *rd->vert_values);
     PF_CHECK(rd->node_values && rd->vert_values, err, PF_ERR_NOMEM, "out of memory");
-    PF_TRY(pf_render_elem_to_node(&s->mesh, s->stress.values, rd->node_values, err));
-    pf_weights_apply_scalar(&s->weights, rd->node_values, rd->vert_values);
+    PF_TRY(pf_render_elem_to_node(&s->st.mesh, s->st.stress.values, rd->node_values, err));
+    pf_weights_apply_scalar(&s->st.weights, rd->node_values, rd->vert_values);
     p->kind = PF_PAINT_VERT_VALUE;
     p->values = rd->vert_values;
     return PF_OK;
@@ -723,8 +636,8 @@ static pf_status build_geometry(render *rd, const pf_frame_data *f, bool *legend
     scene *s = &rd->s;
     const double *u = f ? f->u : NULL;
     bool surface = draws_surface(s, rd->o->mode);
-    bool stress = rd->o->mode == MODE_STRESS && f && s->have_stress &&
-                  s->stress.frame == f->index && s->stress.mesh_id == s->mesh.id;
+    bool stress = rd->o->mode == MODE_STRESS && f && s->st.have_stress &&
+                  s->st.stress.frame == f->index && s->st.stress.mesh_id == s->st.mesh.id;
     if (rd->o->mode == MODE_STRESS && !stress && !rd->warned_no_stress) {
         fprintf(stderr, "%s: warning: no STRS chunk for frame %u: drawn without colours\n",
                 rd->cli->tool, f ? (unsigned)f->index : 0u);
@@ -734,22 +647,22 @@ static pf_status build_geometry(render *rd, const pf_frame_data *f, bool *legend
     *legend = false;
     if (stress) {
         if (!rd->from_file)
-            grow_stress(&rd->sv, &s->stress);
-        PF_TRY(stress_paint(rd, &p, surface && s->have_weights, err));
+            grow_stress(&rd->sv, &s->st.stress);
+        PF_TRY(stress_paint(rd, &p, surface && s->st.have_weights, err));
         *legend = true;
     }
     pf_render_geometry_clear(&rd->geom);
     if (surface) {
-        const double *x = s->surface.x;
-        if (u && s->have_weights) {
-            pf_weights_apply(&s->weights, s->surface.x, u, s->x);
+        const double *x = s->st.surface.x;
+        if (u && s->st.have_weights) {
+            pf_weights_apply(&s->st.weights, s->st.surface.x, u, s->x);
             x = s->x;
         }
         p.wire = rd->o->mode == MODE_MESH;
         if (p.kind == PF_PAINT_ELEM_VALUE) /* stress without weights cannot reach the surface */
             p = pf_paint_default(), *legend = false;
         rd->geom.closed = s->surface_closed;
-        return pf_render_add_surface(&rd->geom, &s->surface, x, &p, err);
+        return pf_render_add_surface(&rd->geom, &s->st.surface, x, &p, err);
     }
     PF_TRY(ensure_boundary(rd, err));
     if (rd->o->mode == MODE_MESH) {
@@ -757,7 +670,7 @@ static pf_status build_geometry(render *rd, const pf_frame_data *f, bool *legend
         p.wire = true;
     }
     rd->geom.closed = true;
-    return pf_render_add_boundary(&rd->geom, &s->mesh, &rd->boundary, u, &p, err);
+    return pf_render_add_boundary(&rd->geom, &s->st.mesh, &rd->boundary, u, &p, err);
 }
 
 /* The view, fixed at the first frame of the stream (u: its displacements; NULL: the rest shape).
@@ -862,19 +775,18 @@ static pf_status on_frame(render *rd, const pf_chunk *c, pf_error *err)
     PF_TRY(flush_pending(rd, err));
     uint32_t index;
     PF_TRY(pf_stream_frame_index(c, &index, err));
-    /* frames out of range are not decoded, but for the first one, which fixes the camera */
+    /* frames out of range are checked by their header, not decoded, but for the first one,
+     * which fixes the camera */
     if (!in_range(rd->o, index) && rd->view_ready)
-        return PF_OK;
+        return pf_stream_state_skip_frame(&rd->s.st, c, &index, err);
     pf_frame_data f = {0};
-    PF_TRY(pf_stream_decode_frame(c, &f, err));
-    pf_status s = check_frame(&rd->s, c, &f, err);
-    if (s == PF_OK)
-        ensure_view(rd, f.u);
-    if (s == PF_OK && in_range(rd->o, f.index)) {
+    PF_TRY(pf_stream_state_frame(&rd->s.st, c, &f, err));
+    ensure_view(rd, f.u);
+    pf_status s = PF_OK;
+    if (in_range(rd->o, f.index)) {
         /* in stress mode a frame waits for its STRS, which may follow it */
-        bool wait =
-            rd->o->mode == MODE_STRESS && !(rd->s.have_stress && rd->s.stress.frame == f.index);
-        if (wait) {
+        const pf_stream_state *st = &rd->s.st;
+        if (rd->o->mode == MODE_STRESS && !(st->have_stress && st->stress.frame == f.index)) {
             rd->pending = f;
             rd->have_pending = true;
             return PF_OK;
@@ -885,28 +797,17 @@ static pf_status on_frame(render *rd, const pf_chunk *c, pf_error *err)
     return s;
 }
 
+/* A pending frame is drawn on its own mesh: before a new MESH replaces it. */
 static pf_status render_chunk(render *rd, const pf_chunk *c, pf_error *err)
 {
     if (strcmp(c->tag, "FRAM") == 0)
         return on_frame(rd, c, err);
-    if (strcmp(c->tag, "STRS") == 0) {
-        PF_TRY(take_stress(&rd->s, c, err));
-        if (rd->have_pending && rd->s.stress.frame == rd->pending.index)
-            return flush_pending(rd, err);
-        return PF_OK;
-    }
-    if (strcmp(c->tag, "MESH") == 0) {
+    if (strcmp(c->tag, "MESH") == 0)
         PF_TRY(flush_pending(rd, err));
-        return take_mesh(&rd->s, c, err);
-    }
-    if (strcmp(c->tag, "SURF") == 0)
-        return take_surface(&rd->s, c, err);
-    if (strcmp(c->tag, "WGHT") == 0)
-        return take_weights(&rd->s, c, err);
-    if (strcmp(c->tag, "SCEN") == 0) {
-        take_scene(&rd->s, c, rd->cli->tool);
-        return PF_OK;
-    }
+    PF_TRY(take_chunk(&rd->s, c, rd->cli->tool, err));
+    if (strcmp(c->tag, "STRS") == 0 && rd->have_pending &&
+        rd->s.st.stress.frame == rd->pending.index)
+        return flush_pending(rd, err);
     return PF_OK; /* INFO, END_ and unknown chunks do not change the picture */
 }
 
@@ -934,7 +835,7 @@ static pf_status render_stream(render *rd, FILE *f, const char *name, pf_error *
     if (s == PF_OK)
         s = fs;
     if (s == PF_OK && frames == 0 && rd->written == 0 && in_range(rd->o, 0)) {
-        PF_CHECK(rd->s.have_mesh || rd->s.have_surface, err, PF_ERR_FORMAT,
+        PF_CHECK(rd->s.st.have_mesh || rd->s.st.have_surface, err, PF_ERR_FORMAT,
                  "%s: nothing to draw: no MESH and no SURF chunk", name);
         s = render_frame(rd, NULL, err);
     }

@@ -448,7 +448,7 @@ static pf_status take_chunk(scene *s, const pf_chunk *c, const char *tool, pf_er
         pf_stress_data *st = &s->st.stress; /* von Mises in place from 6 components */
         if (st->components == 6)
             for (int32_t e = 0; e < st->n_elems; ++e)
-                st->values[e] = pf_render_von_mises(st->values + 6 * (size_t)e);
+                st->values[e] = pf_von_mises(st->values + 6 * (size_t)e);
         st->components = 1;
     } else if (strcmp(c->tag, "SCEN") == 0) {
         take_scene(s, tool);

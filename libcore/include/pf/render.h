@@ -45,10 +45,6 @@ void pf_colormap_viridis(double t, float rgb[3]);
 /* Distinct linear colours for the element kinds (tet, hex, general polyhedron) in --mode mesh. */
 void pf_render_kind_color(pf_elem_kind kind, float rgb[3]);
 
-/* Von Mises equivalent stress of a symmetric stress (xx yy zz xy yz zx), in the stress unit:
- * sqrt(((sxx-syy)^2 + (syy-szz)^2 + (szz-sxx)^2) / 2 + 3 (sxy^2 + syz^2 + szx^2)). */
-double pf_render_von_mises(const double s[6]);
-
 /* ==== geometry for drawing ==================================================================== */
 
 /* One vertex as the renderer draws it. */

@@ -285,6 +285,25 @@ static void print_summary(const run *r, const pf_sim *sim)
     print_solver_summary(&st->solver);
 }
 
+/* The triangles of the scene's mesh obstacles, read here and handed to the scene (libcore/sim
+ * reads no files). */
+static pf_status load_obstacles(pf_scene *sc, pf_error *err)
+{
+    for (int32_t i = 0; i < sc->n_obstacles; ++i) {
+        if (sc->obstacles[i].kind != PF_OBSTACLE_MESH)
+            continue;
+        pf_surface s = {0};
+        pf_status st = pf_import_surface(sc->obstacles[i].file, &s, err);
+        if (st < 0)
+            pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
+        else
+            st = pf_scene_set_obstacle_surface(sc, i, &s, err);
+        pf_surface_release(&s);
+        PF_TRY(st);
+    }
+    return PF_OK;
+}
+
 /* The frames: one for a static scene, the rest state and scene->frames more otherwise. */
 static pf_status simulate(run *r, pf_error *err)
 {
@@ -295,7 +314,7 @@ static pf_status simulate(run *r, pf_error *err)
      * that they belong to its latest SURF and MESH) */
     const pf_weights *w = &r->input.weights;
     bool embedded = r->embedded = r->input.have_weights;
-    PF_TRY(pf_scene_load_obstacles(&r->scene, err));
+    PF_TRY(load_obstacles(&r->scene, err));
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
                                   embedded ? w : NULL, err));

@@ -237,8 +237,8 @@ typedef struct pf_sim_stats {
     pf_solver_stats solver;
 } pf_sim_stats;
 
-/* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles loaded with
- * pf_scene_load_obstacles) on the mesh (valid, derived). Contact with the ground and the
+/* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles' triangles handed
+ * over with pf_scene_set_obstacle_surface) on the mesh (valid, derived). Contact with the ground and the
  * obstacles acts at the mesh's boundary nodes. The mesh and scene are borrowed and must outlive
  * the simulator. PF_ERR_INVALID also for a mesh obstacle whose surface is not loaded.
  * PF_ERR_INVALID for a static scene without fixed faces (rigid motions make it singular),

@@ -48,41 +48,6 @@ typedef struct options {
 
 /* ---- options --------------------------------------------------------------------------------- */
 
-/* A frame index: decimal digits, at most UINT32_MAX. */
-static bool parse_index(const char *s, size_t n, int64_t *v)
-{
-    if (n == 0 || n > 10)
-        return false;
-    int64_t x = 0;
-    for (size_t i = 0; i < n; ++i) {
-        if (s[i] < '0' || s[i] > '9')
-            return false;
-        x = 10 * x + (s[i] - '0');
-    }
-    *v = x;
-    return x <= (int64_t)UINT32_MAX;
-}
-
-static void parse_frames(const pf_cli *cli, const char *text, options *o)
-{
-    const char *colon = strchr(text, ':');
-    size_t len = strlen(text);
-    bool ok;
-    o->first = 0;
-    o->last = (int64_t)UINT32_MAX;
-    if (!colon) {
-        ok = parse_index(text, len, &o->first);
-        o->last = o->first;
-    } else {
-        size_t a = (size_t)(colon - text), b = len - a - 1;
-        ok = len > 1 && (a == 0 || parse_index(text, a, &o->first)) &&
-             (b == 0 || parse_index(colon + 1, b, &o->last));
-    }
-    if (!ok || o->first > o->last)
-        pf_cli_usage_error(cli, "--frames expects A:B, A:, :B or A with 0 <= A <= B, got '%s'",
-                           text);
-}
-
 static void set_format(const pf_cli *cli, options *o, format f, const char *dir)
 {
     if (o->format != FORMAT_NONE)
@@ -105,7 +70,7 @@ static void parse_options(pf_cli *cli, options *o)
         case OPT_VTU: set_format(cli, o, FORMAT_VTU, value); break;
         case OPT_OBJ: set_format(cli, o, FORMAT_OBJ, value); break;
         case OPT_PLY: set_format(cli, o, FORMAT_PLY, value); break;
-        case OPT_FRAMES: parse_frames(cli, value, o); break;
+        case OPT_FRAMES: pf_cli_parse_frames(cli, value, &o->first, &o->last); break;
         case OPT_QUIET: o->quiet = true; break;
         default:
             if (o->input)

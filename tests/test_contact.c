@@ -199,7 +199,11 @@ static void ball_dropped_on_mesh_obstacle(void **state)
     pf_scene on_mesh, on_plane;
     parse(&on_mesh, text, scene_path);
     assert_string_equal(on_mesh.obstacles[0].file, obj);
-    assert_int_equal(pf_scene_load_obstacles(&on_mesh, &err), PF_OK);
+    /* the caller reads the file and hands the triangles over (libcore/sim reads no files) */
+    pf_surface read = {0};
+    assert_int_equal(pf_import_surface(obj, &read, &err), PF_OK);
+    assert_int_equal(pf_scene_set_obstacle_surface(&on_mesh, 0, &read, &err), PF_OK);
+    assert_null(read.x);
     assert_int_equal(on_mesh.obstacles[0].surface.n_tris, slab.n_tris);
     snprintf(text, sizeof text,
              "{%s, \"obstacles\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [0, 0, 1]},"
@@ -417,13 +421,24 @@ static void bad_obstacles_are_refused(void **state)
         pf_scene_release(&sc);
     }
 
-    /* a missing mesh file: named with the obstacle when loading */
+    /* surfaces handed over: none without triangles, none for an obstacle that is not a mesh */
     pf_scene sc;
-    parse(&sc, "{\"obstacles\": [{\"mesh\": {\"file\": \"no_such.obj\"}}]}", "dir/s.json");
+    parse(&sc, "{\"obstacles\": [{\"mesh\": {\"file\": \"no_such.obj\"}}, {\"sphere\": "
+               "{\"centre\": [0, 0, 0], \"radius\": 1}}]}",
+          "dir/s.json");
     pf_error err = {0};
-    assert_true(pf_scene_load_obstacles(&sc, &err) < 0);
-    assert_non_null(strstr(err.msg, "obstacles[0].mesh"));
-    assert_non_null(strstr(err.msg, "dir/no_such.obj"));
+    pf_surface empty = {0};
+    assert_int_equal(pf_scene_set_obstacle_surface(&sc, 0, &empty, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "obstacles[0].mesh: dir/no_such.obj: no triangles"));
+    pf_surface one = {0};
+    assert_int_equal(pf_surface_alloc(&one, 3, 1, &err), PF_OK);
+    memset(one.x, 0, 9 * sizeof(double));
+    one.tri[0] = 0, one.tri[1] = 1, one.tri[2] = 2;
+    assert_int_equal(pf_scene_set_obstacle_surface(&sc, 1, &one, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "obstacles[1]: not a mesh obstacle"));
+    assert_int_equal(pf_scene_set_obstacle_surface(&sc, 2, &one, &err), PF_ERR_INVALID);
+    assert_non_null(one.x); /* refused: still the caller's */
+    pf_surface_release(&one);
     /* and a simulator refuses an unloaded one */
     pf_mesh m = {0};
     make_box(&m, (pf_vec3){0, 0, 0}, (pf_vec3){1, 1, 1}, 1, 1, 1);

@@ -799,6 +799,35 @@ static void test_rayscene_closest(void **state)
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
+/* ---- stress ---------------------------------------------------------------------------------- */
+
+/* Closed cases, and random stresses against the principal-stress form (an independent route: the
+ * eigenvalues by Jacobi rotations). Tolerance 1e-12 relative to the largest |eigenvalue|: both
+ * routes are accurate to a few ulps of it. */
+static void test_von_mises(void **state)
+{
+    (void)state;
+    const double uniaxial[6] = {-7, 0, 0, 0, 0, 0}, shear[6] = {0, 0, 0, 0, 2, 0};
+    const double hydrostatic[6] = {5, 5, 5, 0, 0, 0};
+    assert_true(fabs(pf_von_mises(uniaxial) - 7) < 1e-15);
+    assert_true(fabs(pf_von_mises(shear) - 2 * sqrt(3.0)) < 1e-15);
+    assert_true(pf_von_mises(hydrostatic) == 0);
+    rng r = {0x2545f4914f6cdd1du};
+    for (int k = 0; k < 100; ++k) {
+        double s[6];
+        for (int i = 0; i < 6; ++i)
+            s[i] = 10 * uniform(&r);
+        pf_mat3 m = {{{s[0], s[3], s[5]}, {s[3], s[1], s[4]}, {s[5], s[4], s[2]}}};
+        double p[3];
+        pf_mat3 v;
+        pf_mat3_sym_eigen(m, p, &v);
+        double a = p[0] - p[1], b = p[1] - p[2], c = p[2] - p[0];
+        double want = sqrt(0.5 * (a * a + b * b + c * c));
+        double scale = fmax(fabs(p[0]), fabs(p[2]));
+        assert_true(fabs(pf_von_mises(s) - want) <= 1e-12 * scale);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -821,6 +850,7 @@ int main(void)
         cmocka_unit_test(test_polyhedron_L_prism),
         cmocka_unit_test(test_triangle_closest_point),
         cmocka_unit_test(test_rayscene_closest),
+        cmocka_unit_test(test_von_mises),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -497,6 +497,29 @@ static void test_generated_surfaces_converge(void **state)
     teardown_check();
 }
 
+/* The flat-shaded box: each face's own four vertices, so the surface is open by its indices but
+ * closed in space: volume (divergence theorem) and area are the box's to rounding, every triangle
+ * faces out (positive volume), and a box with lo >= hi on an axis is refused. */
+static void test_surface_box(void **state)
+{
+    (void)state;
+    pf_surface s = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_surface_make_box(&s, pf_v3(-1, 0, 2), pf_v3(2, 0.5, 4), &err), PF_OK);
+    assert_int_equal(s.n_verts, 24);
+    assert_int_equal(s.n_tris, 12);
+    pf_surface_stats st;
+    assert_int_equal(pf_surface_compute_stats(&s, &st, &err), PF_OK);
+    assert_true(fabs(st.volume - 3.0) < 1e-14);
+    assert_true(fabs(st.area - 2 * (1.5 + 6 + 1)) < 1e-14);
+    assert_true(st.lo.x == -1 && st.lo.y == 0 && st.lo.z == 2);
+    assert_true(st.hi.x == 2 && st.hi.y == 0.5 && st.hi.z == 4);
+    pf_surface_release(&s);
+    assert_int_equal(pf_surface_make_box(&s, pf_v3(0, 0, 0), pf_v3(1, 0, 1), &err),
+                     PF_ERR_INVALID);
+    teardown_check();
+}
+
 static void test_rayscene_crossings(void **state)
 {
     (void)state;
@@ -798,6 +821,7 @@ int main(void)
         cmocka_unit_test(test_surface_rejects_bad_indices),
         cmocka_unit_test(test_box_grid),
         cmocka_unit_test(test_generated_surfaces_converge),
+        cmocka_unit_test(test_surface_box),
         cmocka_unit_test(test_rayscene_crossings),
         cmocka_unit_test(test_winding_number),
         cmocka_unit_test(test_voxelize_grid_aligned_cube),

@@ -485,17 +485,6 @@ static void test_elem_to_node(void **state)
 
 /* ---- colour ---------------------------------------------------------------------------------- */
 
-static void test_von_mises(void **state)
-{
-    (void)state;
-    const double uniaxial[6] = {-7, 0, 0, 0, 0, 0}, shear[6] = {0, 0, 0, 0, 2, 0};
-    const double hydrostatic[6] = {5, 5, 5, 0, 0, 0};
-    assert_true(fabs(pf_render_von_mises(uniaxial) - 7) < 1e-15);
-    assert_true(fabs(pf_render_von_mises(shear) - 2 * sqrt(3.0)) < 1e-15);
-    assert_true(pf_render_von_mises(hydrostatic) == 0);
-    teardown_check();
-}
-
 static void test_srgb(void **state)
 {
     (void)state;
@@ -846,7 +835,6 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_geometry_wire_tags),
         cmocka_unit_test(test_weights_apply),
         cmocka_unit_test(test_elem_to_node),
-        cmocka_unit_test(test_von_mises),
         cmocka_unit_test(test_srgb),
         cmocka_unit_test(test_viridis),
         cmocka_unit_test(test_camera_fit),

@@ -118,6 +118,41 @@ void pf_cli_parse_vec3(const pf_cli *cli, const char *option, const char *text, 
     }
 }
 
+/* A frame index: decimal digits, at most UINT32_MAX. */
+static bool parse_index(const char *s, size_t n, int64_t *v)
+{
+    if (n == 0 || n > 10)
+        return false;
+    int64_t x = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (s[i] < '0' || s[i] > '9')
+            return false;
+        x = 10 * x + (s[i] - '0');
+    }
+    *v = x;
+    return x <= (int64_t)UINT32_MAX;
+}
+
+void pf_cli_parse_frames(const pf_cli *cli, const char *text, int64_t *first, int64_t *last)
+{
+    const char *colon = strchr(text, ':');
+    size_t len = strlen(text);
+    bool ok;
+    *first = 0;
+    *last = (int64_t)UINT32_MAX;
+    if (!colon) {
+        ok = parse_index(text, len, first);
+        *last = *first;
+    } else {
+        size_t a = (size_t)(colon - text), b = len - a - 1;
+        ok = len > 1 && (a == 0 || parse_index(text, a, first)) &&
+             (b == 0 || parse_index(colon + 1, b, last));
+    }
+    if (!ok || *first > *last)
+        pf_cli_usage_error(cli, "--frames expects A:B, A:, :B or A with 0 <= A <= B, got '%s'",
+                           text);
+}
+
 pf_status pf_cli_open_input(const char *path, FILE **f, const char **name, pf_error *err)
 {
     if (!path || strcmp(path, "-") == 0) {

@@ -57,6 +57,9 @@ double pf_cli_parse_double(const pf_cli *cli, const char *option, const char *te
 long pf_cli_parse_long(const pf_cli *cli, const char *option, const char *text, long lo, long hi);
 /* "x,y,z" */
 void pf_cli_parse_vec3(const pf_cli *cli, const char *option, const char *text, double out[3]);
+/* --frames A:B (inclusive), 'A:' from A on, ':B' up to B, 'A' just A; indices 0 .. 2^32 - 1 and
+ * A <= B. *first and *last default to 0 and 2^32 - 1. */
+void pf_cli_parse_frames(const pf_cli *cli, const char *text, int64_t *first, int64_t *last);
 
 /* Opens a stream input: path "-" or NULL is stdin. *name is the path or "stdin" for messages. */
 pf_status pf_cli_open_input(const char *path, FILE **f, const char **name, pf_error *err);

@@ -15,8 +15,8 @@ static const char USAGE[] =
     "Usage: pf-export (--vtu DIR | --obj DIR | --ply DIR) [--frames A:B] [--quiet] [FILE | -]\n"
     "\n"
     "Exports the frames (FRAM chunks) of a pf stream (default: stdin) as they arrive.\n"
-    "  --vtu DIR     DIR/mesh_NNNNN.vtu per frame, NNNNN being the frame's index: the latest MESH\n"
-    "                at rest with point data 'displacement' and cell data 'kind' (0 tet, 1 hex,\n"
+    "  --vtu DIR     DIR/mesh_NNNNN.vtu per frame, NNNNN being the frame's index: the frame's\n"
+    "                MESH (a new MESH mid-stream changes the cells from its first frame on) at rest with point data 'displacement' and cell data 'kind' (0 tet, 1 hex,\n"
     "                2 polyhedron), 'volume' and, when a STRS chunk for the frame follows it,\n"
     "                'stress'; and DIR/mesh.pvd listing the files with their times (open it in\n"
     "                ParaView, apply Warp By Vector to see the motion)\n"
@@ -48,41 +48,6 @@ typedef struct options {
 
 /* ---- options --------------------------------------------------------------------------------- */
 
-/* A frame index: decimal digits, at most UINT32_MAX. */
-static bool parse_index(const char *s, size_t n, int64_t *v)
-{
-    if (n == 0 || n > 10)
-        return false;
-    int64_t x = 0;
-    for (size_t i = 0; i < n; ++i) {
-        if (s[i] < '0' || s[i] > '9')
-            return false;
-        x = 10 * x + (s[i] - '0');
-    }
-    *v = x;
-    return x <= (int64_t)UINT32_MAX;
-}
-
-static void parse_frames(const pf_cli *cli, const char *text, options *o)
-{
-    const char *colon = strchr(text, ':');
-    size_t len = strlen(text);
-    bool ok;
-    o->first = 0;
-    o->last = (int64_t)UINT32_MAX;
-    if (!colon) {
-        ok = parse_index(text, len, &o->first);
-        o->last = o->first;
-    } else {
-        size_t a = (size_t)(colon - text), b = len - a - 1;
-        ok = len > 1 && (a == 0 || parse_index(text, a, &o->first)) &&
-             (b == 0 || parse_index(colon + 1, b, &o->last));
-    }
-    if (!ok || o->first > o->last)
-        pf_cli_usage_error(cli, "--frames expects A:B, A:, :B or A with 0 <= A <= B, got '%s'",
-                           text);
-}
-
 static void set_format(const pf_cli *cli, options *o, format f, const char *dir)
 {
     if (o->format != FORMAT_NONE)
@@ -105,7 +70,7 @@ static void parse_options(pf_cli *cli, options *o)
         case OPT_VTU: set_format(cli, o, FORMAT_VTU, value); break;
         case OPT_OBJ: set_format(cli, o, FORMAT_OBJ, value); break;
         case OPT_PLY: set_format(cli, o, FORMAT_PLY, value); break;
-        case OPT_FRAMES: parse_frames(cli, value, o); break;
+        case OPT_FRAMES: pf_cli_parse_frames(cli, value, &o->first, &o->last); break;
         case OPT_QUIET: o->quiet = true; break;
         default:
             if (o->input)
@@ -125,24 +90,18 @@ static void parse_options(pf_cli *cli, options *o)
 typedef struct exporter {
     const options *o;
     const pf_cli *cli;
-    const char *name; /* the input, for messages */
-    pf_mesh mesh;     /* the latest MESH */
-    bool have_mesh;
-    /* OBJ/PLY: the embedded surface and its weights, or the mesh boundary as a surface */
-    pf_surface surface;
-    bool have_surface;
-    pf_weights weights;
-    bool have_weights;
-    double *surface_x; /* [3 surface.n_verts] displaced */
+    const char *name;     /* the input, for messages */
+    pf_stream_state st;   /* the latest MESH, SURF, WGHT and STRS */
+    /* OBJ/PLY: the embedded surface moved by its weights, or the mesh boundary as a surface */
+    double *surface_x;    /* [3 st.surface.n_verts] displaced */
+    uint64_t surface_serial; /* the SURF surface_x was sized for */
     pf_surface boundary;
-    int32_t *boundary_node; /* [boundary.n_verts] the mesh node of each boundary vertex */
-    double *boundary_x;     /* [3 boundary.n_verts] displaced */
-    bool have_boundary;     /* of the latest MESH */
+    int32_t *boundary_node;  /* [boundary.n_verts] the mesh node of each boundary vertex */
+    double *boundary_x;      /* [3 boundary.n_verts] displaced */
+    uint64_t boundary_serial; /* the MESH the boundary is of (0: none) */
     /* VTU: a frame waiting for the STRS chunk that may follow it */
     pf_frame_data pending;
     bool have_pending;
-    pf_stress_data stress;
-    bool have_stress; /* for the pending frame */
     /* VTU: the series so far, for mesh.pvd */
     uint32_t *series_index;
     double *series_time;
@@ -154,15 +113,12 @@ typedef struct exporter {
 
 static void exporter_release(exporter *x)
 {
-    pf_mesh_release(&x->mesh);
-    pf_surface_release(&x->surface);
-    pf_weights_release(&x->weights);
+    pf_stream_state_release(&x->st);
     pf_surface_release(&x->boundary);
     pf_free(x->surface_x);
     pf_free(x->boundary_node);
     pf_free(x->boundary_x);
     pf_frame_data_release(&x->pending);
-    pf_stress_data_release(&x->stress);
     pf_free(x->series_index);
     pf_free(x->series_time);
     pf_free(x->path);
@@ -220,7 +176,7 @@ static pf_status write_vtu(exporter *x, uint32_t index, double time, const doubl
                            const pf_stress_data *stress, pf_error *err)
 {
     sprintf(x->path, "%s/mesh_%05u.vtu", x->o->dir, (unsigned)index);
-    PF_TRY(pf_export_vtu(x->path, &x->mesh, u, stress, err));
+    PF_TRY(pf_export_vtu(x->path, &x->st.mesh, u, stress, err));
     PF_TRY(add_to_series(x, index, time, err));
     report(x, index);
     return PF_OK;
@@ -231,11 +187,10 @@ static pf_status flush_pending(exporter *x, pf_error *err)
     if (!x->have_pending)
         return PF_OK;
     x->have_pending = false;
+    bool stress = x->st.have_stress && x->st.stress.frame == x->pending.index;
     pf_status s = write_vtu(x, x->pending.index, x->pending.time, x->pending.u,
-                            x->have_stress ? &x->stress : NULL, err);
+                            stress ? &x->st.stress : NULL, err);
     pf_frame_data_release(&x->pending);
-    pf_stress_data_release(&x->stress);
-    x->have_stress = false;
     return s;
 }
 
@@ -268,22 +223,23 @@ static pf_status write_pvd(exporter *x, pf_error *err)
  * Blender), computed once per MESH. */
 static pf_status ensure_boundary(exporter *x, pf_error *err)
 {
-    if (x->have_boundary)
+    const pf_mesh *m = &x->st.mesh;
+    if (x->boundary_serial == x->st.mesh_serial)
         return PF_OK;
     pf_surface_release(&x->boundary);
     PF_FREE(x->boundary_node);
     PF_FREE(x->boundary_x);
     pf_boundary b = {0};
-    PF_TRY(named(x, pf_boundary_extract(&x->mesh, &b, err), err));
+    PF_TRY(named(x, pf_boundary_extract(m, &b, err), err));
     int32_t n_tris = (int32_t)b.tri_offsets[b.n_faces];
-    int32_t *vert = pf_alloc_array((size_t)x->mesh.n_nodes + 1, sizeof *vert);
+    int32_t *vert = pf_alloc_array((size_t)m->n_nodes + 1, sizeof *vert);
     pf_status s = PF_OK;
     if (!vert) {
         s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
         goto done;
     }
     int32_t n_verts = 0;
-    for (int32_t i = 0; i < x->mesh.n_nodes; ++i)
+    for (int32_t i = 0; i < m->n_nodes; ++i)
         vert[i] = -1;
     for (int64_t k = 0; k < 3 * (int64_t)n_tris; ++k)
         if (vert[b.tri[k]] < 0)
@@ -291,22 +247,22 @@ static pf_status ensure_boundary(exporter *x, pf_error *err)
     s = pf_surface_alloc(&x->boundary, n_verts, n_tris, err);
     if (s != PF_OK)
         goto done;
-    x->boundary.id = x->mesh.id;
+    x->boundary.id = m->id;
     x->boundary_node = pf_alloc_array((size_t)n_verts + 1, sizeof *x->boundary_node);
     x->boundary_x = pf_alloc_array(3 * (size_t)n_verts + 1, sizeof *x->boundary_x);
     if (!x->boundary_node || !x->boundary_x) {
         s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
         goto done;
     }
-    for (int32_t i = 0; i < x->mesh.n_nodes; ++i)
+    for (int32_t i = 0; i < m->n_nodes; ++i)
         if (vert[i] >= 0) {
             x->boundary_node[vert[i]] = i;
-            memcpy(x->boundary.x + 3 * (size_t)vert[i], x->mesh.x + 3 * (size_t)i,
+            memcpy(x->boundary.x + 3 * (size_t)vert[i], m->x + 3 * (size_t)i,
                    3 * sizeof(double));
         }
     for (int64_t k = 0; k < 3 * (int64_t)n_tris; ++k)
         x->boundary.tri[k] = (uint32_t)vert[b.tri[k]];
-    x->have_boundary = true;
+    x->boundary_serial = x->st.mesh_serial;
 done:
     pf_free(vert);
     pf_boundary_release(&b);
@@ -317,11 +273,20 @@ done:
 static pf_status frame_surface(exporter *x, const double *u, const pf_surface **s,
                                const double **pos, pf_error *err)
 {
-    if (x->have_surface && (x->have_weights || !u || !x->have_mesh)) {
-        *s = &x->surface;
-        *pos = x->surface.x;
-        if (u && x->have_weights) {
-            pf_weights_apply(&x->weights, x->surface.x, u, x->surface_x);
+    const pf_stream_state *st = &x->st;
+    if (st->have_surface && (st->have_weights || !u || !st->have_mesh)) {
+        *s = &st->surface;
+        *pos = st->surface.x;
+        if (u && st->have_weights) {
+            if (x->surface_serial != st->surface_serial) {
+                pf_free(x->surface_x);
+                x->surface_x = pf_alloc_array(3 * (size_t)st->surface.n_verts + 1,
+                                              sizeof *x->surface_x);
+                PF_CHECK(x->surface_x, err, PF_ERR_NOMEM,
+                         "out of memory for a surface of %d vertices", (int)st->surface.n_verts);
+                x->surface_serial = st->surface_serial;
+            }
+            pf_weights_apply(&st->weights, st->surface.x, u, x->surface_x);
             *pos = x->surface_x;
         }
         return PF_OK;
@@ -353,126 +318,48 @@ static pf_status write_surface(exporter *x, uint32_t index, const double *u, pf_
 
 /* ---- chunks ---------------------------------------------------------------------------------- */
 
-static pf_status take_mesh(exporter *x, const pf_chunk *c, pf_error *err)
-{
-    PF_TRY(flush_pending(x, err));
-    pf_mesh_release(&x->mesh);
-    x->have_mesh = x->have_boundary = x->have_weights = false; /* they refer to the old mesh */
-    PF_TRY(pf_stream_decode_mesh(c, &x->mesh, err));
-    x->have_mesh = true;
-    return PF_OK;
-}
-
-static pf_status take_surface(exporter *x, const pf_chunk *c, pf_error *err)
-{
-    pf_surface_release(&x->surface);
-    PF_FREE(x->surface_x);
-    x->have_surface = x->have_weights = false;
-    PF_TRY(pf_stream_decode_surface(c, &x->surface, err));
-    x->surface_x = pf_alloc_array(3 * (size_t)x->surface.n_verts + 1, sizeof *x->surface_x);
-    PF_CHECK(x->surface_x, err, PF_ERR_NOMEM, "out of memory for a surface of %d vertices",
-             (int)x->surface.n_verts);
-    x->have_surface = true;
-    return PF_OK;
-}
-
-static pf_status take_weights(exporter *x, const pf_chunk *c, pf_error *err)
-{
-    pf_weights_release(&x->weights);
-    x->have_weights = false;
-    PF_TRY(pf_stream_decode_weights(c, &x->weights, err));
-    const pf_weights *w = &x->weights;
-    PF_CHECK(x->have_surface && w->surface_id == x->surface.id &&
-                 w->rows == x->surface.n_verts,
-             err, PF_ERR_FORMAT,
-             "%s: chunk WGHT at byte %llu: weights for surface %llu with %d vertices, but the "
-             "latest SURF is %s",
-             x->name, (unsigned long long)c->offset, (unsigned long long)w->surface_id,
-             (int)w->rows, x->have_surface ? "another" : "missing");
-    PF_CHECK(x->have_mesh && w->mesh_id == x->mesh.id && w->cols == x->mesh.n_nodes, err,
-             PF_ERR_FORMAT,
-             "%s: chunk WGHT at byte %llu: weights for mesh %llu with %d nodes, but the latest "
-             "MESH is %s",
-             x->name, (unsigned long long)c->offset, (unsigned long long)w->mesh_id,
-             (int)w->cols, x->have_mesh ? "another" : "missing");
-    x->have_weights = true;
-    return PF_OK;
-}
-
 static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
 {
     PF_TRY(flush_pending(x, err));
+    uint32_t index;
+    PF_TRY(pf_stream_frame_index(c, &index, err));
+    if (!in_range(x->o, index))
+        return pf_stream_state_skip_frame(&x->st, c, &index, err);
     pf_frame_data f = {0};
-    PF_TRY(pf_stream_decode_frame(c, &f, err));
-    pf_status s = PF_OK;
-    if (!x->have_mesh || f.mesh_id != x->mesh.id || f.n_nodes != x->mesh.n_nodes)
-        s = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,
-                         "%s: chunk FRAM at byte %llu: frame %u is for mesh %llu with %d nodes, "
-                         "but the latest MESH is %s",
-                         x->name, (unsigned long long)c->offset, (unsigned)f.index,
-                         (unsigned long long)f.mesh_id, (int)f.n_nodes,
-                         x->have_mesh ? "another" : "missing");
-    else if (!in_range(x->o, f.index))
-        s = PF_OK;
-    else if (x->o->format == FORMAT_VTU) {
+    PF_TRY(pf_stream_state_frame(&x->st, c, &f, err));
+    if (x->o->format == FORMAT_VTU) {
         x->pending = f; /* its STRS may follow */
         x->have_pending = true;
         return PF_OK;
-    } else
-        s = write_surface(x, f.index, f.u, err);
+    }
+    pf_status s = write_surface(x, f.index, f.u, err);
     pf_frame_data_release(&f);
     return s;
 }
 
-/* A STRS chunk belongs to the FRAM before it with the same index; others are skipped. */
-static pf_status take_stress(exporter *x, const pf_chunk *c, pf_error *err)
-{
-    pf_stress_data st = {0};
-    PF_TRY(pf_stream_decode_stress(c, &st, err));
-    pf_status s = PF_OK;
-    if (!x->have_mesh || st.mesh_id != x->mesh.id || st.n_elems != x->mesh.n_elems) {
-        s = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,
-                         "%s: chunk STRS at byte %llu: stress of mesh %llu with %d elements, but "
-                         "the latest MESH is %s",
-                         x->name, (unsigned long long)c->offset, (unsigned long long)st.mesh_id,
-                         (int)st.n_elems, x->have_mesh ? "another" : "missing");
-    } else if (x->have_pending && st.frame == x->pending.index) {
-        pf_stress_data_release(&x->stress);
-        x->stress = st;
-        x->have_stress = true;
-        return flush_pending(x, err);
-    }
-    pf_stress_data_release(&st);
-    return s;
-}
-
+/* A pending frame is written on the mesh it came with, before a new MESH replaces it, or when the
+ * STRS chunk of its index arrives. */
 static pf_status take_chunk(exporter *x, const pf_chunk *c, pf_error *err)
 {
-    bool vtu = x->o->format == FORMAT_VTU;
-    if (strcmp(c->tag, "MESH") == 0)
-        return take_mesh(x, c, err);
     if (strcmp(c->tag, "FRAM") == 0)
         return take_frame(x, c, err);
-    if (strcmp(c->tag, "STRS") == 0)
-        return vtu ? take_stress(x, c, err) : PF_OK;
-    if (strcmp(c->tag, "SURF") == 0)
-        return vtu ? PF_OK : take_surface(x, c, err);
-    if (strcmp(c->tag, "WGHT") == 0)
-        return vtu ? PF_OK : take_weights(x, c, err);
-    if (strcmp(c->tag, "END_") == 0)
+    if (strcmp(c->tag, "MESH") == 0 || strcmp(c->tag, "END_") == 0)
+        PF_TRY(flush_pending(x, err));
+    PF_TRY(pf_stream_state_take(&x->st, c, err));
+    if (strcmp(c->tag, "STRS") == 0 && x->have_pending && x->st.stress.frame == x->pending.index)
         return flush_pending(x, err);
-    return PF_OK; /* INFO, SCEN and unknown chunks */
+    return PF_OK;
 }
 
 /* A stream without frames: the rest state as index 0. */
 static pf_status write_rest(exporter *x, pf_error *err)
 {
     if (x->o->format == FORMAT_VTU) {
-        PF_CHECK(x->have_mesh, err, PF_ERR_FORMAT, "%s: nothing to export: no MESH chunk",
+        PF_CHECK(x->st.have_mesh, err, PF_ERR_FORMAT, "%s: nothing to export: no MESH chunk",
                  x->name);
         return write_vtu(x, 0, 0.0, NULL, NULL, err);
     }
-    PF_CHECK(x->have_mesh || x->have_surface, err, PF_ERR_FORMAT,
+    PF_CHECK(x->st.have_mesh || x->st.have_surface, err, PF_ERR_FORMAT,
              "%s: nothing to export: no MESH and no SURF chunk", x->name);
     return write_surface(x, 0, NULL, err);
 }

@@ -16,6 +16,8 @@ static const char USAGE[] =
     "  FRAM  consecutive frames as one entry: frame count, time range, largest displacement\n"
     "  STRS  consecutive stress chunks as one entry: count, largest value\n"
     "  others: tag, version, size; unknown chunks are listed, not interpreted\n"
+    "and at the end every mesh of the stream (a refining or cutting run has several) with the\n"
+    "frames on it. WGHT, STRS and FRAM chunks must refer to the latest MESH (and SURF).\n"
     "\n"
     "  --json          one JSON object per line and entry, for scripts\n"
     "  --probe X,Y,Z   for every frame, the displacement of the mesh node nearest to the point,\n"
@@ -37,8 +39,7 @@ typedef struct probe_sample {
 typedef struct info {
     bool json, print_mesh, has_probe;
     double probe[3];
-    pf_mesh mesh;          /* the latest MESH, for probes */
-    bool have_mesh;
+    pf_stream_state st;    /* the latest MESH (for probes), SURF, ...; the meshes and frames */
     int32_t probe_node;    /* nearest node of mesh to the probe point, -1 before a mesh */
     /* The current run of FRAM / STRS chunks. */
     int64_t frames, stresses;
@@ -155,7 +156,7 @@ static void print_frames(info *in)
 {
     if (in->frames == 0 && in->stresses == 0)
         return;
-    const double *pos = in->probe_node >= 0 ? in->mesh.x + 3 * (size_t)in->probe_node : NULL;
+    const double *pos = in->probe_node >= 0 ? in->st.mesh.x + 3 * (size_t)in->probe_node : NULL;
     if (in->frames && in->json) {
         printf("{\"chunk\":\"FRAM\",\"offset\":%llu,\"frames\":%lld,\"mesh_id\":%llu,"
                "\"time\":[%.17g,%.17g],\"max_displacement\":%.17g",
@@ -220,7 +221,7 @@ static int32_t nearest_node(const pf_mesh *m, const double *p)
 static pf_status add_frame(info *in, const pf_chunk *c, pf_error *err)
 {
     pf_frame_data fr = {0};
-    PF_TRY(pf_stream_decode_frame(c, &fr, err));
+    PF_TRY(pf_stream_state_frame(&in->st, c, &fr, err));
     if (in->frames == 0 || fr.mesh_id != in->frame_mesh_id) {
         print_frames(in);
         in->frame_mesh_id = fr.mesh_id;
@@ -234,7 +235,7 @@ static pf_status add_frame(info *in, const pf_chunk *c, pf_error *err)
         in->max_u = fmax(in->max_u, pf_v3_norm(pf_v3_load(fr.u + 3 * (size_t)i)));
     pf_status s = PF_OK;
     if (in->has_probe && in->probe_node >= 0 && in->probe_node < fr.n_nodes &&
-        fr.mesh_id == in->mesh.id) {
+        fr.mesh_id == in->st.mesh.id) {
         if (in->n_samples == in->cap_samples) {
             int64_t cap = in->cap_samples ? 2 * in->cap_samples : 64;
             probe_sample *grown = pf_realloc_array(in->samples, (size_t)cap, sizeof *grown);
@@ -256,14 +257,13 @@ static pf_status add_frame(info *in, const pf_chunk *c, pf_error *err)
 
 static pf_status add_stress(info *in, const pf_chunk *c, pf_error *err)
 {
-    pf_stress_data st = {0};
-    PF_TRY(pf_stream_decode_stress(c, &st, err));
+    PF_TRY(pf_stream_state_take(&in->st, c, err));
+    const pf_stress_data *st = &in->st.stress;
     if (in->stresses == 0)
         in->max_stress = 0;
     in->stresses++;
-    for (int64_t i = 0; i < (int64_t)st.n_elems * st.components; ++i)
-        in->max_stress = fmax(in->max_stress, fabs(st.values[i]));
-    pf_stress_data_release(&st);
+    for (int64_t i = 0; i < (int64_t)st->n_elems * st->components; ++i)
+        in->max_stress = fmax(in->max_stress, fabs(st->values[i]));
     return PF_OK;
 }
 
@@ -274,18 +274,12 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
     if (strcmp(c->tag, "STRS") == 0)
         return add_stress(in, c, err);
     print_frames(in);
+    PF_TRY(pf_stream_state_take(&in->st, c, err)); /* the id checks of WGHT and the others */
     if (strcmp(c->tag, "MESH") == 0) {
-        pf_mesh m = {0};
-        PF_TRY(pf_stream_decode_mesh(c, &m, err));
-        print_mesh_chunk(in, c, &m);
-        pf_mesh_release(&in->mesh);
-        in->mesh = m;
-        in->probe_node = in->has_probe ? nearest_node(&m, in->probe) : -1;
+        print_mesh_chunk(in, c, &in->st.mesh);
+        in->probe_node = in->has_probe ? nearest_node(&in->st.mesh, in->probe) : -1;
     } else if (strcmp(c->tag, "SURF") == 0) {
-        pf_surface s = {0};
-        PF_TRY(pf_stream_decode_surface(c, &s, err));
-        print_surface_chunk(in, c, &s);
-        pf_surface_release(&s);
+        print_surface_chunk(in, c, &in->st.surface);
     } else if (strcmp(c->tag, "INFO") == 0) {
         pf_info_data d = {0};
         PF_TRY(pf_stream_decode_info(c, &d, err));
@@ -327,6 +321,42 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
     return PF_OK;
 }
 
+/* Every mesh and the frames on it (what a refining or cutting run's stream holds). */
+static void print_meshes(const info *in)
+{
+    const pf_stream_state *st = &in->st;
+    if (st->n_meshes == 0)
+        return;
+    if (in->json)
+        printf("{\"meshes\":[");
+    else
+        printf("meshes: %d\n", (int)st->n_meshes);
+    for (int32_t k = 0; k < st->n_meshes; ++k) {
+        const pf_stream_mesh_use *u = &st->meshes[k];
+        if (in->json) {
+            printf("%s{\"id\":%llu,\"offset\":%llu,\"nodes\":%d,\"faces\":%d,\"elements\":%d,"
+                   "\"frames\":%lld",
+                   k ? "," : "", (unsigned long long)u->id, (unsigned long long)u->offset,
+                   (int)u->n_nodes, (int)u->n_faces, (int)u->n_elems, (long long)u->n_frames);
+            if (u->n_frames)
+                printf(",\"first_frame\":%u,\"last_frame\":%u", (unsigned)u->first_frame,
+                       (unsigned)u->last_frame);
+            printf("}");
+        } else {
+            printf("      mesh %llu (MESH at byte %llu): %d nodes, %d elements; ",
+                   (unsigned long long)u->id, (unsigned long long)u->offset, (int)u->n_nodes,
+                   (int)u->n_elems);
+            if (u->n_frames)
+                printf("frames %u .. %u (%lld)\n", (unsigned)u->first_frame,
+                       (unsigned)u->last_frame, (long long)u->n_frames);
+            else
+                printf("no frames\n");
+        }
+    }
+    if (in->json)
+        printf("]}\n");
+}
+
 static pf_status run(info *in, FILE *f, const char *name, pf_error *err)
 {
     pf_stream_reader *r = NULL;
@@ -343,6 +373,7 @@ static pf_status run(info *in, FILE *f, const char *name, pf_error *err)
             break;
     }
     print_frames(in);
+    print_meshes(in);
     pf_stream_reader_destroy(&r);
     return s;
 }
@@ -377,7 +408,7 @@ int main(int argc, char **argv)
         pf_cli_fail(&cli, &err);
     pf_status s = run(&in, f, name, &err);
     pf_cli_close_input(f);
-    pf_mesh_release(&in.mesh);
+    pf_stream_state_release(&in.st);
     pf_free(in.samples);
     fflush(stdout);
     if (s < 0)

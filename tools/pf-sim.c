@@ -70,12 +70,9 @@ typedef struct run {
     const char *scene_path;
     const char *input_path;
     bool quiet;
-    pf_mesh mesh;
+    pf_mesh mesh;       /* the input's latest MESH, moved out of input */
     bool have_mesh;
-    pf_surface surface; /* the latest SURF and WGHT, for contact at the embedded surface */
-    bool have_surface;
-    pf_weights weights;
-    bool have_weights;
+    pf_stream_state input; /* the latest SURF and WGHT, for contact at the embedded surface */
     bool embedded; /* contact at the surface's vertices */
     pf_stream_writer *out;
     pf_error err;
@@ -192,23 +189,20 @@ static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
             continue;
         if (!strcmp(c.tag, "FRAM") || !strcmp(c.tag, "STRS") || !strcmp(c.tag, "SCEN"))
             continue;
-        if (!strcmp(c.tag, "MESH")) {
-            pf_mesh_release(&r->mesh);
-            PF_TRY(pf_stream_decode_mesh(&c, &r->mesh, err));
-            r->have_mesh = true;
-            r->have_weights = false; /* weights refer to a mesh */
-        } else if (!strcmp(c.tag, "SURF")) {
-            pf_surface_release(&r->surface);
-            PF_TRY(pf_stream_decode_surface(&c, &r->surface, err));
-            r->have_surface = true;
-            r->have_weights = false;
-        } else if (!strcmp(c.tag, "WGHT")) {
-            pf_weights_release(&r->weights);
-            PF_TRY(pf_stream_decode_weights(&c, &r->weights, err));
-            r->have_weights = true;
-        }
+        PF_TRY(pf_stream_state_take(&r->input, &c, err)); /* MESH, SURF, WGHT and their ids */
         PF_TRY(pf_stream_write_raw(r->out, &c, err));
     }
+}
+
+/* The simulator owns the mesh it runs on: the input's latest MESH moves out of the state. */
+static void take_input_mesh(run *r)
+{
+    r->have_mesh = r->input.have_mesh;
+    if (!r->have_mesh)
+        return;
+    r->mesh = r->input.mesh;
+    memset(&r->input.mesh, 0, sizeof r->input.mesh);
+    r->input.have_mesh = false;
 }
 
 /* SCEN: the scene as simulated (file, defaults and overrides), so the stream says how it was
@@ -295,23 +289,38 @@ static void print_summary(const run *r, const pf_sim *sim)
     print_solver_summary(&st->solver);
 }
 
+/* The triangles of the scene's mesh obstacles, read here and handed to the scene (libcore/sim
+ * reads no files). */
+static pf_status load_obstacles(pf_scene *sc, pf_error *err)
+{
+    for (int32_t i = 0; i < sc->n_obstacles; ++i) {
+        if (sc->obstacles[i].kind != PF_OBSTACLE_MESH)
+            continue;
+        pf_surface s = {0};
+        pf_status st = pf_import_surface(sc->obstacles[i].file, &s, err);
+        if (st < 0)
+            pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
+        else
+            st = pf_scene_set_obstacle_surface(sc, i, &s, err);
+        pf_surface_release(&s);
+        PF_TRY(st);
+    }
+    return PF_OK;
+}
+
 /* The frames: one for a static scene, the rest state and scene->frames more otherwise. */
 static pf_status simulate(run *r, pf_error *err)
 {
     pf_vec3 lo, hi;
     pf_mesh_bounds(&r->mesh, &lo, &hi);
     pf_scene_resolve(&r->scene, lo, hi);
-    /* contact at the embedded surface when the stream's weights belong to its SURF and MESH */
-    const pf_weights *w = &r->weights;
-    bool embedded = r->embedded = r->have_weights && r->have_surface &&
-                                  w->surface_id == r->surface.id && w->mesh_id == r->mesh.id &&
-                                  w->rows == r->surface.n_verts && w->cols == r->mesh.n_nodes;
-    if (r->have_weights && !embedded && !r->quiet)
-        fprintf(stderr, "pf-sim: warning: the WGHT chunk does not belong to the latest SURF and "
-                        "MESH: contact at the mesh nodes\n");
-    PF_TRY(pf_scene_load_obstacles(&r->scene, err));
+    /* contact at the embedded surface when the stream has weights (the reader state checked
+     * that they belong to its latest SURF and MESH) */
+    const pf_weights *w = &r->input.weights;
+    bool embedded = r->embedded = r->input.have_weights;
+    PF_TRY(load_obstacles(&r->scene, err));
     pf_sim *sim = NULL;
-    PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->surface : NULL,
+    PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
                                   embedded ? w : NULL, err));
     bool progress = pf_cli_show_progress(r->quiet);
     pf_status st = PF_OK;
@@ -366,6 +375,7 @@ int main(int argc, char **argv)
         st = pf_stream_writer_create(&r.out, out, "stdout", err);
     if (st >= 0)
         st = copy_input(&r, in, err);
+    take_input_mesh(&r);
     if (st >= 0)
         st = prepare_mesh(&r, in_name, err);
     if (st >= 0)
@@ -385,8 +395,7 @@ int main(int argc, char **argv)
     pf_cli_close_input(in_file);
     pf_free(command);
     pf_mesh_release(&r.mesh);
-    pf_surface_release(&r.surface);
-    pf_weights_release(&r.weights);
+    pf_stream_state_release(&r.input);
     pf_scene_release(&r.scene);
     if (st < 0)
         pf_cli_fail(&r.cli, err);

@@ -13,12 +13,6 @@ void pf_lame(double E, double nu, double *lambda, double *mu)
     *lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
 }
 
-double pf_von_mises(const double s[6])
-{
-    double a = s[0] - s[1], b = s[1] - s[2], c = s[2] - s[0];
-    return sqrt(0.5 * (a * a + b * b + c * c) + 3 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]));
-}
-
 void pf_dg_release(pf_dg *dg)
 {
     pf_free(dg->frame);

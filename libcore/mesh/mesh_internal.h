@@ -1,5 +1,6 @@
 /* Internal to libcore/mesh: the pieces, gluing and sliver merging of the slicer (slice.c), shared
- * with the octree builder (octree.c), and the triangle-box test of the voxelizer (voxelize.c). */
+ * with the octree builder (octree.c), the triangle-box test of the voxelizer (voxelize.c), and the
+ * ray-vote inside test both use (ray_vote.c). */
 #ifndef PF_MESH_INTERNAL_H
 #define PF_MESH_INTERNAL_H
 
@@ -70,5 +71,28 @@ pf_status rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_err
 /* Separating-axis test of the triangle (t0, t1, t2) against the cube of the given centre and half
  * edge, strict: touching is not overlapping. 1 when they overlap. */
 int triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half);
+
+/* The ray-vote inside test (ray_vote.c), shared by the voxelizer and the octree: for each of the
+ * three axes, cast one ray per row of points (ray_voter_cast), then ask at each point's parameter
+ * along it, in ascending order (ray_voter_inside_at); a point is inside when RAY_VOTES_INSIDE of
+ * its three rays say so. */
+typedef struct ray_voter {
+    pf_rayscene *rs;
+    double merge_eps;  /* crossings of one sign closer than this along a ray are one */
+    pf_crossing *buf;  /* [cap] the crossings of the latest ray, n of them, sorted by t */
+    int64_t n, cap;
+    int64_t next;      /* crossings before the latest point asked about */
+    int winding;       /* winding number there */
+} ray_voter;
+enum { RAY_VOTES_INSIDE = 2 };
+
+/* Builds the ray scene over s (closed triangle surface). merge_eps: see pf_rayscene_crossings. */
+pf_status ray_voter_create(ray_voter *v, const pf_surface *s, double merge_eps, pf_error *err);
+/* The crossings of org + t dir, 0 <= t <= span, the scratch grown as needed. */
+pf_status ray_voter_cast(ray_voter *v, pf_vec3 org, pf_vec3 dir, double span, pf_error *err);
+/* True when the latest ray's winding number at parameter t is non-zero; t must not decrease
+ * between calls after a cast. */
+bool ray_voter_inside_at(ray_voter *v, double t);
+void ray_voter_release(ray_voter *v);
 
 #endif

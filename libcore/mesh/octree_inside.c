@@ -27,17 +27,17 @@ static double centre_coord(const octree *oc, const leaf *l, int a)
     return oc->o[a] + half_centre(oc, l, a) * (0.5 * oc->h);
 }
 
+/* One ray per row of leaves along each axis (leaves sorted by their two other centre coordinates
+ * and then along the axis), from a cell before the lattice. */
 pf_status octree_classify_by_rays(octree *oc, pf_error *err)
 {
     int32_t nl = oc->n_leaves;
-    pf_rayscene *rs = NULL;
-    PF_TRY(pf_rayscene_create(&rs, oc->s->x, oc->s->n_verts, oc->s->tri, oc->s->n_tris, err));
+    ray_voter rv;
+    PF_TRY(ray_voter_create(&rv, oc->s, 1e-7 * oc->h, err));
     sort_key *keys = pf_alloc_array((size_t)nl, sizeof *keys);
     uint8_t *votes = pf_calloc((size_t)nl, 1);
-    int64_t cap = 256;
-    pf_crossing *buf = pf_alloc_array((size_t)cap, sizeof *buf);
     pf_status st = PF_OK;
-    if (!keys || !votes || !buf)
+    if (!keys || !votes)
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for centres");
     for (int a = 0; a < 3 && st >= 0; ++a) {
         int b = (a + 1) % 3, c = (a + 2) % 3;
@@ -59,35 +59,17 @@ pf_status octree_classify_by_rays(octree *oc, pf_error *err)
             org[a] = start;
             org[b] = centre_coord(oc, first, b);
             org[c] = centre_coord(oc, first, c);
-            int64_t n;
-            for (;;) {
-                st = pf_rayscene_crossings(rs, pf_v3_load(org), dir, span, 1e-7 * oc->h, buf, cap,
-                                           &n, err);
-                if (st < 0 || n <= cap)
-                    break;
-                pf_crossing *grown = pf_realloc_array(buf, (size_t)n, sizeof *buf);
-                if (!grown) {
-                    st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                                      "out of memory for ray crossings");
-                    break;
-                }
-                buf = grown;
-                cap = n;
-            }
-            int64_t next = 0;
-            int winding = 0;
+            st = ray_voter_cast(&rv, pf_v3_load(org), dir, span, err);
             for (int32_t q = r0; st >= 0 && q < r1; ++q) {
                 double t = centre_coord(oc, &oc->leaves[keys[q].leaf], a) - start;
-                while (next < n && buf[next].t < t)
-                    winding -= buf[next++].sign;
-                votes[keys[q].leaf] += winding != 0;
+                votes[keys[q].leaf] += ray_voter_inside_at(&rv, t);
             }
         }
     }
     for (int32_t q = 0; st >= 0 && q < nl; ++q)
-        oc->leaves[q].inside = votes[q] >= 2;
-    pf_free(keys), pf_free(votes), pf_free(buf);
-    pf_rayscene_destroy(&rs);
+        oc->leaves[q].inside = votes[q] >= RAY_VOTES_INSIDE;
+    pf_free(keys), pf_free(votes);
+    ray_voter_release(&rv);
     return st;
 }
 

@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 static const double PI = 3.14159265358979323846;
 
@@ -146,6 +147,28 @@ pf_status pf_surface_make_sphere(pf_surface *s, double radius, int32_t n_lat, in
             *t++ = a, *t++ = b, *t++ = c;
             *t++ = a, *t++ = c, *t++ = d;
         }
+    }
+    return PF_OK;
+}
+
+pf_status pf_surface_make_box(pf_surface *s, pf_vec3 lo, pf_vec3 hi, pf_error *err)
+{
+    PF_CHECK(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z, err, PF_ERR_INVALID,
+             "box: lo must be below hi along every axis");
+    PF_TRY(pf_surface_alloc(s, 24, 12, err));
+    for (int f = 0; f < 6; ++f) {
+        int axis = f / 2, side = f % 2, a = (axis + 1) % 3, c = (axis + 2) % 3;
+        for (int q = 0; q < 4; ++q) {
+            double p[3];
+            p[axis] = side ? pf_v3_get(hi, axis) : pf_v3_get(lo, axis);
+            p[a] = (q == 1 || q == 2) ? pf_v3_get(hi, a) : pf_v3_get(lo, a);
+            p[c] = q >= 2 ? pf_v3_get(hi, c) : pf_v3_get(lo, c);
+            memcpy(s->x + 3 * (4 * f + q), p, sizeof p);
+        }
+        /* corners 0 1 2 3 run counter-clockwise in (a, c), which faces +axis */
+        uint32_t v = (uint32_t)(4 * f), t[6] = {v, v + 1, v + 2, v, v + 2, v + 3};
+        for (int k = 0; k < 6; ++k)
+            s->tri[6 * f + k] = side ? t[k] : t[5 - k];
     }
     return PF_OK;
 }

@@ -56,10 +56,9 @@ static pf_vec3 cell_centre(const pf_grid *g, int32_t i, int32_t j, int32_t k)
                  g->origin.z + (k + 0.5) * g->h);
 }
 
-/* Votes of one axis: for every row of cells along axis a, the winding number at each centre is
- * minus the sum of the signs of the crossings before it (entering is -1). */
-static pf_status vote_along_axis(const pf_rayscene *rs, const pf_grid *g, int a, uint8_t *votes,
-                                 pf_crossing **buf, int64_t *cap, pf_error *err)
+/* Votes of one axis: one ray per row of cells along axis a, starting a cell before the grid. */
+static pf_status vote_along_axis(ray_voter *rv, const pf_grid *g, int a, uint8_t *votes,
+                                 pf_error *err)
 {
     int b = (a + 1) % 3, c = (a + 2) % 3;
     int32_t len = g->n[a];
@@ -69,27 +68,11 @@ static pf_status vote_along_axis(const pf_rayscene *rs, const pf_grid *g, int a,
         for (int32_t u = 0; u < g->n[b]; ++u) {
             int32_t idx[3];
             idx[a] = -1, idx[b] = u, idx[c] = v;
-            pf_vec3 org = cell_centre(g, idx[0], idx[1], idx[2]);
-            int64_t n;
-            for (;;) {
-                PF_TRY(pf_rayscene_crossings(rs, org, dir, span, 1e-7 * g->h, *buf, *cap, &n,
-                                             err));
-                if (n <= *cap)
-                    break;
-                pf_crossing *grown = pf_realloc_array(*buf, (size_t)n, sizeof **buf);
-                PF_CHECK(grown, err, PF_ERR_NOMEM, "out of memory for ray crossings");
-                *buf = grown;
-                *cap = n;
-            }
-            int64_t next = 0;
-            int winding = 0;
+            PF_TRY(ray_voter_cast(rv, cell_centre(g, idx[0], idx[1], idx[2]), dir, span, err));
             for (int32_t w = 0; w < len; ++w) {
-                double t = (w + 1) * g->h; /* centre of cell w along the row */
-                while (next < n && (*buf)[next].t < t)
-                    winding -= (*buf)[next++].sign;
                 idx[a] = w;
                 size_t cell = ((size_t)idx[2] * g->n[1] + idx[1]) * g->n[0] + idx[0];
-                votes[cell] += winding != 0;
+                votes[cell] += ray_voter_inside_at(rv, (w + 1) * g->h); /* cell w's centre */
             }
         }
     return PF_OK;
@@ -98,20 +81,16 @@ static pf_status vote_along_axis(const pf_rayscene *rs, const pf_grid *g, int a,
 static pf_status classify_by_rays(const pf_surface *s, const pf_grid *g, uint8_t *inside,
                                   pf_error *err)
 {
-    pf_rayscene *rs = NULL;
-    PF_TRY(pf_rayscene_create(&rs, s->x, s->n_verts, s->tri, s->n_tris, err));
-    int64_t cap = 256;
-    pf_crossing *buf = pf_alloc_array((size_t)cap, sizeof *buf);
-    pf_status st = buf ? PF_OK
-                       : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+    ray_voter rv;
+    PF_TRY(ray_voter_create(&rv, s, 1e-7 * g->h, err));
     size_t cells = (size_t)g->n[0] * g->n[1] * g->n[2];
     memset(inside, 0, cells);
+    pf_status st = PF_OK;
     for (int a = 0; a < 3 && st == PF_OK; ++a)
-        st = vote_along_axis(rs, g, a, inside, &buf, &cap, err);
+        st = vote_along_axis(&rv, g, a, inside, err);
     for (size_t i = 0; i < cells; ++i)
-        inside[i] = inside[i] >= 2;
-    pf_free(buf);
-    pf_rayscene_destroy(&rs);
+        inside[i] = inside[i] >= RAY_VOTES_INSIDE;
+    ray_voter_release(&rv);
     return st;
 }
 

@@ -1,4 +1,4 @@
-/* Colour: the sRGB transfer function, the viridis map, element-kind colours, von Mises stress. */
+/* Colour: the sRGB transfer function, the viridis map, element-kind colours. */
 #include <pf/render.h>
 
 /* IEC 61966-2-1: linear segment below 0.04045 (encoded) / 0.0031308 (linear), a 2.4 power above. */
@@ -53,10 +53,4 @@ void pf_render_kind_color(pf_elem_kind kind, float rgb[3])
     int k = kind >= 0 && kind < PF_ELEM_KIND_COUNT ? (int)kind : PF_ELEM_POLY;
     for (int c = 0; c < 3; ++c)
         rgb[c] = (float)pf_srgb_to_linear(SRGB[k][c]);
-}
-
-double pf_render_von_mises(const double s[6])
-{
-    double a = s[0] - s[1], b = s[1] - s[2], c = s[2] - s[0];
-    return sqrt(0.5 * (a * a + b * b + c * c) + 3 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]));
 }

@@ -22,7 +22,8 @@ typedef struct pf_contact pf_contact;
 
 /* What contact needs from the driver; every pointer borrowed for the contact's lifetime. */
 typedef struct pf_contact_setup {
-    const pf_scene *scene; /* resolved; mesh obstacles loaded (pf_scene_load_obstacles) */
+    const pf_scene *scene; /* resolved; mesh obstacles' triangles handed over
+                              (pf_scene_set_obstacle_surface) */
     const pf_mesh *mesh;
     int64_t n_triples;        /* unknowns / 3 */
     const pf_method_ops *ops; /* the method's nodal map and compact rows (method.h) */

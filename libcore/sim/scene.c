@@ -16,8 +16,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <pf/io.h>
-
 #include "scene_json.h"
 #include "scene_values.h"
 
@@ -740,21 +738,17 @@ pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t)
     return o->key_translation[o->n_keys - 1];
 }
 
-pf_status pf_scene_load_obstacles(pf_scene *s, pf_error *err)
+pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surface,
+                                        pf_error *err)
 {
-    for (int32_t i = 0; i < s->n_obstacles; ++i) {
-        pf_obstacle *o = &s->obstacles[i];
-        if (o->kind != PF_OBSTACLE_MESH || o->surface.n_tris > 0)
-            continue;
-        pf_surface_release(&o->surface);
-        pf_status st = pf_import_surface(o->file, &o->surface, err);
-        if (st >= 0 && o->surface.n_tris == 0)
-            st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: no triangles", o->file);
-        if (st < 0) {
-            pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
-            return st;
-        }
-    }
+    PF_CHECK(i >= 0 && i < s->n_obstacles && s->obstacles[i].kind == PF_OBSTACLE_MESH, err,
+             PF_ERR_INVALID, "obstacles[%d]: not a mesh obstacle", (int)i);
+    pf_obstacle *o = &s->obstacles[i];
+    PF_CHECK(surface->n_tris > 0, err, PF_ERR_INVALID, "obstacles[%d].mesh: %s: no triangles",
+             (int)i, o->file);
+    pf_surface_release(&o->surface);
+    o->surface = *surface;
+    memset(surface, 0, sizeof *surface);
     return PF_OK;
 }
 

@@ -3,6 +3,8 @@
  * - no crash, no undefined behaviour, no leak (pf's live-byte counter returns to where it was);
  * - a payload a decoder accepts re-encodes to the very same bytes;
  * - a stream that reads cleanly to its END_ passes through a writer byte for byte;
+ * - the reader state (pf_stream_state) takes chunks until one is refused with a reason, and what
+ *   it holds stays consistent: weights and stress refer to its latest mesh and surface;
  * - the reader gives the same verdict on a seekable input (sizes checked against the file length)
  *   and on a pipe (the payload buffer grows as bytes arrive), after the same number of chunks.
  * A violated property aborts, which libFuzzer and the replay driver report. */
@@ -86,6 +88,33 @@ typedef struct outcome {
     int clean;        /* ended after an END_ of the version this pf writes */
 } outcome;
 
+/* Feeds c to the state while it accepts chunks (frames alternately decoded and checked by their
+ * header); its invariants after each. */
+static void take_into_state(pf_stream_state *st, bool *refused, const pf_chunk *c, long ordinal)
+{
+    if (*refused)
+        return;
+    pf_error err = {0};
+    pf_status s;
+    if (strcmp(c->tag, "FRAM") == 0 && ordinal % 2) {
+        uint32_t index;
+        s = pf_stream_state_skip_frame(st, c, &index, &err);
+    } else {
+        s = pf_stream_state_take(st, c, &err);
+    }
+    *refused = s != PF_OK;
+    require(s == PF_OK || err.msg[0] != '\0', "a refused chunk says why");
+    require(!st->have_weights || (st->have_mesh && st->have_surface &&
+                                  st->weights.mesh_id == st->mesh.id &&
+                                  st->weights.cols == st->mesh.n_nodes &&
+                                  st->weights.surface_id == st->surface.id &&
+                                  st->weights.rows == st->surface.n_verts),
+            "the state's weights belong to its mesh and surface");
+    require(!st->have_stress || (st->have_mesh && st->stress.n_elems == st->mesh.n_elems),
+            "the state's stress belongs to its mesh");
+    require(st->have_mesh == (st->n_meshes > 0), "every mesh is listed");
+}
+
 /* Reads the stream, passing every chunk but END_ on to w (when not NULL). */
 static outcome read_stream(FILE *in, pf_stream_writer *w, pf_buffer *re)
 {
@@ -97,6 +126,8 @@ static outcome read_stream(FILE *in, pf_stream_writer *w, pf_buffer *re)
         return o;
     }
     int end_v1 = 0;
+    pf_stream_state st = {0};
+    bool refused = false;
     for (;;) {
         pf_chunk c;
         bool end = false;
@@ -109,6 +140,7 @@ static outcome read_stream(FILE *in, pf_stream_writer *w, pf_buffer *re)
             break;
         }
         o.chunks++;
+        take_into_state(&st, &refused, &c, o.chunks);
         if (decode_and_reencode(&c, re))
             require(re->size == c.size &&
                         (c.size == 0 || memcmp(re->data, c.payload, re->size) == 0),
@@ -118,6 +150,7 @@ static outcome read_stream(FILE *in, pf_stream_writer *w, pf_buffer *re)
         else if (w)
             require(pf_stream_write_raw(w, &c, &err) == PF_OK, "a chunk read passes through");
     }
+    pf_stream_state_release(&st);
     pf_stream_reader_destroy(&r);
     return o;
 }

@@ -68,4 +68,5 @@ echo '{"obstacles": [{"sphere": {"centre": [0, 0, 0], "radius": -1}}]}' >"$tmp/b
 expect 1 "obstacles[0].sphere.radius: must be > 0" "$bin/pf-sim" "$tmp/bad.json" --input "$tmp/cube.pfs"
 echo '{"obstacles": [{"mesh": {"file": "missing.obj"}}]}' >"$tmp/missing.json"
 expect 1 "obstacles[0].mesh" "$bin/pf-sim" "$tmp/missing.json" --input "$tmp/cube.pfs"
+expect 1 "missing.obj" "$bin/pf-sim" "$tmp/missing.json" --input "$tmp/cube.pfs"
 finish

@@ -32,9 +32,6 @@ extern "C" {
 /* Lame parameters from Young's modulus and Poisson's ratio (nu in (-1, 1/2)). */
 void pf_lame(double E, double nu, double *lambda, double *mu);
 
-/* Von Mises equivalent of a symmetric stress s = (xx yy zz xy yz zx). */
-double pf_von_mises(const double s[6]);
-
 /* ==== polynomials in local frames =============================================================
  * A polynomial of degree <= d is its coefficients in the graded monomial order of pf/integrate.h
  * (pf_moment_count(d) of them). */

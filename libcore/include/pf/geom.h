@@ -161,6 +161,11 @@ void pf_mat3_sym_eigen(pf_mat3 s, double values[3], pf_mat3 *vectors);
  * polar decomposition and as a test oracle. Non-finite input gives sigma = NaN, U = V = I. */
 void pf_mat3_svd(pf_mat3 a, pf_mat3 *u, double sigma[3], pf_mat3 *v);
 
+/* Von Mises equivalent stress of a symmetric stress s = (xx yy zz xy yz zx), in the stress's unit:
+ * sqrt(((sxx-syy)^2 + (syy-szz)^2 + (szz-sxx)^2) / 2 + 3 (sxy^2 + syz^2 + szx^2)), which is
+ * sqrt(((s1-s2)^2 + (s2-s3)^2 + (s3-s1)^2) / 2) in the principal stresses s1, s2, s3. */
+double pf_von_mises(const double s[6]);
+
 /* ---- planes ----------------------------------------------------------------------------------
  * The points p with dot(n, p) = d; n is a unit vector, so dot(n, p) - d is a signed distance in
  * model units, positive on the side n points to. */

@@ -207,6 +207,74 @@ pf_status pf_stream_write_weights(pf_stream_writer *w, const pf_weights *wt, pf_
 pf_status pf_stream_write_frame(pf_stream_writer *w, const pf_frame_data *f, pf_error *err);
 pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, pf_error *err);
 
+/* ==== reader state: the latest MESH, SURF, WGHT, STRS and SCEN of a stream ======================
+ * Every tool that reads frames keeps the same picture of a stream, and a mesh change mid-stream
+ * (refinement, cutting: a new MESH with a fresh id before the next FRAM) is handled the same way
+ * everywhere. Feed each chunk to pf_stream_state_take (FRAM chunks to pf_stream_state_frame or,
+ * to skip a frame without decoding it, pf_stream_state_skip_frame). The state decodes and checks:
+ * - MESH replaces the latest mesh and is recorded in the list of meshes; the weights and stress
+ *   of the previous mesh are dropped (mesh-dependent chunks refer to the latest MESH);
+ * - SURF replaces the latest surface and drops the weights;
+ * - WGHT must name the latest SURF and the latest MESH by id, with their vertex and node counts;
+ * - STRS must name the latest MESH with its element count;
+ * - FRAM must name the latest MESH with its node count; a frame of an earlier mesh or of a mesh no
+ *   MESH chunk declared is an error;
+ * - SCEN is kept verbatim (the scene JSON) for the tool to parse;
+ * - INFO, END_ and unknown chunks leave the state as it is.
+ * Errors are PF_ERR_FORMAT naming the input, the chunk and its byte offset ("in.pfs: chunk FRAM at
+ * byte 1184: frame 3 refers to mesh 7, which no MESH chunk before it declares"), or the decoders'
+ * statuses. After an error the state still holds what it held before the failing chunk.
+ * Zero-initialise (pf_stream_state s = {0};) and release with pf_stream_state_release. */
+
+/* One MESH of the stream and the frames that used it. */
+typedef struct pf_stream_mesh_use {
+    uint64_t id;                      /* the mesh id */
+    uint64_t offset;                  /* byte offset of its MESH chunk */
+    int32_t n_nodes, n_faces, n_elems;
+    int64_t n_frames;                 /* FRAM chunks on this mesh */
+    uint32_t first_frame, last_frame; /* their smallest and largest index (n_frames > 0) */
+} pf_stream_mesh_use;
+
+typedef struct pf_stream_state {
+    pf_mesh mesh;              /* the latest MESH (valid when have_mesh) */
+    bool have_mesh;
+    pf_surface surface;        /* the latest SURF */
+    bool have_surface;
+    pf_weights weights;        /* WGHT of the latest SURF in the latest MESH */
+    bool have_weights;
+    pf_stress_data stress;     /* the latest STRS, of the latest MESH */
+    bool have_stress;
+    char *scene_json;          /* the latest SCEN, NUL-terminated (scene_size bytes before it) */
+    size_t scene_size;
+    bool have_scene;
+    uint64_t mesh_serial;      /* incremented by every MESH: a tool's caches keyed by it */
+    uint64_t surface_serial;   /* incremented by every SURF */
+    uint64_t scene_serial;     /* incremented by every SCEN */
+    pf_stream_mesh_use *meshes; /* [n_meshes] every MESH so far, in stream order */
+    int32_t n_meshes, cap_meshes;
+    int64_t n_frames;          /* FRAM chunks accepted */
+} pf_stream_state;
+
+/* Takes one chunk into the state (FRAM chunks included: decoded, checked and counted, then
+ * dropped; use pf_stream_state_frame to keep the displacements). */
+pf_status pf_stream_state_take(pf_stream_state *s, const pf_chunk *c, pf_error *err);
+
+/* Decodes a FRAM chunk into f (zeroed or released by the caller; zero again after a failure) and
+ * checks it against the latest MESH; counts it in that mesh's pf_stream_mesh_use. */
+pf_status pf_stream_state_frame(pf_stream_state *s, const pf_chunk *c, pf_frame_data *f,
+                                pf_error *err);
+
+/* The same checks and counting from the FRAM header alone (mesh id, index, node count), without
+ * decoding the displacements: for frames a tool skips (--frames). *index: the frame's index. */
+pf_status pf_stream_state_skip_frame(pf_stream_state *s, const pf_chunk *c, uint32_t *index,
+                                     pf_error *err);
+
+/* The use record of mesh id (NULL when no MESH declared it). With repeated ids, the latest. */
+const pf_stream_mesh_use *pf_stream_state_find_mesh(const pf_stream_state *s, uint64_t id);
+
+/* Frees everything the state holds and zeroes it; safe on a zeroed state. */
+void pf_stream_state_release(pf_stream_state *s);
+
 /* ==== importers and exporters ==================================================================
  * Importers name the file and the line (text formats) or the reason assimp gives in every error,
  * refuse non-finite coordinates and out-of-range indices before building anything, and leave their

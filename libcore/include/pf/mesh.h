@@ -164,6 +164,9 @@ pf_status pf_surface_make_torus(pf_surface *s, double R, double r, int32_t n_maj
 /* Closed sphere around the origin: n_lat >= 2 bands between the poles, n_lon >= 3 segments. */
 pf_status pf_surface_make_sphere(pf_surface *s, double radius, int32_t n_lat, int32_t n_lon,
                                  pf_error *err);
+/* Closed box lo..hi (lo < hi componentwise) as 24 vertices, four per face so that each face is
+ * shaded flat, and 12 triangles, counter-clockwise seen from outside. Volume: the box's. */
+pf_status pf_surface_make_box(pf_surface *s, pf_vec3 lo, pf_vec3 hi, pf_error *err);
 
 /* ---- voxelization -------------------------------------------------------------------------------
  * A regular grid of cubes: cell (i, j, k) is [origin + h (i, j, k), origin + h (i+1, j+1, k+1)]. */

@@ -45,10 +45,6 @@ void pf_colormap_viridis(double t, float rgb[3]);
 /* Distinct linear colours for the element kinds (tet, hex, general polyhedron) in --mode mesh. */
 void pf_render_kind_color(pf_elem_kind kind, float rgb[3]);
 
-/* Von Mises equivalent stress of a symmetric stress (xx yy zz xy yz zx), in the stress unit:
- * sqrt(((sxx-syy)^2 + (syy-szz)^2 + (szz-sxx)^2) / 2 + 3 (sxy^2 + syz^2 + szx^2)). */
-double pf_render_von_mises(const double s[6]);
-
 /* ==== geometry for drawing ==================================================================== */
 
 /* One vertex as the renderer draws it. */
@@ -188,6 +184,93 @@ pf_status pf_renderer_draw(pf_renderer *r, const pf_render_geometry *g, const pf
  * right edge with the values lo (bottom), (lo + hi) / 2 and hi (top) printed beside it ("%.3g"),
  * sized to the image. Pure CPU, deterministic. */
 void pf_render_draw_legend(uint8_t *rgb, int32_t width, int32_t height, double lo, double hi);
+
+/* ==== the frames of a pf stream (pf-render) ===================================================
+ * Feeds a stream's chunks through a pf_stream_state and draws each frame (FRAM) in the range on
+ * its own mesh to out_dir/frame_NNNNN.png (NNNNN the frame's index): the SURF moved by its WGHT
+ * when the stream has weights for the latest mesh, else the mesh's boundary moved by the frame's
+ * displacements; in stress mode coloured by the frame's STRS (von Mises; a frame waits for the
+ * STRS that follows it). The camera is fixed at the stream's first frame (not the range's): on a
+ * stored stream pf_render_stream_survey first reads the whole file for the animation's box and
+ * stress range, so that any range of frames gives the whole run's bytes. Deterministic: the same
+ * chunks give the same bytes. The simulation's scene is the caller's business (render does not
+ * read scenes): hooks give the ground and draw the obstacles. */
+
+typedef enum pf_render_mode {
+    PF_RENDER_MODE_SURFACE = 0, /* the embedded surface when it can, else the mesh boundary */
+    PF_RENDER_MODE_MESH = 1,    /* the mesh boundary with element edges, coloured by kind */
+    PF_RENDER_MODE_STRESS = 2,  /* viridis von Mises colours and a legend */
+} pf_render_mode;
+
+/* Each hook may be NULL; ctx is passed to every call. */
+typedef struct pf_render_stream_hooks {
+    void *ctx;
+    /* Height along +z of the simulated ground seen from the state (its SCEN and latest MESH),
+     * false when there is none facing +z: the automatic camera's stage reaches down to it. */
+    bool (*ground_height)(void *ctx, const pf_stream_state *st, double *z);
+    /* Called after each SCEN chunk of the drawing pass (pf_render_stream_take) with the state
+     * holding it and the MESH before it: the moment to build what the scene draws. */
+    void (*on_scene)(void *ctx, const pf_stream_state *st);
+    /* Adds the scene's obstacles at time t (seconds) to g, after the body. */
+    pf_status (*add_obstacles)(void *ctx, const pf_stream_state *st, double t,
+                               pf_render_geometry *g, pf_error *err);
+    /* Called with each image (rgb [3 width height]) after its PNG is written. */
+    pf_status (*on_image)(void *ctx, uint32_t index, const uint8_t *rgb, pf_error *err);
+    /* A warning for the user (one line, no newline). */
+    void (*warn)(void *ctx, const char *msg);
+} pf_render_stream_hooks;
+
+typedef struct pf_render_stream_params {
+    int32_t width, height;  /* pixels (default 1280 x 720) */
+    pf_render_mode mode;    /* default surface */
+    bool has_camera;        /* false (default): the automatic camera */
+    pf_camera camera;       /* when has_camera; its up is also the ground's normal */
+    int64_t first, last;    /* frames drawn: index first..last inclusive (default all) */
+    const char *out_dir;    /* borrowed, must exist (default "frames") */
+    pf_render_stream_hooks hooks;
+} pf_render_stream_params;
+
+pf_render_stream_params pf_render_stream_params_default(void);
+
+typedef struct pf_render_stream pf_render_stream;
+
+/* Creates the off-screen renderer and the image buffers. PF_ERR_INVALID on bad params, the
+ * statuses of pf_renderer_create, PF_ERR_NOMEM. On failure *rs is NULL. */
+pf_status pf_render_stream_create(pf_render_stream **rs, const pf_render_stream_params *p,
+                                  pf_error *err);
+/* Pass 1 on a stored stream (f borrowed, read to its end or its first error, which the drawing
+ * pass reports): the bounding box of every frame and the stress range of every STRS. The caller
+ * rewinds f before pass 2. */
+void pf_render_stream_survey(pf_render_stream *rs, FILE *f, const char *name);
+/* Pass 2, one chunk at a time as the reader returns them: draws the frames in range. Errors: the
+ * reader state's (naming chunk and byte offset), pf_png_write's, the hooks'. */
+pf_status pf_render_stream_take(pf_render_stream *rs, const pf_chunk *c, pf_error *err);
+/* After the last chunk (stream_ok false: the reading stopped at an error already in the caller's
+ * hands): draws a frame still waiting for its STRS, and, for a stream without frames, one image
+ * (index 0) of the rest shape; PF_ERR_FORMAT "NAME: nothing to draw" when there is neither a MESH
+ * nor a SURF. After a read error the first error stays the caller's and this one is dropped. */
+pf_status pf_render_stream_finish(pf_render_stream *rs, bool stream_ok, const char *name,
+                                  pf_error *err);
+/* Images written so far. */
+int64_t pf_render_stream_written(const pf_render_stream *rs);
+void pf_render_stream_destroy(pf_render_stream **rs);
+
+/* ==== MP4 through ffmpeg ======================================================================= */
+
+typedef struct pf_video pf_video;
+
+/* True when an executable ffmpeg is on PATH. */
+bool pf_video_available(void);
+/* Starts ffmpeg writing path (H.264, yuv420p, sizes padded to even) from raw RGB frames of
+ * width x height at fps frames per second. PF_ERR_IO when it cannot be started. */
+pf_status pf_video_create(pf_video **v, const char *path, int32_t width, int32_t height, long fps,
+                          pf_error *err);
+/* One frame, rgb [3 width height], top row first. PF_ERR_IO naming the file when ffmpeg is gone. */
+pf_status pf_video_write(pf_video *v, const uint8_t *rgb, pf_error *err);
+/* Closes the pipe and waits for ffmpeg; PF_ERR_IO "path: ffmpeg failed (exit status N)". */
+pf_status pf_video_finish(pf_video *v, pf_error *err);
+/* Finishes (ignoring the status) and frees; sets *v to NULL; safe on NULL. */
+void pf_video_destroy(pf_video **v);
 
 #ifdef __cplusplus
 }

@@ -79,8 +79,8 @@ typedef struct pf_obstacle {
     int32_t n_keys;
     double *key_time;         /* [n_keys] time, strictly increasing */
     pf_vec3 *key_translation; /* [n_keys] model units */
-    pf_surface surface;       /* mesh: the triangles, read by pf_scene_load_obstacles (empty
-                                 until then) */
+    pf_surface surface;       /* mesh: the triangles, handed over by the caller with
+                                 pf_scene_set_obstacle_surface (empty until then) */
 } pf_obstacle;
 
 /* The obstacle's translation at time t (zero without keys). */
@@ -181,11 +181,14 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
  * (a new mesh) moves an automatic ground, not tolerances already set. */
 void pf_scene_resolve(pf_scene *s, pf_vec3 lo, pf_vec3 hi);
 
-/* Reads the surface of every mesh obstacle whose surface is still empty (pf_import_surface on
- * its file). PF_ERR_IO / PF_ERR_FORMAT "obstacles[i].mesh: file: reason" when one cannot be read,
- * PF_ERR_INVALID when it has no triangles. Call before pf_sim_create for scenes with mesh
- * obstacles. */
-pf_status pf_scene_load_obstacles(pf_scene *s, pf_error *err);
+/* Hands the triangles of mesh obstacle i over to the scene: s->obstacles[i].surface takes the
+ * arrays of *surface, which is left zeroed (an earlier surface of the obstacle is released).
+ * libcore/sim reads no files: the caller reads obstacles[i].file (pf_import_surface) and hands
+ * its triangles over before pf_sim_create. PF_ERR_INVALID "obstacles[i].mesh: FILE: no
+ * triangles" for an empty surface, and when i is out of range or not a mesh obstacle (*surface
+ * is then left as it was). */
+pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surface,
+                                        pf_error *err);
 
 /* The scene as a scene file (every key explicit, overrides included; an automatic ground stays
  * automatic), NUL-terminated, freed with pf_free. Parsing it gives the same scene. */
@@ -235,8 +238,8 @@ typedef struct pf_sim_stats {
     pf_solver_stats solver;
 } pf_sim_stats;
 
-/* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles loaded with
- * pf_scene_load_obstacles) on the mesh (valid, derived). Contact with the ground and the
+/* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles' triangles handed
+ * over with pf_scene_set_obstacle_surface) on the mesh (valid, derived). Contact with the ground and the
  * obstacles acts at the mesh's boundary nodes. The mesh and scene are borrowed and must outlive
  * the simulator. PF_ERR_INVALID also for a mesh obstacle whose surface is not loaded.
  * PF_ERR_INVALID for a static scene without fixed faces (rigid motions make it singular),

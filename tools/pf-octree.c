@@ -97,7 +97,7 @@ int main(int argc, char **argv)
     if (st >= 0)
         st = pf_stream_write_info(w, "pf-octree", PF_VERSION_STRING, command ? command : "", &err);
     if (st >= 0)
-        st = pf_cli_read_surface(path, &surface, w, &err);
+        st = pf_cli_read_surface(path, &surface, w, NULL, &err);
     if (st >= 0 && progress)
         fprintf(stderr, "pf-octree: %d triangles, depth %d..%d%s ...\n", (int)surface.n_tris,
                 (int)p.min_depth, (int)p.depth, p.slice ? ", slicing" : "");

@@ -83,7 +83,7 @@ int main(int argc, char **argv)
         st = pf_stream_write_info(w, "pf-voxelize", PF_VERSION_STRING, command ? command : "",
                                   &err);
     if (st >= 0)
-        st = pf_cli_read_surface(path, &surface, w, &err);
+        st = pf_cli_read_surface(path, &surface, w, NULL, &err);
     pf_grid grid = {0};
     pf_inside_method method = PF_INSIDE_RAYS;
     double t0 = pf_time_seconds();

@@ -201,7 +201,7 @@ static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,
         if (strcmp(c.tag, "SURF") == 0 && !have) {
             st = pf_stream_decode_surface(&c, s, err);
             have = st >= 0;
-        } else if (strcmp(c.tag, "END_") != 0 && !pf_stream_tag_is_mesh_dependent(c.tag) &&
+        } else if (w && strcmp(c.tag, "END_") != 0 && !pf_stream_tag_is_mesh_dependent(c.tag) &&
                    strcmp(c.tag, "MESH") != 0) {
             st = pf_stream_write_raw(w, &c, err);
         }

@@ -290,3 +290,78 @@ pf_status pf_surface_fix(pf_surface *s, const pf_surface_fix_params *params,
     r->volume_after = after.volume;
     return PF_OK;
 }
+
+/* Up to 64 vertices of component c, evenly strided over its triangles' first corners. */
+static int32_t sample_vertices(const pf_surface *s, const int32_t *comp, int32_t c, int32_t size,
+                               pf_vec3 *out)
+{
+    int32_t n = 0, stride = size / 64 + 1, seen = 0;
+    for (int32_t t = 0; t < s->n_tris && n < 64; ++t)
+        if (comp[t] == c && seen++ % stride == 0)
+            out[n++] = pf_v3_load(s->x + 3 * (size_t)s->tri[3 * (size_t)t]);
+    return n;
+}
+
+pf_status pf_surface_parts_overlap(const pf_surface *s, bool *overlap, pf_error *err)
+{
+    *overlap = false;
+    size_t n = 3 * (size_t)s->n_tris;
+    int32_t *nb = pf_alloc_array(n + 1, sizeof *nb);
+    uint8_t *rel = pf_alloc(n + 1);
+    int32_t *comp = pf_alloc_array((size_t)s->n_tris + 1, sizeof *comp);
+    int32_t *queue = pf_alloc_array((size_t)s->n_tris + 1, sizeof *queue);
+    uint32_t *scratch = pf_alloc_array(n + 1, sizeof *scratch);
+    pf_status st = PF_OK;
+    if (!nb || !rel || !comp || !queue || !scratch) {
+        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+        goto done;
+    }
+    st = manifold_neighbours(s, nb, rel, err);
+    if (st < 0)
+        goto done;
+    for (int32_t t = 0; t < s->n_tris; ++t)
+        comp[t] = -1;
+    int32_t n_comp = 0;
+    for (int32_t seed = 0; seed < s->n_tris; ++seed) {
+        if (comp[seed] >= 0)
+            continue;
+        int32_t head = 0, tail = 0;
+        comp[seed] = n_comp;
+        queue[tail++] = seed;
+        while (head < tail) {
+            int32_t t = queue[head++];
+            for (int k = 0; k < 3; ++k) {
+                int32_t u = nb[3 * (size_t)t + k];
+                if (u >= 0 && comp[u] < 0) {
+                    comp[u] = n_comp;
+                    queue[tail++] = u;
+                }
+            }
+        }
+        queue[n_comp] = tail; /* sizes, reusing the front of the queue */
+        n_comp++;
+    }
+    /* c against d: c's sampled vertices inside d (winding number of d > 1/2) mean an overlap,
+     * unless all are inside and c is inward (a cavity of d). */
+    pf_vec3 p[64];
+    for (int32_t c = 0; c < n_comp && !*overlap; ++c) {
+        int32_t np = sample_vertices(s, comp, c, queue[c], p);
+        double area;
+        bool inward = component_volume(s, comp, c, pf_v3(0, 0, 0), &area) < 0;
+        for (int32_t d = 0; d < n_comp && !*overlap; ++d) {
+            if (d == c)
+                continue;
+            int32_t nt = 0;
+            for (int32_t t = 0; t < s->n_tris; ++t)
+                if (comp[t] == d)
+                    memcpy(scratch + 3 * (size_t)nt++, s->tri + 3 * (size_t)t, 3 * sizeof *scratch);
+            int32_t inside = 0;
+            for (int32_t i = 0; i < np; ++i)
+                inside += pf_winding_number(s->x, scratch, nt, p[i]) > 0.5;
+            *overlap = inside > 0 && !(inward && inside == np);
+        }
+    }
+done:
+    pf_free(nb), pf_free(rel), pf_free(comp), pf_free(queue), pf_free(scratch);
+    return st;
+}

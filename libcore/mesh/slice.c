@@ -723,7 +723,10 @@ pf_status pf_slice_winding_surface(const pf_surface *s, const pf_grid *grid, int
     if (st >= 0)
         st = pf_surface_compute_stats(&oriented, &ss, err);
     *contoured = false;
-    if (st >= 0 && ss.closed && ss.manifold && ss.volume > 0) {
+    bool overlap = true;
+    if (st >= 0 && ss.closed && ss.manifold && ss.volume > 0)
+        st = pf_surface_parts_overlap(&oriented, &overlap, err);
+    if (st >= 0 && !overlap) {
         *out = oriented; /* orienting was enough: sliced as it is */
         return PF_OK;
     }
@@ -754,6 +757,11 @@ pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *
     pf_surface_stats ss;
     PF_TRY(pf_surface_compute_stats(s, &ss, err));
     bool clean = ss.closed && ss.manifold && ss.volume > 0;
+    if (clean && p.robust) {
+        bool overlap;
+        PF_TRY(pf_surface_parts_overlap(s, &overlap, err));
+        clean = !overlap;
+    }
     PF_CHECK(clean || p.robust, err, PF_ERR_INVALID,
              "slicing needs a closed, manifold, outward-oriented surface (%lld open edges, %lld "
              "non-manifold, %lld flipped, volume %g); the robust mode slices the winding-number "

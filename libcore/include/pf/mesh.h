@@ -186,6 +186,13 @@ typedef struct pf_surface_fix_report {
  * its vertices) is flipped whole. Sets the orientation fields of *r. PF_ERR_NOMEM. */
 pf_status pf_surface_orient(pf_surface *s, pf_surface_fix_report *r, pf_error *err);
 
+/* *overlap = true when a patch of s has a vertex inside another patch (winding number of that
+ * patch > 1/2 at one of up to 64 sampled vertices), unless it lies wholly inside it facing
+ * inward (a cavity): overlapping closed parts, whose union the winding number defines but an
+ * exact cut would count twice. Intersections within one patch are not looked for. O(64 patches
+ * x triangles). PF_ERR_NOMEM. */
+pf_status pf_surface_parts_overlap(const pf_surface *s, bool *overlap, pf_error *err);
+
 /* The post-import step every tool applies to a surface read from a file: turn, scale, orient
  * (params NULL: the defaults). report may be NULL. PF_ERR_INVALID for an unknown axis, a scale
  * that is not finite and > 0, an index out of range or a non-finite coordinate. */
@@ -367,6 +374,9 @@ typedef struct pf_octree_params {
     bool slice;        /* cut the surface cells exactly (closed surfaces only) */
     double merge;      /* with slice: merge pieces below merge * (finest cell volume), [0, 1)
                           (default 0.05, as pf_mesh_slice) */
+    bool robust;       /* with slice: as pf_slice_params.robust, the lattice over the finest
+                          cells (default true) */
+    int32_t contour_refine; /* as pf_slice_params (default 2) */
 } pf_octree_params;
 
 pf_octree_params pf_octree_params_default(void);
@@ -387,11 +397,16 @@ typedef struct pf_octree_stats {
     int32_t isolated_slivers; /* pieces below the threshold touching no other piece (kept) */
     int32_t kinds[PF_ELEM_KIND_COUNT];
     double seconds;
+    bool robust_used, contoured;       /* as pf_slice_stats */
+    pf_surface_fix_report orient;
+    pf_winding_contour_stats contour;
 } pf_octree_stats;
 
 /* Builds the octree mesh of s into m (derived; m is overwritten). params may be NULL for the
  * defaults, stats may be NULL. Without slice, s may be open (winding-number centre test); with
- * slice it must be closed, manifold and outward (PF_ERR_INVALID otherwise, saying what is wrong).
+ * slice a surface that is not closed, manifold and outward is, in the robust mode, replaced as in
+ * pf_mesh_slice (over the same bounding cube) and otherwise refused (PF_ERR_INVALID, saying what
+ * is wrong).
  * Statuses: PF_ERR_INVALID for parameters out of range, a surface without triangles or with a
  * non-finite coordinate, or no leaf inside; PF_ERR_NUMERIC when the geometry is too degenerate
  * for a consistent cut at the model's tolerance (1e-10 of its size); PF_ERR_TOO_LARGE when the

@@ -419,6 +419,36 @@ static void slices_real_models(void **state)
     }
 }
 
+/* Two separate boxes voxelized: the larger kept (its cells exactly), the smaller's cells and nodes
+ * dropped, the mesh valid. */
+static void keeps_the_largest_part(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface s = {0};
+    add_box(&s, pf_v3(0, 0, 0), pf_v3(1, 1, 1));
+    add_box(&s, pf_v3(2, 0, 0), pf_v3(2.5, 0.5, 0.5));
+    pf_voxelize_params p = pf_voxelize_params_default();
+    p.cell = 0.25;
+    p.has_origin = true;
+    p.origin = pf_v3(0, 0, 0);
+    pf_mesh m = {0};
+    assert_int_equal(pf_mesh_voxelize(&m, &s, &p, NULL, NULL, &err), PF_OK);
+    assert_int_equal(m.n_elems, 64 + 8);
+    int32_t parts, dropped;
+    assert_int_equal(pf_mesh_keep_largest_part(&m, &parts, &dropped, &err), PF_OK);
+    assert_int_equal(parts, 2);
+    assert_int_equal(dropped, 8);
+    assert_int_equal(m.n_elems, 64);
+    assert_int_equal(m.n_nodes, 125);
+    assert_int_equal(pf_mesh_validate(&m, NULL, &err), PF_OK);
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(&m, &lo, &hi);
+    assert_true(hi.x == 1 && lo.x == 0);
+    pf_mesh_release(&m);
+    pf_surface_release(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -428,6 +458,7 @@ int main(void)
         cmocka_unit_test(clean_surfaces_slice_as_before),
         cmocka_unit_test(slices_imperfect_surfaces),
         cmocka_unit_test(contour_is_closed_and_manifold),
+        cmocka_unit_test(keeps_the_largest_part),
         cmocka_unit_test(slices_real_models),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -8,7 +8,7 @@
 static const char USAGE[] =
     "Usage: pf-voxelize [SURFACE | -] [--res N | --cell H] [--origin X,Y,Z]\n"
     "                   [--mode inside|overlap] [--inside auto|rays|winding] [--up AXIS]\n"
-    "                   [--scale S] [--keep-orientation] [--quiet]\n"
+    "                   [--scale S] [--keep-orientation] [--keep-islands] [--quiet]\n"
     "\n"
     "Writes a pf stream with the surface (SURF, for embedding and rendering later) and a hex mesh\n"
     "(MESH) of the grid cells of the solid, to stdout.\n"
@@ -23,6 +23,8 @@ static const char USAGE[] =
     "  --inside T     the inside test: auto (default: rays for a closed surface, else winding),\n"
     "                 rays or winding\n"
     PF_CLI_IMPORT_USAGE
+    "  --keep-islands keep every part; by default only the largest set of cells connected through\n"
+    "                 faces is kept (the report says how many cells were dropped)\n"
     "  --quiet        no report on stderr\n"
     "\n"
     "Inside tests: rays counts signed ray crossings (Embree) along grid rows in x, y and z, a cell\n"
@@ -31,13 +33,14 @@ static const char USAGE[] =
     "generalised winding number (inside where it is >= 1/2), robust to holes of any size but\n"
     "O(triangles) per cell. The report says which was used.\n";
 
-enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MODE, OPT_INSIDE, OPT_QUIET, OPT_IMPORT };
+enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MODE, OPT_INSIDE, OPT_QUIET, OPT_ISLANDS, OPT_IMPORT };
 
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {{"res", true, OPT_RES},       {"cell", true, OPT_CELL},
                                             {"origin", true, OPT_ORIGIN}, {"mode", true, OPT_MODE},
                                             {"inside", true, OPT_INSIDE}, {"quiet", false, OPT_QUIET},
+                                            {"keep-islands", false, OPT_ISLANDS},
                                             PF_CLI_IMPORT_OPTIONS(OPT_IMPORT),
                                             {NULL, false, 0}};
     pf_cli cli;
@@ -45,7 +48,7 @@ int main(int argc, char **argv)
     pf_voxelize_params p = pf_voxelize_params_default();
     pf_cli_import imp = pf_cli_import_default();
     const char *path = NULL, *value;
-    bool quiet = false;
+    bool quiet = false, islands = false;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         switch (id) {
         case OPT_RES: pf_cli_grid_option(&cli, 'r', value, &p); break;
@@ -70,6 +73,7 @@ int main(int argc, char **argv)
                 pf_cli_usage_error(&cli, "--inside is auto, rays or winding, not '%s'", value);
             break;
         case OPT_QUIET: quiet = true; break;
+        case OPT_ISLANDS: islands = true; break;
         case OPT_IMPORT:
         case OPT_IMPORT + 1:
         case OPT_IMPORT + 2: pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp); break;
@@ -99,6 +103,9 @@ int main(int argc, char **argv)
         if (st < 0)
             pf_cli_prefix_surface_error(path, &err);
     }
+    int32_t parts = 1, dropped = 0;
+    if (st >= 0 && !islands)
+        st = pf_mesh_keep_largest_part(&mesh, &parts, &dropped, &err);
     double seconds = pf_time_seconds() - t0;
     if (st >= 0)
         st = pf_stream_write_surface(w, &surface, &err);
@@ -111,6 +118,11 @@ int main(int argc, char **argv)
                 "pf-voxelize: %d x %d x %d grid of cell %.6g, %d hexes (%s test), %.3f s\n",
                 (int)grid.n[0], (int)grid.n[1], (int)grid.n[2], grid.h, (int)mesh.n_elems,
                 method == PF_INSIDE_RAYS ? "ray-crossing" : "winding-number", seconds);
+    if (st >= 0 && !quiet && dropped > 0)
+        fprintf(stderr,
+                "pf-voxelize: kept the largest of %d parts, dropped %d cells in the others "
+                "(--keep-islands keeps them)\n",
+                (int)parts, (int)dropped);
     char line[320];
     if (st >= 0 && !quiet && pf_cli_import_summary(&imp, line, sizeof line))
         fprintf(stderr, "pf-voxelize: import: %s\n", line);

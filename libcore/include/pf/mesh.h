@@ -107,6 +107,12 @@ pf_status pf_mesh_validate(const pf_mesh *m, const pf_mesh_validate_params *para
 pf_status pf_mesh_select_elements(pf_mesh *dst, const pf_mesh *src, const uint8_t *keep,
                                   int32_t *elem_map, pf_error *err);
 
+/* Keeps only the largest (by volume) set of elements connected through shared faces, in place:
+ * the others' elements, faces and nodes are dropped (nodes renumbered in order), m derived.
+ * *parts receives the number of such sets, *dropped the elements dropped. PF_ERR_NOMEM, and
+ * pf_mesh_derive's statuses. */
+pf_status pf_mesh_keep_largest_part(pf_mesh *m, int32_t *parts, int32_t *dropped, pf_error *err);
+
 /* ---- builders from cell lists ------------------------------------------------------------------
  * Faces shared by two cells are created once. Node numbering of cells follows Gmsh/VTK:
  * tet (0,1,2,3) with node 3 on the positive side of (0,1,2); hex with bottom 0-1-2-3 and top 4-5-6-7

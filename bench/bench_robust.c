@@ -97,7 +97,7 @@ int main(int argc, char **argv)
         }
         pf_surface_fix_params fp = pf_surface_fix_params_default();
         fp.up = strstr(path, ".DAE") || strstr(path, ".dae") || strstr(path, ".glb") ? PF_UP_Y
-                                                                                   : PF_UP_Z;
+                                                                                     : PF_UP_Z;
         if (pf_surface_fix(&s, &fp, NULL, &err) != PF_OK) {
             fprintf(stderr, "bench_robust: %s: %s\n", path, err.msg);
             pf_surface_release(&s);

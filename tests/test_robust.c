@@ -98,12 +98,11 @@ static void fast_winding_number_matches_exact(void **state)
     double worst = 0;
     for (int k = 0; k < 3; ++k) {
         pf_winding_tree *wt = NULL;
-        assert_int_equal(pf_winding_tree_create(&wt, shapes[k].x, shapes[k].n_verts,
-                                                shapes[k].tri, shapes[k].n_tris, &err),
+        assert_int_equal(pf_winding_tree_create(&wt, shapes[k].x, shapes[k].n_verts, shapes[k].tri,
+                                                shapes[k].n_tris, &err),
                          PF_OK);
         for (int i = 0; i < 500; ++i) {
-            pf_vec3 p = pf_v3(1.5 * uniform(&r), 1.5 * uniform(&r),
-                              1.5 * uniform(&r));
+            pf_vec3 p = pf_v3(1.5 * uniform(&r), 1.5 * uniform(&r), 1.5 * uniform(&r));
             double exact = pf_winding_number(shapes[k].x, shapes[k].tri, shapes[k].n_tris, p);
             worst = fmax(worst, fabs(pf_winding_tree_eval(wt, p) - exact));
         }
@@ -161,8 +160,8 @@ static void turns_up_axes_and_scales(void **state)
 {
     (void)state;
     pf_error err = {0};
-    static const pf_up_axis axes[6] = {PF_UP_Z, PF_UP_X, PF_UP_Y, PF_UP_NEG_X, PF_UP_NEG_Y,
-                                       PF_UP_NEG_Z};
+    static const pf_up_axis axes[6] = {PF_UP_Z,     PF_UP_X,     PF_UP_Y,
+                                       PF_UP_NEG_X, PF_UP_NEG_Y, PF_UP_NEG_Z};
     for (int a = 0; a < 6; ++a) {
         pf_surface s = {0};
         add_box(&s, pf_v3(0, 0, 0), pf_v3(1, 2, 3));
@@ -296,8 +295,7 @@ static void contour_is_closed_and_manifold(void **state)
     a.n_tris -= 30;
     int32_t n[3] = {30, 26, 24};
     pf_winding_contour_stats st;
-    assert_int_equal(pf_surface_winding_contour(&a, pf_v3(-1.3, -1.3, -1.2), 0.1, n, &c, &st,
-                                                &err),
+    assert_int_equal(pf_surface_winding_contour(&a, pf_v3(-1.3, -1.3, -1.2), 0.1, n, &c, &st, &err),
                      PF_OK);
     pf_surface_stats ss;
     assert_int_equal(pf_surface_compute_stats(&c, &ss, &err), PF_OK);
@@ -313,14 +311,15 @@ static void contour_is_closed_and_manifold(void **state)
     pf_surface_release(&a);
 }
 
-/* ---- real models (Debian's assimp-testmodels, installed by scripts/setup) ------------------------
- * Each is imported as the tools do (turned to +z up where the format is +y up, oriented), sliced
- * at 10 cells and cut by an octree of depth 4; both meshes are valid and their volume is compared
- * with the winding-number solid's, estimated by the fraction of 64^3 sample points (cell centres
- * of a grid over the bounding box) where the fast winding number is >= 1/2. The meshes lose what
- * is thinner than the contour lattice (h / 2: legs, tails, rims) and the estimate itself is off by
- * up to half a sample cell times the area; each tolerance is a little above the difference
- * measured (printed) per model, and far below what a lost part or a doubled one would give. */
+/* ---- real models (Debian's assimp-testmodels, installed by scripts/setup)
+ * ------------------------ Each is imported as the tools do (turned to +z up where the format is +y
+ * up, oriented), sliced at 10 cells and cut by an octree of depth 4; both meshes are valid and
+ * their volume is compared with the winding-number solid's, estimated by the fraction of 64^3
+ * sample points (cell centres of a grid over the bounding box) where the fast winding number is >=
+ * 1/2. The meshes lose what is thinner than the contour lattice (h / 2: legs, tails, rims) and the
+ * estimate itself is off by up to half a sample cell times the area; each tolerance is a little
+ * above the difference measured (printed) per model, and far below what a lost part or a doubled
+ * one would give. */
 #define MODELS "/usr/share/assimp/models/"
 
 static double winding_volume(const pf_surface *s)
@@ -329,8 +328,7 @@ static double winding_volume(const pf_surface *s)
     pf_surface_stats ss;
     assert_int_equal(pf_surface_compute_stats(s, &ss, &err), PF_OK);
     pf_winding_tree *wt = NULL;
-    assert_int_equal(pf_winding_tree_create(&wt, s->x, s->n_verts, s->tri, s->n_tris, &err),
-                     PF_OK);
+    assert_int_equal(pf_winding_tree_create(&wt, s->x, s->n_verts, s->tri, s->n_tris, &err), PF_OK);
     enum { N = 48 };
     pf_vec3 d = pf_v3_scale(pf_v3_sub(ss.hi, ss.lo), 1.0 / N);
     int64_t inside = 0;
@@ -363,8 +361,8 @@ static void slices_real_models(void **state)
         const char *file;
         pf_up_axis up;
         double tol;
-    } models[] = {{"PLY/Wuson.ply", PF_UP_Z, 0.07},   /* measured -4.8 %, octree -2.2 % */
-                  {"OBJ/spider.obj", PF_UP_Z, 0.15},  /* -12.4 %, -8.5 %: thin legs */
+    } models[] = {{"PLY/Wuson.ply", PF_UP_Z, 0.07},  /* measured -4.8 %, octree -2.2 % */
+                  {"OBJ/spider.obj", PF_UP_Z, 0.15}, /* -12.4 %, -8.5 %: thin legs */
                   {"glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb", PF_UP_Y, 0},
                   {"Collada/teapots.DAE", PF_UP_Y, 0.05}, /* -3.0 %, -1.7 % */
                   {"Collada/duck.dae", PF_UP_Y, 0.02},    /* closed: sliced exactly; -0.2 % is

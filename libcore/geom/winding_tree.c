@@ -5,11 +5,12 @@
  * A cluster of triangles with area vectors a_t (half the cross product of two edges, along the
  * right-handed normal) seen from p far away subtends the solid angle
  *     Omega ~ sum_t a_t . (c - p) / |c - p|^3 = A . (c - p) / |c - p|^3,
- * c the area-weighted centroid of the cluster, A = sum_t a_t (the zeroth-order term of the
- * dipole expansion about c; the first-order term vanishes by the choice of c up to the
- * anisotropic part, so the relative error is O((r / d)^2) for a cluster of radius r at distance
- * d). A cluster is expanded when d > beta r, beta = 4 (2.5 left errors of 4e-2 of a turn); nearer clusters are opened and leaves
- * summed exactly (Van Oosterom-Strackee, as pf_winding_number). */
+ * c the area-weighted centroid of the cluster, A = sum_t a_t: the leading term of the expansion
+ * about c. The next term (the first moments sum_t a_t (x_t - c)^T, which Barill et al. keep at
+ * second order) is dropped, so the error is O(r / d) of the cluster's own contribution, r its
+ * radius and d the distance. A cluster is expanded when d > beta r, beta = 4 (2.5 left errors of
+ * 4e-2 of a turn, 4 leaves 1.4e-2 on spheres and tori: tests/test_robust.c); nearer clusters are
+ * opened and leaves summed exactly (Van Oosterom-Strackee, as pf_winding_number). */
 #include <pf/geom.h>
 
 #include <math.h>
@@ -20,19 +21,19 @@ enum { LEAF_SIZE = 8, STACK = 128 };
 static const double BETA = 4;
 
 typedef struct node {
-    int32_t begin, end;   /* triangles order[begin .. end) */
-    int32_t child[2];     /* -1 for a leaf */
-    pf_vec3 c;            /* area-weighted centroid */
-    pf_vec3 a;            /* sum of area vectors */
-    double r;             /* radius around c enclosing every corner */
+    int32_t begin, end; /* triangles order[begin .. end) */
+    int32_t child[2];   /* -1 for a leaf */
+    pf_vec3 c;          /* area-weighted centroid */
+    pf_vec3 a;          /* sum of area vectors */
+    double r;           /* radius around c enclosing every corner */
 } node;
 
 struct pf_winding_tree {
-    const double *x;   /* borrowed */
+    const double *x; /* borrowed */
     const uint32_t *tri;
     int32_t nt;
-    int32_t *order;    /* [nt] triangle indices grouped by node */
-    pf_vec3 *centre;   /* [nt] triangle centroids, for the splits */
+    int32_t *order;  /* [nt] triangle indices grouped by node */
+    pf_vec3 *centre; /* [nt] triangle centroids, for the splits */
     node *nodes;
     int32_t n_nodes, cap_nodes;
 };

@@ -64,4 +64,3 @@ pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params
     stats->seconds = pf_time_seconds() - t0;
     return st;
 }
-

@@ -39,19 +39,25 @@ bool pf_up_axis_parse(const char *text, pf_up_axis *out)
 static pf_vec3 rotate_up(pf_up_axis up, pf_vec3 p)
 {
     switch (up) {
-    case PF_UP_X: return pf_v3(-p.z, p.y, p.x);
-    case PF_UP_Y: return pf_v3(p.x, -p.z, p.y);
-    case PF_UP_NEG_X: return pf_v3(p.z, p.y, -p.x);
-    case PF_UP_NEG_Y: return pf_v3(p.x, p.z, -p.y);
-    case PF_UP_NEG_Z: return pf_v3(p.x, -p.y, -p.z);
-    default: return p;
+    case PF_UP_X:
+        return pf_v3(-p.z, p.y, p.x);
+    case PF_UP_Y:
+        return pf_v3(p.x, -p.z, p.y);
+    case PF_UP_NEG_X:
+        return pf_v3(p.z, p.y, -p.x);
+    case PF_UP_NEG_Y:
+        return pf_v3(p.x, p.z, -p.y);
+    case PF_UP_NEG_Z:
+        return pf_v3(p.x, -p.y, -p.z);
+    default:
+        return p;
     }
 }
 
 typedef struct edge_use {
-    uint64_t key;  /* min << 32 | max */
+    uint64_t key; /* min << 32 | max */
     int32_t tri;
-    uint8_t dir;   /* 1 when the triangle traverses the edge from max to min */
+    uint8_t dir; /* 1 when the triangle traverses the edge from max to min */
 } edge_use;
 
 static int compare_edge_use(const void *a, const void *b)

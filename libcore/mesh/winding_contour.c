@@ -29,11 +29,11 @@ typedef struct contour {
     pf_vec3 origin;
     double h;
     int32_t n[3];
-    const double *w;       /* [nodes] winding numbers */
-    const uint8_t *in;     /* [nodes] inside flags */
-    int32_t *vert;         /* [7 nodes] contour vertex of each edge, -1 none yet */
-    pf_buffer x;           /* double[3 nv] */
-    pf_buffer tri;         /* uint32[3 nt] */
+    const double *w;   /* [nodes] winding numbers */
+    const uint8_t *in; /* [nodes] inside flags */
+    int32_t *vert;     /* [7 nodes] contour vertex of each edge, -1 none yet */
+    pf_buffer x;       /* double[3 nv] */
+    pf_buffer tri;     /* uint32[3 nt] */
     int32_t nv;
     pf_crossing hits[64];
     pf_winding_contour_stats *stats;
@@ -87,8 +87,8 @@ static pf_status edge_vertex(contour *c, const int32_t p[3], const int32_t q[3],
         const int32_t *a = c->in[node_index(c, p)] ? p : q, *b = a == p ? q : p;
         pf_vec3 pa = node_position(c, a), pb = node_position(c, b);
         double t;
-        PF_TRY(crossing_parameter(c, pa, pb, c->w[node_index(c, a)], c->w[node_index(c, b)], &t,
-                                  err));
+        PF_TRY(
+            crossing_parameter(c, pa, pb, c->w[node_index(c, a)], c->w[node_index(c, b)], &t, err));
         double x[3];
         pf_v3_store(pf_v3_add(pa, pf_v3_scale(pf_v3_sub(pb, pa), t)), x);
         PF_TRY(pf_buffer_append(&c->x, x, sizeof x, err));
@@ -200,8 +200,8 @@ static pf_status sample(contour *c, double *w, uint8_t *in, pf_error *err)
             for (int32_t i = 0; i < c->n[0]; ++i) {
                 int32_t p[3] = {i, j, k};
                 size_t id = node_index(c, p);
-                bool border = i == 0 || j == 0 || k == 0 || i == c->n[0] - 1 ||
-                              j == c->n[1] - 1 || k == c->n[2] - 1;
+                bool border = i == 0 || j == 0 || k == 0 || i == c->n[0] - 1 || j == c->n[1] - 1 ||
+                              k == c->n[2] - 1;
                 w[id] = border ? 0 : pf_winding_tree_eval(wt, node_position(c, p));
                 in[id] = w[id] >= 0.5;
                 c->stats->inside_nodes += in[id];
@@ -216,8 +216,8 @@ pf_status pf_surface_winding_contour(const pf_surface *s, pf_vec3 origin, double
 {
     memset(out, 0, sizeof *out);
     pf_winding_contour_stats local;
-    contour c = {.s = s, .origin = origin, .h = h, .n = {n[0], n[1], n[2]},
-                 .stats = stats ? stats : &local};
+    contour c = {
+        .s = s, .origin = origin, .h = h, .n = {n[0], n[1], n[2]}, .stats = stats ? stats : &local};
     memset(c.stats, 0, sizeof *c.stats);
     double t0 = pf_time_seconds();
     PF_CHECK(h > 0 && isfinite(h) && pf_v3_isfinite(origin), err, PF_ERR_INVALID,
@@ -254,7 +254,8 @@ pf_status pf_surface_winding_contour(const pf_surface *s, pf_vec3 origin, double
                           "at spacing %g): use a smaller cell",
                           h);
     if (st >= 0 && nt > INT32_MAX)
-        st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__, "contour of too many triangles");
+        st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
+                          "contour of too many triangles");
     if (st >= 0)
         st = pf_surface_alloc(out, c.nv, (int32_t)nt, err);
     if (st >= 0) {

@@ -216,6 +216,41 @@ static void clean_surfaces_slice_as_before(void **state)
     pf_surface_release(&s);
 }
 
+/* Overlapping closed parts are told from disjoint ones and from cavities. */
+static void finds_overlapping_parts(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface a = {0}, b = {0};
+    bool overlap;
+    make_sphere(&a, 1, 8, 16);
+    make_sphere(&b, 1, 8, 16);
+    translate(&b, pf_v3(3, 0, 0));
+    append(&a, &b);
+    assert_int_equal(pf_surface_parts_overlap(&a, &overlap, &err), PF_OK);
+    assert_false(overlap); /* disjoint */
+    translate(&b, pf_v3(-2, 0, 0));
+    pf_surface_release(&a);
+    make_sphere(&a, 1, 8, 16);
+    append(&a, &b);
+    assert_int_equal(pf_surface_parts_overlap(&a, &overlap, &err), PF_OK);
+    assert_true(overlap); /* centres 1 apart */
+    pf_surface_release(&a);
+    pf_surface_release(&b);
+    make_sphere(&a, 1, 8, 16);
+    make_sphere(&b, 0.5, 8, 16);
+    for (int32_t t = 0; t < b.n_tris; ++t)
+        flip(&b, t);
+    append(&a, &b);
+    assert_int_equal(pf_surface_parts_overlap(&a, &overlap, &err), PF_OK);
+    assert_false(overlap); /* a cavity */
+    pf_slice_stats st;
+    slice_volume("hollow sphere", &a, 8, true, NULL, &st);
+    assert_false(st.robust_used);
+    pf_surface_release(&a);
+    pf_surface_release(&b);
+}
+
 /* Imperfect surfaces with known solids: a sphere missing one face (or a whole band near a pole),
  * two overlapping spheres (a union: winding number 2 in the lens), a cube with a face
  * duplicated (non-manifold edges). Volumes against the analytic ones; tolerances from the
@@ -454,6 +489,7 @@ int main(void)
         cmocka_unit_test(orients_spheres_and_keeps_cavities),
         cmocka_unit_test(turns_up_axes_and_scales),
         cmocka_unit_test(clean_surfaces_slice_as_before),
+        cmocka_unit_test(finds_overlapping_parts),
         cmocka_unit_test(slices_imperfect_surfaces),
         cmocka_unit_test(contour_is_closed_and_manifold),
         cmocka_unit_test(keeps_the_largest_part),

@@ -297,15 +297,76 @@ pf_status pf_surface_fix(pf_surface *s, const pf_surface_fix_params *params,
     return PF_OK;
 }
 
-/* Up to 64 vertices of component c, evenly strided over its triangles' first corners. */
-static int32_t sample_vertices(const pf_surface *s, const int32_t *comp, int32_t c, int32_t size,
-                               pf_vec3 *out)
+/* The triangles of every part, grouped (tri[3 off[c] ..] for part c), with their bounding box. */
+typedef struct parts {
+    int32_t n;
+    int64_t *off; /* [n + 1] */
+    pf_vec3 *lo, *hi;
+} parts;
+
+/* c against d (their boxes overlapping): up to 64 of c's vertices, evenly strided, inside d
+ * (winding number of d > 1/2) mean an overlap, unless all are inside and c faces inward (a
+ * cavity of d). */
+static bool part_overlaps(const pf_surface *s, const parts *pt, const uint32_t *grouped, int32_t c,
+                          int32_t d)
 {
-    int32_t n = 0, stride = size / 64 + 1, seen = 0;
-    for (int32_t t = 0; t < s->n_tris && n < 64; ++t)
-        if (comp[t] == c && seen++ % stride == 0)
-            out[n++] = pf_v3_load(s->x + 3 * (size_t)s->tri[3 * (size_t)t]);
-    return n;
+    int64_t nc = pt->off[c + 1] - pt->off[c], stride = nc / 64 + 1;
+    double volume = 0;
+    for (int64_t t = pt->off[c]; t < pt->off[c + 1]; ++t) {
+        pf_vec3 q[3];
+        for (int k = 0; k < 3; ++k)
+            q[k] = pf_v3_load(s->x + 3 * (size_t)grouped[3 * t + k]);
+        volume += pf_v3_dot(q[0], pf_v3_cross(q[1], q[2])) / 6;
+    }
+    int32_t inside = 0, n = 0;
+    for (int64_t t = pt->off[c]; t < pt->off[c + 1]; t += stride, ++n) {
+        pf_vec3 p = pf_v3_load(s->x + 3 * (size_t)grouped[3 * t]);
+        inside += pf_winding_number(s->x, grouped + 3 * pt->off[d],
+                                    (int32_t)(pt->off[d + 1] - pt->off[d]), p) > 0.5;
+    }
+    return inside > 0 && !(volume < 0 && inside == n);
+}
+
+static pf_status compare_parts(const pf_surface *s, const int32_t *comp, int32_t n_comp,
+                               uint32_t *grouped, bool *overlap, pf_error *err)
+{
+    parts pt = {.n = n_comp};
+    pt.off = pf_calloc((size_t)n_comp + 1, sizeof *pt.off);
+    pt.lo = pf_alloc_array((size_t)n_comp, sizeof *pt.lo);
+    pt.hi = pf_alloc_array((size_t)n_comp, sizeof *pt.hi);
+    int64_t *at = pf_alloc_array((size_t)n_comp + 1, sizeof *at);
+    if (!pt.off || !pt.lo || !pt.hi || !at) {
+        pf_free(pt.off), pf_free(pt.lo), pf_free(pt.hi), pf_free(at);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+    }
+    for (int32_t t = 0; t < s->n_tris; ++t)
+        pt.off[comp[t] + 1]++;
+    for (int32_t c = 0; c < n_comp; ++c) {
+        pt.off[c + 1] += pt.off[c];
+        at[c] = pt.off[c];
+        pt.lo[c] = pf_v3(INFINITY, INFINITY, INFINITY);
+        pt.hi[c] = pf_v3_scale(pt.lo[c], -1);
+    }
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        int32_t c = comp[t];
+        for (int k = 0; k < 3; ++k) {
+            uint32_t v = s->tri[3 * (size_t)t + k];
+            grouped[3 * at[c] + k] = v;
+            pt.lo[c] = pf_v3_min(pt.lo[c], pf_v3_load(s->x + 3 * (size_t)v));
+            pt.hi[c] = pf_v3_max(pt.hi[c], pf_v3_load(s->x + 3 * (size_t)v));
+        }
+        at[c]++;
+    }
+    for (int32_t c = 0; c < n_comp && !*overlap; ++c)
+        for (int32_t d = 0; d < n_comp && !*overlap; ++d) {
+            bool apart = pt.hi[c].x < pt.lo[d].x || pt.hi[d].x < pt.lo[c].x ||
+                         pt.hi[c].y < pt.lo[d].y || pt.hi[d].y < pt.lo[c].y ||
+                         pt.hi[c].z < pt.lo[d].z || pt.hi[d].z < pt.lo[c].z;
+            if (d != c && !apart)
+                *overlap = part_overlaps(s, &pt, grouped, c, d);
+        }
+    pf_free(pt.off), pf_free(pt.lo), pf_free(pt.hi), pf_free(at);
+    return PF_OK;
 }
 
 pf_status pf_surface_parts_overlap(const pf_surface *s, bool *overlap, pf_error *err)
@@ -344,29 +405,9 @@ pf_status pf_surface_parts_overlap(const pf_surface *s, bool *overlap, pf_error 
                 }
             }
         }
-        queue[n_comp] = tail; /* sizes, reusing the front of the queue */
         n_comp++;
     }
-    /* c against d: c's sampled vertices inside d (winding number of d > 1/2) mean an overlap,
-     * unless all are inside and c is inward (a cavity of d). */
-    pf_vec3 p[64];
-    for (int32_t c = 0; c < n_comp && !*overlap; ++c) {
-        int32_t np = sample_vertices(s, comp, c, queue[c], p);
-        double area;
-        bool inward = component_volume(s, comp, c, pf_v3(0, 0, 0), &area) < 0;
-        for (int32_t d = 0; d < n_comp && !*overlap; ++d) {
-            if (d == c)
-                continue;
-            int32_t nt = 0;
-            for (int32_t t = 0; t < s->n_tris; ++t)
-                if (comp[t] == d)
-                    memcpy(scratch + 3 * (size_t)nt++, s->tri + 3 * (size_t)t, 3 * sizeof *scratch);
-            int32_t inside = 0;
-            for (int32_t i = 0; i < np; ++i)
-                inside += pf_winding_number(s->x, scratch, nt, p[i]) > 0.5;
-            *overlap = inside > 0 && !(inward && inside == np);
-        }
-    }
+    st = compare_parts(s, comp, n_comp, scratch, overlap, err);
 done:
     pf_free(nb), pf_free(rel), pf_free(comp), pf_free(queue), pf_free(scratch);
     return st;

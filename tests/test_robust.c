@@ -245,7 +245,7 @@ static void finds_overlapping_parts(void **state)
     assert_int_equal(pf_surface_parts_overlap(&a, &overlap, &err), PF_OK);
     assert_false(overlap); /* a cavity */
     pf_slice_stats st;
-    slice_volume("hollow sphere", &a, 8, true, NULL, &st);
+    slice_volume("hollow sphere", &a, 7, true, NULL, &st);
     assert_false(st.robust_used);
     pf_surface_release(&a);
     pf_surface_release(&b);

@@ -51,6 +51,12 @@ expect 0 "winding-number solid was sliced" "$bin/pf-slice" --res 6 "$data/open_b
 "$bin/pf-slice" --res 6 --quiet "$data/open_box.obj" | "$bin/pf-info" --json - >"$tmp/open.json"
 check "the open box's robust slice is valid" grep -q '"valid":true' "$tmp/open.json"
 expect 2 "--up" "$bin/pf-slice" --up w "$data/cube.obj"
+# Collada is +y up: turned onto +z by default (assimp-testmodels, installed by scripts/setup).
+duck=/usr/share/assimp/models/Collada/duck.dae
+if [ -f "$duck" ]; then
+  expect 0 "import: up y" "$bin/pf-slice" --res 6 "$duck"
+  expect 0 "import: up z" "$bin/pf-slice" --res 6 --up z "$duck"
+fi
 expect 2 "--scale" "$bin/pf-slice" --scale 0 "$data/cube.obj"
 expect 2 "--refine" "$bin/pf-slice" --refine 9 "$data/cube.obj"
 expect 0 "winding" "$bin/pf-voxelize" --res 4 "$data/open_box.obj"

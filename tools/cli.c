@@ -9,6 +9,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h> /* strcasecmp */
 #include <unistd.h>
 
 void pf_cli_init(pf_cli *cli, const char *tool, const char *usage, int argc, char **argv)
@@ -235,7 +236,7 @@ static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,
         if (strcmp(c.tag, "SURF") == 0 && !have) {
             st = pf_stream_decode_surface(&c, s, err);
             have = st >= 0;
-        } else if (strcmp(c.tag, "END_") != 0 && !pf_stream_tag_is_mesh_dependent(c.tag) &&
+        } else if (w && strcmp(c.tag, "END_") != 0 && !pf_stream_tag_is_mesh_dependent(c.tag) &&
                    strcmp(c.tag, "MESH") != 0) {
             st = pf_stream_write_raw(w, &c, err);
         }
@@ -249,17 +250,84 @@ static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,
     return st;
 }
 
-pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer *w, pf_error *err)
+pf_cli_import pf_cli_import_default(void)
+{
+    return (pf_cli_import){.fix = pf_surface_fix_params_default()};
+}
+
+void pf_cli_import_apply(const pf_cli *cli, int offset, const char *value, pf_cli_import *imp)
+{
+    if (offset == 0) {
+        if (!pf_up_axis_parse(value, &imp->fix.up))
+            pf_cli_usage_error(cli, "--up is x, y, z, -x, -y or -z, not '%s'", value);
+        imp->up_given = true;
+    } else if (offset == 1) {
+        imp->fix.scale = pf_cli_parse_double(cli, "scale", value);
+        if (!(imp->fix.scale > 0) || !isfinite(imp->fix.scale))
+            pf_cli_usage_error(cli, "--scale must be finite and > 0");
+        imp->scale_given = true;
+    } else {
+        imp->fix.orient = false;
+    }
+}
+
+const char *pf_cli_import_summary(const pf_cli_import *imp, char *buf, size_t size)
+{
+    if (!imp || !imp->applied)
+        return NULL;
+    const pf_surface_fix_report *r = &imp->report;
+    int n = snprintf(buf, size, "up %s, scale %g", pf_up_axis_name(imp->fix.up), imp->fix.scale);
+    if (imp->fix.orient && n >= 0 && (size_t)n < size)
+        snprintf(buf + n, size - (size_t)n,
+                 "; oriented: %d triangles flipped to agree with their neighbours, %d of %d parts "
+                 "turned outward (volume %.6g -> %.6g)",
+                 (int)r->flipped_faces, (int)r->flipped_components, (int)r->components,
+                 r->volume_before, r->volume_after);
+    return buf;
+}
+
+/* glTF and Collada are +y up by their specifications (assimp turns a Collada file's declared
+ * Z_UP into +y); every other format is taken as pf's +z. */
+static pf_up_axis file_up_axis(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    if (!dot)
+        return PF_UP_Z;
+    static const char *y_up[] = {".gltf", ".glb", ".dae"};
+    for (int k = 0; k < 3; ++k)
+        if (strcasecmp(dot, y_up[k]) == 0)
+            return PF_UP_Y;
+    return PF_UP_Z;
+}
+
+pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer *w,
+                              pf_cli_import *imp, pf_error *err)
 {
     bool from_stream = !path || strcmp(path, "-") == 0 || pf_cli_file_is_stream(path);
-    if (!from_stream)
-        return pf_import_surface(path, s, err);
-    FILE *f;
-    const char *name;
-    PF_TRY(pf_cli_open_input(path, &f, &name, err));
-    pf_status st = read_stream_surface(f, name, s, w, err);
-    pf_cli_close_input(f);
-    return st;
+    if (!from_stream) {
+        PF_TRY(pf_import_surface(path, s, err));
+        if (!imp)
+            return PF_OK;
+        if (!imp->up_given)
+            imp->fix.up = file_up_axis(path);
+    } else {
+        FILE *f;
+        const char *name;
+        PF_TRY(pf_cli_open_input(path, &f, &name, err));
+        pf_status st = read_stream_surface(f, name, s, w, err);
+        pf_cli_close_input(f);
+        PF_TRY(st);
+        if (!imp || (!imp->up_given && !imp->scale_given))
+            return PF_OK;
+        imp->fix.orient = false; /* oriented when it was imported */
+    }
+    pf_status st = pf_surface_fix(s, &imp->fix, &imp->report, err);
+    if (st < 0) {
+        pf_cli_prefix_surface_error(path, err);
+        return st;
+    }
+    imp->applied = true;
+    return PF_OK;
 }
 
 void pf_cli_grid_option(const pf_cli *cli, char which, const char *value, pf_voxelize_params *p)

@@ -83,11 +83,38 @@ bool pf_cli_show_progress(bool quiet);
 
 /* ---- surface input and grid options, shared by the meshers ------------------------------------ */
 
+/* The post-import options every tool reading a surface takes: --up AXIS, --scale S, --keep-orientation. */
+typedef struct pf_cli_import {
+    pf_surface_fix_params fix;
+    bool up_given;    /* --up given: else the file's convention (glTF, Collada: +y) */
+    bool scale_given;
+    bool applied;     /* set by pf_cli_read_surface: the fix ran, report valid */
+    pf_surface_fix_report report;
+} pf_cli_import;
+
+#define PF_CLI_IMPORT_USAGE                                                                     \
+    "  --up AXIS      the file's up axis, turned onto pf's +z: x, y, z, -x, -y, -z (default: y\n" \
+    "                 for glTF and Collada, whose convention it is, else z)\n"                    \
+    "  --scale S      multiply coordinates by S > 0 after the turn (units; default 1)\n"          \
+    "  --keep-orientation  do not make triangle orientation consistent and outward\n"
+
+pf_cli_import pf_cli_import_default(void);
+/* The option table entries for those three, ids id, id + 1, id + 2. */
+#define PF_CLI_IMPORT_OPTIONS(id) {"up", true, (id)}, {"scale", true, (id) + 1}, \
+                                  {"keep-orientation", false, (id) + 2}
+/* Applies an import option by its table id offset (0 up, 1 scale, 2 keep-orientation). */
+void pf_cli_import_apply(const pf_cli *cli, int offset, const char *value, pf_cli_import *imp);
+/* "oriented: 10 triangles flipped, 1 part turned outward; up y" or NULL when nothing happened,
+ * for the tools' reports, written into buf. */
+const char *pf_cli_import_summary(const pf_cli_import *imp, char *buf, size_t size);
+
 /* The surface to mesh: a file in any format assimp reads, or a pf stream (path "-", NULL or a
  * file starting with the stream signature) whose first SURF is taken and whose other chunks,
- * except meshes and what depends on them, are passed on to w. */
+ * except meshes and what depends on them, are passed on to w. With imp (may be NULL): a file is
+ * turned, scaled and oriented (pf_surface_fix); a stream's surface, already imported, only when
+ * --up or --scale was given. */
 pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer *w,
-                              pf_error *err);
+                              pf_cli_import *imp, pf_error *err);
 
 /* The grid options --res N, --cell H, --origin X,Y,Z: which is 'r', 'c' or 'o'. */
 void pf_cli_grid_option(const pf_cli *cli, char which, const char *value, pf_voxelize_params *p);

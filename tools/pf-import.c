@@ -6,7 +6,8 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-import [--surface | --volume] [--quiet] FILE\n"
+    "Usage: pf-import [--surface | --volume] [--up AXIS] [--scale S] [--keep-orientation]\n"
+    "                 [--quiet] FILE\n"
     "\n"
     "Writes a pf stream with INFO and MESH (volume meshes) or SURF (surfaces) to stdout.\n"
     "\n"
@@ -15,30 +16,37 @@ static const char USAGE[] =
     "              STL, glTF, DAE, FBX, ...).\n"
     "  --surface   read FILE as a surface whatever its extension\n"
     "  --volume    read FILE as a volume mesh whatever its extension\n"
+    "Surfaces are turned so that their up axis is pf's +z, scaled, and oriented consistently\n"
+    "outward (triangles disagreeing with their neighbours and inside-out parts flipped):\n"
+    PF_CLI_IMPORT_USAGE
     "  --quiet     no report on stderr\n"
     "  --help, --version\n"
     "\n"
     "Prints a one-line report on stderr: counts, volume, and for surfaces whether they are closed\n"
     "and manifold (only closed surfaces bound a solid). Exit 0 ok, 1 bad input, 2 bad usage.\n";
 
-enum { OPT_SURFACE = 1, OPT_VOLUME, OPT_QUIET };
+enum { OPT_SURFACE = 1, OPT_VOLUME, OPT_QUIET, OPT_IMPORT };
 
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {{"surface", false, OPT_SURFACE},
                                             {"volume", false, OPT_VOLUME},
                                             {"quiet", false, OPT_QUIET},
+                                            PF_CLI_IMPORT_OPTIONS(OPT_IMPORT),
                                             {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-import", USAGE, argc, argv);
     const char *path = NULL, *value;
     int kind = 0; /* 0 by extension, 1 surface, 2 volume */
     bool quiet = false;
+    pf_cli_import imp = pf_cli_import_default();
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         if (id == OPT_SURFACE || id == OPT_VOLUME)
             kind = id == OPT_SURFACE ? 1 : 2;
         else if (id == OPT_QUIET)
             quiet = true;
+        else if (id >= OPT_IMPORT && id <= OPT_IMPORT + 2)
+            pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp);
         else if (path)
             pf_cli_usage_error(&cli, "one input file only (got '%s' and '%s')", path, value);
         else
@@ -61,7 +69,7 @@ int main(int argc, char **argv)
             pf_mesh_release(&mesh);
             pf_cli_fail(&cli, &err);
         }
-    } else if (pf_import_surface(path, &surface, &err) < 0) {
+    } else if (pf_cli_read_surface(path, &surface, NULL, &imp, &err) < 0) {
         pf_cli_fail(&cli, &err);
     }
 
@@ -92,6 +100,9 @@ int main(int argc, char **argv)
                 fprintf(stderr, "pf-import: %s: %d vertices, %d triangles, %s, %s, volume %.17g\n",
                         path, (int)st.n_verts, (int)st.n_tris, st.closed ? "closed" : "open",
                         st.manifold ? "manifold" : "not manifold", st.volume);
+            char line[320];
+            if (pf_cli_import_summary(&imp, line, sizeof line))
+                fprintf(stderr, "pf-import: %s\n", line);
         }
     }
     pf_mesh_release(&mesh);

@@ -6,7 +6,8 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-octree [SURFACE | -] [--depth D] [--min-depth d] [--slice] [--merge F] [--quiet]\n"
+    "Usage: pf-octree [SURFACE | -] [--depth D] [--min-depth d] [--slice] [--merge F] [--exact]\n"
+    "                 [--refine N] [--up AXIS] [--scale S] [--keep-orientation] [--quiet]\n"
     "\n"
     "Writes a pf stream with the surface (SURF, for embedding and rendering later) and a mesh\n"
     "(MESH) of an adaptive octree over the surface's bounding cube (harmonic paper sec. 7): every\n"
@@ -24,9 +25,13 @@ static const char USAGE[] =
     "  --slice         cut the cells at the surface exactly, as pf-slice does (one element per\n"
     "                  connected piece of the solid in a cell): the mesh's boundary is the "
     "surface.\n"
-    "                  Needs a closed, manifold surface\n"
+    "                  A surface that is not closed, manifold and outward is replaced first by\n"
+    "                  the boundary of its winding-number solid, as in pf-slice (see its --help)\n"
     "  --merge F       with --slice: merge pieces below F times a finest cell's volume into the\n"
     "                  neighbour they share the most face area with (default 0.05; 0: never)\n"
+    "  --exact         with --slice: refuse a surface that is not closed, manifold and outward\n"
+    "  --refine N      lattice edges per finest cell edge for that boundary, 1..8 (default 2)\n"
+    PF_CLI_IMPORT_USAGE
     "  --quiet         no report on stderr\n"
     "\n"
     "Inside test: without --slice the elements are the cells whose centre is inside: for a closed\n"
@@ -37,18 +42,21 @@ static const char USAGE[] =
     "report\n"
     "says which was used.\n"
     "\n"
-    "Exit 0 ok; 1 bad input (an open surface with --slice says what is wrong); 2 bad usage.\n";
+    "Exit 0 ok; 1 bad input (an open surface with --slice --exact says what is wrong); 2 bad\n"
+    "usage.\n";
 
-enum { OPT_DEPTH = 1, OPT_MIN_DEPTH, OPT_SLICE, OPT_MERGE, OPT_QUIET };
+enum { OPT_DEPTH = 1, OPT_MIN_DEPTH, OPT_SLICE, OPT_MERGE, OPT_QUIET, OPT_EXACT, OPT_REFINE, OPT_IMPORT };
 
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {
         {"depth", true, OPT_DEPTH}, {"min-depth", true, OPT_MIN_DEPTH}, {"slice", false, OPT_SLICE},
-        {"merge", true, OPT_MERGE}, {"quiet", false, OPT_QUIET},        {NULL, false, 0}};
+        {"merge", true, OPT_MERGE}, {"quiet", false, OPT_QUIET},        {"exact", false, OPT_EXACT},
+        {"refine", true, OPT_REFINE}, PF_CLI_IMPORT_OPTIONS(OPT_IMPORT), {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-octree", USAGE, argc, argv);
     pf_octree_params p = pf_octree_params_default();
+    pf_cli_import imp = pf_cli_import_default();
     const char *path = NULL, *value;
     bool quiet = false, min_given = false, merge_given = false;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
@@ -73,6 +81,13 @@ int main(int argc, char **argv)
         case OPT_QUIET:
             quiet = true;
             break;
+        case OPT_EXACT: p.robust = false; break;
+        case OPT_REFINE:
+            p.contour_refine = (int32_t)pf_cli_parse_long(&cli, "refine", value, 1, 8);
+            break;
+        case OPT_IMPORT:
+        case OPT_IMPORT + 1:
+        case OPT_IMPORT + 2: pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp); break;
         default:
             if (path)
                 pf_cli_usage_error(&cli, "one input only (got '%s' and '%s')", path, value);
@@ -97,7 +112,7 @@ int main(int argc, char **argv)
     if (st >= 0)
         st = pf_stream_write_info(w, "pf-octree", PF_VERSION_STRING, command ? command : "", &err);
     if (st >= 0)
-        st = pf_cli_read_surface(path, &surface, w, &err);
+        st = pf_cli_read_surface(path, &surface, w, &imp, &err);
     if (st >= 0 && progress)
         fprintf(stderr, "pf-octree: %d triangles, depth %d..%d%s ...\n", (int)surface.n_tris,
                 (int)p.min_depth, (int)p.depth, p.slice ? ", slicing" : "");
@@ -133,6 +148,18 @@ int main(int argc, char **argv)
             if (stats.cells_by_depth[k])
                 fprintf(stderr, " %d: %d", k, (int)stats.cells_by_depth[k]);
         fprintf(stderr, "\n");
+        char line[320];
+        if (pf_cli_import_summary(&imp, line, sizeof line))
+            fprintf(stderr, "pf-octree: import: %s\n", line);
+        if (stats.robust_used)
+            fprintf(stderr,
+                    "pf-octree: robust: the surface was not closed, manifold and outward; %s "
+                    "(boundary of %d triangles, %lld vertices on the surface, %lld across "
+                    "holes)\n",
+                    stats.contoured ? "its winding-number solid was sliced"
+                                    : "oriented, it was sliced as it is",
+                    (int)stats.contour.n_tris, (long long)stats.contour.on_surface,
+                    (long long)stats.contour.interpolated);
     }
     pf_stream_writer_destroy(&w);
     pf_free(command);

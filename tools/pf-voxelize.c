@@ -7,7 +7,8 @@
 
 static const char USAGE[] =
     "Usage: pf-voxelize [SURFACE | -] [--res N | --cell H] [--origin X,Y,Z]\n"
-    "                   [--mode inside|overlap] [--inside auto|rays|winding] [--quiet]\n"
+    "                   [--mode inside|overlap] [--inside auto|rays|winding] [--up AXIS]\n"
+    "                   [--scale S] [--keep-orientation] [--keep-islands] [--quiet]\n"
     "\n"
     "Writes a pf stream with the surface (SURF, for embedding and rendering later) and a hex mesh\n"
     "(MESH) of the grid cells of the solid, to stdout.\n"
@@ -21,6 +22,9 @@ static const char USAGE[] =
     "  --mode overlap those and every cell a triangle passes through\n"
     "  --inside T     the inside test: auto (default: rays for a closed surface, else winding),\n"
     "                 rays or winding\n"
+    PF_CLI_IMPORT_USAGE
+    "  --keep-islands keep every part; by default only the largest set of cells connected through\n"
+    "                 faces is kept (the report says how many cells were dropped)\n"
     "  --quiet        no report on stderr\n"
     "\n"
     "Inside tests: rays counts signed ray crossings (Embree) along grid rows in x, y and z, a cell\n"
@@ -29,19 +33,22 @@ static const char USAGE[] =
     "generalised winding number (inside where it is >= 1/2), robust to holes of any size but\n"
     "O(triangles) per cell. The report says which was used.\n";
 
-enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MODE, OPT_INSIDE, OPT_QUIET };
+enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MODE, OPT_INSIDE, OPT_QUIET, OPT_ISLANDS, OPT_IMPORT };
 
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {{"res", true, OPT_RES},       {"cell", true, OPT_CELL},
                                             {"origin", true, OPT_ORIGIN}, {"mode", true, OPT_MODE},
                                             {"inside", true, OPT_INSIDE}, {"quiet", false, OPT_QUIET},
+                                            {"keep-islands", false, OPT_ISLANDS},
+                                            PF_CLI_IMPORT_OPTIONS(OPT_IMPORT),
                                             {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-voxelize", USAGE, argc, argv);
     pf_voxelize_params p = pf_voxelize_params_default();
+    pf_cli_import imp = pf_cli_import_default();
     const char *path = NULL, *value;
-    bool quiet = false;
+    bool quiet = false, islands = false;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         switch (id) {
         case OPT_RES: pf_cli_grid_option(&cli, 'r', value, &p); break;
@@ -66,6 +73,10 @@ int main(int argc, char **argv)
                 pf_cli_usage_error(&cli, "--inside is auto, rays or winding, not '%s'", value);
             break;
         case OPT_QUIET: quiet = true; break;
+        case OPT_ISLANDS: islands = true; break;
+        case OPT_IMPORT:
+        case OPT_IMPORT + 1:
+        case OPT_IMPORT + 2: pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp); break;
         default:
             if (path)
                 pf_cli_usage_error(&cli, "one input only (got '%s' and '%s')", path, value);
@@ -83,7 +94,7 @@ int main(int argc, char **argv)
         st = pf_stream_write_info(w, "pf-voxelize", PF_VERSION_STRING, command ? command : "",
                                   &err);
     if (st >= 0)
-        st = pf_cli_read_surface(path, &surface, w, &err);
+        st = pf_cli_read_surface(path, &surface, w, &imp, &err);
     pf_grid grid = {0};
     pf_inside_method method = PF_INSIDE_RAYS;
     double t0 = pf_time_seconds();
@@ -92,6 +103,9 @@ int main(int argc, char **argv)
         if (st < 0)
             pf_cli_prefix_surface_error(path, &err);
     }
+    int32_t parts = 1, dropped = 0;
+    if (st >= 0 && !islands)
+        st = pf_mesh_keep_largest_part(&mesh, &parts, &dropped, &err);
     double seconds = pf_time_seconds() - t0;
     if (st >= 0)
         st = pf_stream_write_surface(w, &surface, &err);
@@ -104,6 +118,14 @@ int main(int argc, char **argv)
                 "pf-voxelize: %d x %d x %d grid of cell %.6g, %d hexes (%s test), %.3f s\n",
                 (int)grid.n[0], (int)grid.n[1], (int)grid.n[2], grid.h, (int)mesh.n_elems,
                 method == PF_INSIDE_RAYS ? "ray-crossing" : "winding-number", seconds);
+    if (st >= 0 && !quiet && dropped > 0)
+        fprintf(stderr,
+                "pf-voxelize: kept the largest of %d parts, dropped %d cells in the others "
+                "(--keep-islands keeps them)\n",
+                (int)parts, (int)dropped);
+    char line[320];
+    if (st >= 0 && !quiet && pf_cli_import_summary(&imp, line, sizeof line))
+        fprintf(stderr, "pf-voxelize: import: %s\n", line);
     pf_stream_writer_destroy(&w);
     pf_free(command);
     pf_mesh_release(&mesh);

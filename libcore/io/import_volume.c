@@ -87,10 +87,26 @@ static bool has_extension(const char *path, const char *ext)
     return true;
 }
 
+/* True when path names no file but STEM.node exists: a TetGen stem. */
+static bool is_tetgen_stem(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (f) {
+        fclose(f);
+        return false;
+    }
+    char node_path[4096];
+    int n = snprintf(node_path, sizeof node_path, "%s.node", path);
+    f = n > 0 && (size_t)n < sizeof node_path ? fopen(node_path, "rb") : NULL;
+    if (f)
+        fclose(f);
+    return f != NULL;
+}
+
 bool pf_import_is_volume_path(const char *path)
 {
     return has_extension(path, ".msh") || has_extension(path, ".node") ||
-           has_extension(path, ".ele");
+           has_extension(path, ".ele") || is_tetgen_stem(path);
 }
 
 pf_status pf_import_volume(const char *path, pf_mesh *m, pf_error *err)

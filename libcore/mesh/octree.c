@@ -33,7 +33,8 @@
 
 pf_octree_params pf_octree_params_default(void)
 {
-    return (pf_octree_params){.depth = 5, .min_depth = 2, .slice = false, .merge = 0.05};
+    return (pf_octree_params){.depth = 5, .min_depth = 2, .slice = false, .merge = 0.05,
+                              .robust = true, .contour_refine = 2};
 }
 
 /* ---- the tree (types: octree_internal.h) ------------------------------------------------ */
@@ -746,32 +747,13 @@ static pf_status emit(octree *oc, glue *g, pf_octree_stats *stats, pf_error *err
 
 /* ---- entry point ----------------------------------------------------------------------------- */
 
-pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
-                         pf_octree_stats *stats, pf_error *err)
+pf_status octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
+                             pf_vec3 lo, pf_vec3 hi, bool closed, pf_octree_stats *stats,
+                             pf_error *err)
 {
-    memset(m, 0, sizeof *m);
-    pf_octree_params p = params ? *params : pf_octree_params_default();
-    pf_octree_stats local;
-    if (!stats)
-        stats = &local;
-    memset(stats, 0, sizeof *stats);
+    pf_octree_params p = *params;
     double t0 = pf_time_seconds();
-    PF_CHECK(p.depth >= 1 && p.depth <= PF_OCTREE_MAX_DEPTH, err, PF_ERR_INVALID,
-             "octree depth must be in 1 .. %d, got %d", PF_OCTREE_MAX_DEPTH, (int)p.depth);
-    PF_CHECK(p.min_depth >= 0 && p.min_depth <= p.depth, err, PF_ERR_INVALID,
-             "octree min depth must be in 0 .. depth (%d), got %d", (int)p.depth, (int)p.min_depth);
-    PF_CHECK(p.merge >= 0 && p.merge < 1, err, PF_ERR_INVALID,
-             "merge fraction must be in [0, 1), got %g", p.merge);
-    pf_surface_stats ss;
-    PF_TRY(pf_surface_compute_stats(s, &ss, err));
-    PF_CHECK(s->n_tris > 0, err, PF_ERR_INVALID, "the surface has no triangles");
-    if (p.slice)
-        PF_CHECK(ss.closed && ss.manifold && ss.volume > 0, err, PF_ERR_INVALID,
-                 "slicing needs a closed, manifold, outward-oriented surface (%lld open edges, "
-                 "%lld non-manifold, %lld flipped, volume %g); without --slice open surfaces "
-                 "work",
-                 (long long)ss.n_boundary_edges, (long long)ss.n_nonmanifold_edges,
-                 (long long)ss.n_flipped_edges, ss.volume);
+    pf_surface_stats ss = {.lo = lo, .hi = hi, .closed = closed};
     pf_vec3 extent = pf_v3_sub(ss.hi, ss.lo);
     double size = pf_v3_max_abs(extent);
     PF_CHECK(size > 0 && isfinite(size), err, PF_ERR_INVALID,

@@ -62,4 +62,12 @@ pf_status octree_classify_by_rays(octree *oc, pf_error *err);
 /* The same by the generalised winding number (open surfaces). */
 void octree_classify_by_winding(octree *oc);
 
+/* The octree mesh of s over the bounding cube of the box [lo, hi] (the surface's own, or with a
+ * replacement surface, the original's, so that the cells are the same). closed: s bounds a solid
+ * that ray crossings can classify. */
+pf_status octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
+                      pf_vec3 lo, pf_vec3 hi, bool closed, pf_octree_stats *stats,
+                      pf_error *err);
+
+
 #endif

@@ -65,3 +65,86 @@ pf_status pf_mesh_select_elements(pf_mesh *dst, const pf_mesh *src, const uint8_
     pf_free(face_map);
     return PF_OK;
 }
+
+static int32_t find_root(int32_t *parent, int32_t e)
+{
+    while (parent[e] != e) {
+        parent[e] = parent[parent[e]];
+        e = parent[e];
+    }
+    return e;
+}
+
+/* Drops the nodes no face uses, renumbering the rest in order. */
+static void compact_nodes(pf_mesh *m, int32_t *node_id)
+{
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        node_id[i] = -1;
+    int64_t n_face_nodes = m->face_offsets[m->n_faces];
+    for (int64_t q = 0; q < n_face_nodes; ++q)
+        node_id[m->face_nodes[q]] = 0;
+    int32_t n = 0;
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        if (node_id[i] == 0) {
+            node_id[i] = n;
+            memmove(m->x + 3 * (size_t)n, m->x + 3 * (size_t)i, 3 * sizeof *m->x);
+            ++n;
+        }
+    for (int64_t q = 0; q < n_face_nodes; ++q)
+        m->face_nodes[q] = (uint32_t)node_id[m->face_nodes[q]];
+    m->n_nodes = n;
+}
+
+pf_status pf_mesh_keep_largest_part(pf_mesh *m, int32_t *parts, int32_t *dropped, pf_error *err)
+{
+    *parts = 0, *dropped = 0;
+    if (m->n_elems == 0)
+        return PF_OK;
+    PF_TRY(pf_mesh_derive(m, err));
+    int32_t ne = m->n_elems;
+    int32_t *parent = NULL, *node_id = NULL;
+    double *volume = NULL;
+    uint8_t *keep = NULL;
+    pf_status st = PF_OK;
+    if (!PF_ALLOC_N(parent, ne) || !PF_ALLOC_N(volume, ne) || !PF_ALLOC_N(keep, ne) ||
+        !PF_ALLOC_N(node_id, m->n_nodes)) {
+        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+        goto done;
+    }
+    for (int32_t e = 0; e < ne; ++e)
+        parent[e] = e, volume[e] = 0;
+    for (int32_t f = 0; f < m->n_faces; ++f) {
+        int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
+        if (a >= 0 && b >= 0) {
+            a = find_root(parent, a), b = find_root(parent, b);
+            if (a != b)
+                parent[a < b ? b : a] = a < b ? a : b;
+        }
+    }
+    int32_t best = -1;
+    for (int32_t e = 0; e < ne; ++e) {
+        int32_t r = find_root(parent, e);
+        *parts += r == e;
+        volume[r] += pf_mesh_elem_volume(m, e);
+    }
+    for (int32_t e = 0; e < ne; ++e)
+        if (parent[e] == e && (best < 0 || volume[e] > volume[best]))
+            best = e;
+    for (int32_t e = 0; e < ne; ++e) {
+        keep[e] = find_root(parent, e) == best;
+        *dropped += !keep[e];
+    }
+    if (*dropped > 0) {
+        pf_mesh kept;
+        st = pf_mesh_select_elements(&kept, m, keep, NULL, err);
+        if (st < 0)
+            goto done;
+        compact_nodes(&kept, node_id);
+        pf_mesh_release(m);
+        *m = kept;
+        st = pf_mesh_derive(m, err);
+    }
+done:
+    pf_free(parent), pf_free(volume), pf_free(keep), pf_free(node_id);
+    return st;
+}

@@ -645,7 +645,8 @@ done:
 
 pf_slice_params pf_slice_params_default(void)
 {
-    return (pf_slice_params){.grid = pf_voxelize_params_default(), .merge = 0.05};
+    return (pf_slice_params){
+        .grid = pf_voxelize_params_default(), .merge = 0.05, .robust = true, .contour_refine = 2};
 }
 
 pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
@@ -668,29 +669,12 @@ pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
     return PF_OK;
 }
 
-pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *params,
-                        pf_slice_stats *stats, pf_error *err)
+/* Slices the closed, manifold, outward surface s with the grid in stats->grid. */
+static pf_status slice_clean(pf_mesh *m, const pf_surface *s, const pf_slice_params *p,
+                             double tol, pf_slice_stats *stats, pf_error *err)
 {
-    memset(m, 0, sizeof *m);
-    pf_slice_params p = params ? *params : pf_slice_params_default();
-    pf_slice_stats local;
-    if (!stats)
-        stats = &local;
-    memset(stats, 0, sizeof *stats);
-    double t0 = pf_time_seconds();
-    pf_surface_stats ss;
-    PF_TRY(pf_surface_compute_stats(s, &ss, err));
-    PF_CHECK(ss.closed && ss.manifold && ss.volume > 0, err, PF_ERR_INVALID,
-             "slicing needs a closed, manifold, outward-oriented surface (%lld open edges, %lld "
-             "non-manifold, %lld flipped, volume %g); pf-voxelize handles open surfaces",
-             (long long)ss.n_boundary_edges, (long long)ss.n_nonmanifold_edges,
-             (long long)ss.n_flipped_edges, ss.volume);
-    PF_CHECK(p.merge >= 0 && p.merge < 1, err, PF_ERR_INVALID,
-             "merge fraction must be in [0, 1), got %g", p.merge);
-    PF_TRY(pf_grid_fit(ss.lo, ss.hi, &p.grid, &stats->grid, err));
-
     slicer sl = {.grid = &stats->grid};
-    sl.params.tol = 1e-10 * pf_v3_norm(pf_v3_sub(ss.hi, ss.lo));
+    sl.params.tol = tol;
     sl.params.assume_closed = true; /* the surface is checked above; pieces of splits are closed */
     piece whole;
     pf_mesh glued = {0};
@@ -711,12 +695,95 @@ pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *
     }
     double h = stats->grid.h;
     if (st >= 0)
-        st = merge_slivers(&glued, p.merge * h * h * h, parent, &stats->merged,
+        st = merge_slivers(&glued, p->merge * h * h * h, parent, &stats->merged,
                            &stats->isolated_slivers, err);
     if (st >= 0)
         st = rebuild_merged(&glued, parent, m, err);
     pf_free(parent);
     pf_mesh_release(&glued);
+    return st;
+}
+
+pf_status pf_slice_winding_surface(const pf_surface *s, const pf_grid *grid, int32_t refine,
+                                   pf_surface *out, pf_surface_fix_report *orient,
+                                   pf_winding_contour_stats *contour, bool *contoured,
+                                   pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    memset(contour, 0, sizeof *contour);
+    PF_CHECK(refine >= 1 && refine <= 8, err, PF_ERR_INVALID,
+             "contour refinement must be in 1 .. 8, got %d", (int)refine);
+    pf_surface oriented;
+    PF_TRY(pf_surface_alloc(&oriented, s->n_verts, s->n_tris, err));
+    memcpy(oriented.x, s->x, 3 * (size_t)s->n_verts * sizeof *s->x);
+    memcpy(oriented.tri, s->tri, 3 * (size_t)s->n_tris * sizeof *s->tri);
+    oriented.id = s->id;
+    pf_status st = pf_surface_orient(&oriented, orient, err);
+    pf_surface_stats ss;
+    if (st >= 0)
+        st = pf_surface_compute_stats(&oriented, &ss, err);
+    *contoured = false;
+    bool overlap = true;
+    if (st >= 0 && ss.closed && ss.manifold && ss.volume > 0)
+        st = pf_surface_parts_overlap(&oriented, &overlap, err);
+    if (st >= 0 && !overlap) {
+        *out = oriented; /* orienting was enough: sliced as it is */
+        return PF_OK;
+    }
+    *contoured = true;
+    /* Lattice nodes at half-integer multiples of h / refine from the grid planes: never on one.
+     * One node beyond the grid on every side, the outer layer counted outside. */
+    double hl = grid->h / refine;
+    int32_t n[3];
+    for (int a = 0; a < 3; ++a)
+        n[a] = grid->n[a] * refine + 2;
+    pf_vec3 origin = pf_v3_sub(grid->origin, pf_v3(0.5 * hl, 0.5 * hl, 0.5 * hl));
+    if (st >= 0)
+        st = pf_surface_winding_contour(&oriented, origin, hl, n, out, contour, err);
+    pf_surface_release(&oriented);
+    return st;
+}
+
+pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *params,
+                        pf_slice_stats *stats, pf_error *err)
+{
+    memset(m, 0, sizeof *m);
+    pf_slice_params p = params ? *params : pf_slice_params_default();
+    pf_slice_stats local;
+    if (!stats)
+        stats = &local;
+    memset(stats, 0, sizeof *stats);
+    double t0 = pf_time_seconds();
+    pf_surface_stats ss;
+    PF_TRY(pf_surface_compute_stats(s, &ss, err));
+    bool clean = ss.closed && ss.manifold && ss.volume > 0;
+    if (clean && p.robust) {
+        bool overlap;
+        PF_TRY(pf_surface_parts_overlap(s, &overlap, err));
+        clean = !overlap;
+    }
+    PF_CHECK(clean || p.robust, err, PF_ERR_INVALID,
+             "slicing needs a closed, manifold, outward-oriented surface (%lld open edges, %lld "
+             "non-manifold, %lld flipped, volume %g); the robust mode slices the winding-number "
+             "solid of any surface",
+             (long long)ss.n_boundary_edges, (long long)ss.n_nonmanifold_edges,
+             (long long)ss.n_flipped_edges, ss.volume);
+    PF_CHECK(p.merge >= 0 && p.merge < 1, err, PF_ERR_INVALID,
+             "merge fraction must be in [0, 1), got %g", p.merge);
+    PF_TRY(pf_grid_fit(ss.lo, ss.hi, &p.grid, &stats->grid, err));
+    double tol = 1e-10 * pf_v3_norm(pf_v3_sub(ss.hi, ss.lo));
+    pf_status st;
+    if (clean) {
+        st = slice_clean(m, s, &p, tol, stats, err);
+    } else {
+        pf_surface contour;
+        stats->robust_used = true;
+        st = pf_slice_winding_surface(s, &stats->grid, p.contour_refine, &contour,
+                                      &stats->orient, &stats->contour, &stats->contoured, err);
+        if (st >= 0)
+            st = slice_clean(m, &contour, &p, tol, stats, err);
+        pf_surface_release(&contour);
+    }
     if (st < 0) {
         pf_mesh_release(m);
         return st;

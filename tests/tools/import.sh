@@ -48,6 +48,7 @@ check_volume cube.node MESH 1
 check "cube.node: 6 tets, valid" grep -q '"elements":6,"tets":6,.*"valid":true' "$tmp/json"
 check_volume cube.ele MESH 1
 check_volume cube MESH 1 --volume
+check_volume cube MESH 1 # the TetGen stem alone, as --help says
 check "the report names the file and the volume" grep -q "cube: 8 nodes, 18 faces, 6 elements" \
   "$tmp/import.err"
 

@@ -295,6 +295,17 @@ pf_vec3 pf_triangle_closest_point(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c);
  * and a smooth inside-ness for open surfaces (threshold 1/2). O(nt) per query. */
 double pf_winding_number(const double *x, const uint32_t *tri, int32_t nt, pf_vec3 p);
 
+/* The same number in O(log nt) per query: a tree over the triangles whose far clusters count by
+ * their dipole (Barill et al. 2018, first order, clusters expanded beyond 4 times their radius).
+ * Absolute error below 2e-2 of a full turn (1.4e-2 measured on spheres and tori), which is what an
+ * inside test at 1/2 needs. x and tri are borrowed for the tree's lifetime. PF_ERR_INVALID on an
+ * empty surface or an index out of range, PF_ERR_NOMEM. */
+typedef struct pf_winding_tree pf_winding_tree;
+pf_status pf_winding_tree_create(pf_winding_tree **wt, const double *x, int32_t nv,
+                                 const uint32_t *tri, int32_t nt, pf_error *err);
+void pf_winding_tree_destroy(pf_winding_tree **wt);
+double pf_winding_tree_eval(const pf_winding_tree *wt, pf_vec3 p);
+
 #ifdef __cplusplus
 }
 #endif

@@ -281,7 +281,8 @@ void pf_stream_state_release(pf_stream_state *s);
  * output zeroed after a failure. Exporters write each file to "path.part" and rename it over path,
  * so a file is either absent, the old one, or complete. */
 
-/* True when path names a volume mesh by its extension (.msh, .node, .ele, case-insensitive). */
+/* True when path names a volume mesh by its extension (.msh, .node, .ele, case-insensitive), or
+ * is the stem of a TetGen pair: no file of that name, STEM.node beside it. */
 bool pf_import_is_volume_path(const char *path);
 
 /* A Gmsh .msh file, format 2.x or 4.1, ASCII: the tetrahedra (type 4) and hexahedra (type 5) of

@@ -107,6 +107,12 @@ pf_status pf_mesh_validate(const pf_mesh *m, const pf_mesh_validate_params *para
 pf_status pf_mesh_select_elements(pf_mesh *dst, const pf_mesh *src, const uint8_t *keep,
                                   int32_t *elem_map, pf_error *err);
 
+/* Keeps only the largest (by volume) set of elements connected through shared faces, in place:
+ * the others' elements, faces and nodes are dropped (nodes renumbered in order), m derived.
+ * *parts receives the number of such sets, *dropped the elements dropped. PF_ERR_NOMEM, and
+ * pf_mesh_derive's statuses. */
+pf_status pf_mesh_keep_largest_part(pf_mesh *m, int32_t *parts, int32_t *dropped, pf_error *err);
+
 /* ---- builders from cell lists ------------------------------------------------------------------
  * Faces shared by two cells are created once. Node numbering of cells follows Gmsh/VTK:
  * tet (0,1,2,3) with node 3 on the positive side of (0,1,2); hex with bottom 0-1-2-3 and top 4-5-6-7
@@ -146,6 +152,58 @@ typedef struct pf_surface_stats {
 
 /* Fails (PF_ERR_INVALID) on indices out of range or non-finite coordinates. */
 pf_status pf_surface_compute_stats(const pf_surface *s, pf_surface_stats *out, pf_error *err);
+
+/* ---- after import: up axis, scale, orientation ---------------------------------------------------
+ * pf's up is +z. A file whose up is another axis (glTF and Collada as assimp returns them: +y) is
+ * turned by the proper quarter or half turn that takes its up onto +z. */
+typedef enum pf_up_axis {
+    PF_UP_Z = 0, /* unchanged */
+    PF_UP_X = 1,
+    PF_UP_Y = 2,
+    PF_UP_NEG_X = 3,
+    PF_UP_NEG_Y = 4,
+    PF_UP_NEG_Z = 5,
+} pf_up_axis;
+
+/* "z", "x", "y", "-x", "-y", "-z" ("?" for another value). */
+const char *pf_up_axis_name(pf_up_axis up);
+/* Parses those names (a leading '+' allowed); false for anything else. */
+bool pf_up_axis_parse(const char *text, pf_up_axis *out);
+
+typedef struct pf_surface_fix_params {
+    pf_up_axis up; /* the file's up axis, turned onto +z (default PF_UP_Z: no turn) */
+    double scale;  /* uniform factor applied after the turn, > 0 (default 1) */
+    bool orient;   /* make the orientation consistent and outward (default true) */
+} pf_surface_fix_params;
+
+pf_surface_fix_params pf_surface_fix_params_default(void);
+
+typedef struct pf_surface_fix_report {
+    int32_t components;         /* patches connected through edges used by exactly two triangles */
+    int32_t flipped_faces;      /* triangles turned to agree with the majority of their patch */
+    int32_t flipped_components; /* patches turned outward (negative volume, not a cavity) */
+    double volume_before;       /* signed volume after the scale, before orienting */
+    double volume_after;
+} pf_surface_fix_report;
+
+/* Consistent outward orientation in place: per patch, the minority of triangles whose traversal
+ * of a shared edge disagrees with the majority is flipped; then every patch of negative signed
+ * volume that does not lie inside another patch (winding number of the others <= 1/2 at one of
+ * its vertices) is flipped whole. Sets the orientation fields of *r. PF_ERR_NOMEM. */
+pf_status pf_surface_orient(pf_surface *s, pf_surface_fix_report *r, pf_error *err);
+
+/* *overlap = true when a patch of s has a vertex inside another patch (winding number of that
+ * patch > 1/2 at one of up to 64 sampled vertices), unless it lies wholly inside it facing
+ * inward (a cavity): overlapping closed parts, whose union the winding number defines but an
+ * exact cut would count twice. Intersections within one patch are not looked for. O(64 patches
+ * x triangles). PF_ERR_NOMEM. */
+pf_status pf_surface_parts_overlap(const pf_surface *s, bool *overlap, pf_error *err);
+
+/* The post-import step every tool applies to a surface read from a file: turn, scale, orient
+ * (params NULL: the defaults). report may be NULL. PF_ERR_INVALID for an unknown axis, a scale
+ * that is not finite and > 0, an index out of range or a non-finite coordinate. */
+pf_status pf_surface_fix(pf_surface *s, const pf_surface_fix_params *params,
+                         pf_surface_fix_report *report, pf_error *err);
 
 /* ---- generated models (tests, benchmarks, the demo) -------------------------------------------- */
 
@@ -224,6 +282,29 @@ pf_status pf_surface_classify_cells_by(const pf_surface *s, const pf_grid *grid,
 pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_params *p,
                            pf_grid *grid, pf_inside_method *method, pf_error *err);
 
+/* ---- the winding-number solid as a closed surface ---------------------------------------------
+ * The boundary of {w >= 1/2}, w the generalised winding number of s, on the lattice of nodes
+ * origin + h (i, j, k), 0 <= i < n[0] (and so on); the outer layer of nodes counts as outside.
+ * Marching tetrahedra on the Kuhn split of the lattice cubes, so the result is closed, manifold,
+ * outward and without self-intersections for any s (open, non-manifold, self-intersecting,
+ * overlapping parts); a contour vertex lies where its lattice edge crosses s when it does (the
+ * contour follows s where s is a clean boundary) and at the linear interpolation of w at 1/2
+ * otherwise (holes are spanned), within [0.05, 0.95] of its edge. s should be consistently
+ * oriented (pf_surface_orient): w counts inward triangles negatively. */
+typedef struct pf_winding_contour_stats {
+    int64_t inside_nodes;
+    int64_t on_surface;   /* contour vertices placed on s */
+    int64_t interpolated; /* contour vertices placed by interpolation of w (holes) */
+    int32_t n_tris;
+    double seconds;
+} pf_winding_contour_stats;
+
+/* out is zeroed first, released on failure; stats may be NULL. PF_ERR_INVALID when no node is
+ * inside or the lattice is degenerate; PF_ERR_TOO_LARGE beyond 2^27 nodes; PF_ERR_NOMEM. */
+pf_status pf_surface_winding_contour(const pf_surface *s, pf_vec3 origin, double h,
+                                     const int32_t n[3], pf_surface *out,
+                                     pf_winding_contour_stats *stats, pf_error *err);
+
 /* ---- slicing (DG paper sec. 9.2) ----------------------------------------------------------------
  * The solid bounded by a closed surface intersected with a grid of cubes: interior cells are hexes,
  * every cell the surface crosses becomes the exact polyhedron (one element per connected piece) of
@@ -232,6 +313,14 @@ pf_status pf_mesh_voxelize(pf_mesh *m, const pf_surface *s, const pf_voxelize_pa
 typedef struct pf_slice_params {
     pf_voxelize_params grid; /* res / cell / origin (mode and inside unused) */
     double merge;            /* sliver threshold, fraction of a cell's volume (default 0.05) */
+    /* Robust mode (default true): a surface that is not closed, manifold and outward is oriented
+     * (pf_surface_orient) and replaced by the boundary of its winding-number solid
+     * (pf_surface_winding_contour on a lattice contour_refine times finer than the grid, offset
+     * by half a lattice edge so that no lattice node lies on a grid plane), which is then sliced
+     * exactly. A clean surface is sliced as it is, so the mesh is the same to the bit. false:
+     * such a surface is refused. */
+    bool robust;
+    int32_t contour_refine;  /* lattice edges per grid cell edge, 1 .. 8 (default 2) */
 } pf_slice_params;
 
 pf_slice_params pf_slice_params_default(void);
@@ -244,13 +333,30 @@ typedef struct pf_slice_stats {
     int32_t isolated_slivers; /* pieces below the threshold touching no other piece (kept) */
     int32_t kinds[PF_ELEM_KIND_COUNT];
     double seconds;
+    bool robust_used;                  /* the surface was not clean: oriented, then maybe contoured */
+    bool contoured;                    /* its winding-number contour was sliced */
+    pf_surface_fix_report orient;      /* with robust_used: what orienting changed */
+    pf_winding_contour_stats contour;  /* with robust_used */
 } pf_slice_stats;
 
-/* Slices s (closed, manifold, outward: PF_ERR_INVALID otherwise, saying what is wrong) into m
- * (derived). stats may be NULL. PF_ERR_NUMERIC when the geometry is too degenerate for a
- * consistent cut at the model's tolerance (1e-10 of its size). */
+/* Slices s into m (derived). A closed, manifold, outward s is cut as it is; any other is, in the
+ * robust mode, replaced by the boundary of its winding-number solid first (pf_slice_winding_surface),
+ * and refused otherwise (PF_ERR_INVALID, saying what is wrong). stats may be NULL.
+ * PF_ERR_NUMERIC when the geometry is too degenerate for a consistent cut at the model's tolerance
+ * (1e-10 of its size). */
 pf_status pf_mesh_slice(pf_mesh *m, const pf_surface *s, const pf_slice_params *params,
                         pf_slice_stats *stats, pf_error *err);
+
+/* The robust mode's replacement of s for slicing with grid: a copy of s oriented
+ * (pf_surface_orient, reported in *orient); when that is closed, manifold and outward, that copy
+ * (*contoured false); else the boundary of its winding-number solid on the lattice of spacing
+ * grid->h / refine whose nodes sit half a spacing off the grid planes (pf_surface_winding_contour,
+ * reported in *contour), covering the grid and one node beyond (*contoured true). out zeroed
+ * first. PF_ERR_INVALID for refine outside 1 .. 8, and as those two functions. */
+pf_status pf_slice_winding_surface(const pf_surface *s, const pf_grid *grid, int32_t refine,
+                                   pf_surface *out, pf_surface_fix_report *orient,
+                                   pf_winding_contour_stats *contour, bool *contoured,
+                                   pf_error *err);
 
 /* ---- adaptive octree (harmonic paper sec. 7, fig. 4) --------------------------------------------
  * An octree over the bounding cube of a surface (the cube of the bounding box's longest side,
@@ -277,6 +383,9 @@ typedef struct pf_octree_params {
     bool slice;        /* cut the surface cells exactly (closed surfaces only) */
     double merge;      /* with slice: merge pieces below merge * (finest cell volume), [0, 1)
                           (default 0.05, as pf_mesh_slice) */
+    bool robust;       /* with slice: as pf_slice_params.robust, the lattice over the finest
+                          cells (default true) */
+    int32_t contour_refine; /* as pf_slice_params (default 2) */
 } pf_octree_params;
 
 pf_octree_params pf_octree_params_default(void);
@@ -297,11 +406,16 @@ typedef struct pf_octree_stats {
     int32_t isolated_slivers; /* pieces below the threshold touching no other piece (kept) */
     int32_t kinds[PF_ELEM_KIND_COUNT];
     double seconds;
+    bool robust_used, contoured;       /* as pf_slice_stats */
+    pf_surface_fix_report orient;
+    pf_winding_contour_stats contour;
 } pf_octree_stats;
 
 /* Builds the octree mesh of s into m (derived; m is overwritten). params may be NULL for the
  * defaults, stats may be NULL. Without slice, s may be open (winding-number centre test); with
- * slice it must be closed, manifold and outward (PF_ERR_INVALID otherwise, saying what is wrong).
+ * slice a surface that is not closed, manifold and outward is, in the robust mode, replaced as in
+ * pf_mesh_slice (over the same bounding cube) and otherwise refused (PF_ERR_INVALID, saying what
+ * is wrong).
  * Statuses: PF_ERR_INVALID for parameters out of range, a surface without triangles or with a
  * non-finite coordinate, or no leaf inside; PF_ERR_NUMERIC when the geometry is too degenerate
  * for a consistent cut at the model's tolerance (1e-10 of its size); PF_ERR_TOO_LARGE when the

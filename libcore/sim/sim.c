@@ -28,6 +28,7 @@ struct pf_sim {
     double *u, *v; /* state */
     double *f, *ku, *rhs;
     double *u_prev, *v_prev; /* the state before the frame, restored on failure */
+    double *dv;              /* the last step's velocity change (the warm start's trend) */
     pf_block_matrix k;
     pf_solver *solver;
     bool assembled;      /* the system matrix has been assembled once (it changes afterwards only
@@ -49,7 +50,8 @@ struct pf_sim {
 static pf_status allocate_state(pf_sim *s, pf_error *err)
 {
     size_t n = (size_t)s->n;
-    double **vectors[] = {&s->f_ext, &s->u, &s->v, &s->f, &s->ku, &s->rhs, &s->u_prev, &s->v_prev};
+    double **vectors[] = {&s->f_ext, &s->u,      &s->v,      &s->f, &s->ku,
+                          &s->rhs,   &s->u_prev, &s->v_prev, &s->dv};
     for (size_t k = 0; k < sizeof vectors / sizeof *vectors; ++k) {
         *vectors[k] = pf_calloc(n ? n : 1, sizeof(double));
         PF_CHECK(*vectors[k], err, PF_ERR_NOMEM, "cannot allocate %zu unknowns", n);
@@ -222,7 +224,7 @@ void pf_sim_destroy(pf_sim **sim)
         return;
     if (s->ops)
         s->ops->destroy(s->method);
-    double *vectors[] = {s->f_ext, s->u, s->v, s->f, s->ku, s->rhs, s->u_prev, s->v_prev};
+    double *vectors[] = {s->f_ext, s->u, s->v, s->f, s->ku, s->rhs, s->u_prev, s->v_prev, s->dv};
     for (size_t k = 0; k < sizeof vectors / sizeof *vectors; ++k)
         pf_free(vectors[k]);
     pf_block_matrix_release(&s->k);
@@ -302,7 +304,12 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
         change = PF_MATRIX_DRIFTED;
     s->assembled = true;
     int64_t failed = -1;
-    /* v' from the last velocity (the warm start) */
+    /* v' started from the last velocity plus the last step's change (the trend of a smooth
+     * motion), the velocity before kept in ku to update the trend */
+    for (size_t q = 0; q < n; ++q) {
+        s->ku[q] = s->v[q];
+        s->v[q] += s->dv[q];
+    }
     pf_status st = pf_solver_solve(s->solver, &s->k, change, s->rhs, s->v, &failed, err);
     sync_solver_stats(s);
     if (st < 0) {
@@ -310,8 +317,10 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
             pf_error_prefix(err, "element %d", (int)s->ops->element_of_dof(s->method, failed));
         return st;
     }
-    for (size_t q = 0; q < n; ++q)
+    for (size_t q = 0; q < n; ++q) {
         s->u[q] += h * s->v[q];
+        s->dv[q] = s->v[q] - s->ku[q];
+    }
     /* the work of the constant forces and of moving obstacles over the step */
     double power = 0;
     for (size_t q = 0; q < n; ++q)
@@ -418,6 +427,7 @@ pf_status pf_sim_frame(pf_sim *s, pf_error *err)
         if (st < 0) {
             memcpy(s->u, s->u_prev, n * sizeof *s->u);
             memcpy(s->v, s->v_prev, n * sizeof *s->v);
+            memset(s->dv, 0, n * sizeof *s->dv);
             pf_solver_reset(s->solver);
             s->assembled = false;
             pf_error_prefix(err, "frame %d, step %d", (int)s->frame + 1, (int)k + 1);

@@ -74,7 +74,7 @@ static void sync_solver_stats(pf_sim *s)
  * grows like h^-(p+1) under refinement (pf_dg_face_penalty; Babuska and Zlamal 1973), so its
  * error falls with h; eta sets the constant. Its error against the consistent (IP) limit is
  * signed: too soft at a low eta (glue), too stiff at a high one (the continuous fields of the
- * space, fig. 3). The defaults are the largest round values on the soft side of the cantilever
+ * space, fig. 3). The defaults are round values on the soft side of the cantilever
  * of tests/test_sim.c at 8 x 2 x 2, 16 x 4 x 4 and 32 x 8 x 8 hexes (bench_dg bzconverge,
  * docs/scene.md), where the error falls at every refinement: degree 1 +50, +15, +3.8 % at 3/16
  * (+0.7 % at 64 x 16 x 16; at 1/4 it crosses zero between the second and third mesh), degree 2

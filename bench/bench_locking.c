@@ -11,7 +11,10 @@
  * bench_locking reference N: IP degree 2 on n = N (N^3 x 6 tets), both nu (N = 15: the last
  *   two rows of bench/results/locking.csv, run under a load average of about 10);
  * bench_locking bz: BZ of degree 1 and 2 on 750 tets, both nu, eta = 2^k, k = 0..12
- *   (bench/results/locking_bz.csv: the measurements behind the automatic BZ penalty).
+ *   (bench/results/locking_bz.csv, measured before BZ's penalty grew under refinement: its eta
+ *   are of the fixed weight of eq. 20 alone; on this mesh the growth (L / h_f)^p multiplies
+ *   every face weight by a factor of order (5 sqrt(2))^p, so the new eta of a row is about the
+ *   old one divided by that).
  *
  * CSV on stdout: method,degree,nu,tets,unknowns,eta,sag,seconds */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */

@@ -20,6 +20,11 @@ enum { MAX_N = 30 }; /* 3 nb for degree 2 */
 
 static const double IDENTITY[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 
+double pf_dg_face_penalty(const pf_dg_terms *terms, const pf_dg_face *f)
+{
+    return terms->eta * f->eta_geometry * (terms->ip ? 1 : f->bz_growth);
+}
+
 /* ---- pattern ------------------------------------------------------------------------------ */
 
 pf_status pf_dg_pattern(const pf_dg *dg, pf_block_matrix *k, pf_error *err)
@@ -127,12 +132,12 @@ static void consistency_block(const pf_dg *dg, const pf_dg_face *f, int s, int t
         }
 }
 
-static void penalty_block(const pf_dg *dg, const pf_dg_face *f, int s, int t, double eta,
+static void penalty_block(const pf_dg *dg, const pf_dg_face *f, int s, int t, double weight,
                           double *out)
 {
     int nb = dg->nb, n = 3 * nb;
     double sign = (s == t) ? 1 : -1;
-    double scale = eta * f->eta_geometry * sign;
+    double scale = weight * sign;
     const double nv[3] = {f->normal.x, f->normal.y, f->normal.z};
     for (int a = 0; a < nb; ++a)
         for (int b = 0; b < nb; ++b) {
@@ -178,7 +183,7 @@ static void assemble_consistency(const pf_dg *dg, const pf_dg_face *f, int sides
     }
 }
 
-static void assemble_penalty(const pf_dg *dg, const pf_dg_face *f, int sides, double eta,
+static void assemble_penalty(const pf_dg *dg, const pf_dg_face *f, int sides, double weight,
                              pf_block_matrix *k)
 {
     int n = 3 * dg->nb;
@@ -186,7 +191,7 @@ static void assemble_penalty(const pf_dg *dg, const pf_dg_face *f, int sides, do
     for (int s = 0; s < sides; ++s)
         for (int t = s; t < sides; ++t) {
             int32_t es = f->elem[s], et = f->elem[t];
-            penalty_block(dg, f, s, t, eta, b);
+            penalty_block(dg, f, s, t, weight, b);
             pf_block_matrix_add(k, pf_block_matrix_slot(k, es, et), es, et, b, n);
         }
 }
@@ -194,7 +199,7 @@ static void assemble_penalty(const pf_dg *dg, const pf_dg_face *f, int sides, do
 /* Prescribed displacement g(x) = A x + b on a Dirichlet face, written exactly in the element's
  * basis (coefficients gc): f_(b k) += sum_(a i) gc_(a i) (K1 + K3)[(a i), (b k)], the terms of
  * -[u] : {sigma(v)} and eta [u] : [v] with u = g outside. */
-static void add_dirichlet_force(const pf_dg *dg, const pf_dg_face *f, bool ip, double eta,
+static void add_dirichlet_force(const pf_dg *dg, const pf_dg_face *f, bool ip, double weight,
                                 const double *affine, double *rhs)
 {
     int nb = dg->nb, n = 3 * nb;
@@ -214,7 +219,7 @@ static void add_dirichlet_force(const pf_dg *dg, const pf_dg_face *f, bool ip, d
         if (term == 0)
             consistency_block(dg, f, 0, 0, 1, blk);
         else
-            penalty_block(dg, f, 0, 0, eta, blk);
+            penalty_block(dg, f, 0, 0, weight, blk);
         for (int row = 0; row < 12; ++row) /* only the affine coefficients are non-zero */
             if (gc[row] != 0)
                 for (int col = 0; col < n; ++col)
@@ -247,12 +252,12 @@ void pf_dg_assemble_stiffness(const pf_dg *dg, const pf_dg_terms *terms, const d
             continue; /* a free boundary: natural condition, no term */
         int sides = interior ? 2 : 1;
         double w = interior ? 0.5 : 1;
+        double weight = pf_dg_face_penalty(terms, face);
         if (terms->ip)
             assemble_consistency(dg, face, sides, w, rot, x0, k, f);
-        assemble_penalty(dg, face, sides, terms->eta, k);
+        assemble_penalty(dg, face, sides, weight, k);
         if (!interior)
-            add_dirichlet_force(dg, face, terms->ip, terms->eta, terms->fixed_disp + 12 * fixed,
-                                f);
+            add_dirichlet_force(dg, face, terms->ip, weight, terms->fixed_disp + 12 * fixed, f);
     }
 }
 

@@ -161,7 +161,7 @@ pf_status pf_dg_add_polynomial_dirichlet(const pf_dg *dg, const pf_mesh *m,
     double local[3][PF_POLY3_MAX_COUNT];
     poly3_in_frame(g, fr, local);
     const double n[3] = {fc->normal.x, fc->normal.y, fc->normal.z};
-    double penalty = terms->eta * fc->eta_geometry;
+    double penalty = pf_dg_face_penalty(terms, fc);
     double *fe = rhs + 3 * (size_t)e * nb;
     for (int b = 0; b < nb; ++b) {
         double p[3];

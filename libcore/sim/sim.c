@@ -72,17 +72,18 @@ static void sync_solver_stats(pf_sim *s)
 }
 
 /* The automatic BZ penalty. BZ is positive definite for any eta > 0 (sec. 3.3), so the search
- * below would stop at its first value, where BZ's glue is weak and the body 44-78 % too soft
- * (degree 2). Its error against the consistent (IP) limit is signed: too soft at a low eta,
- * too stiff at a high one, where it tends to the conforming solution in the continuous fields of
- * its space (fig. 3). The default sits near the crossing, measured by bench_dg bzpenalty and
- * bench_locking bz (docs/scene.md): degree 2 crosses at eta 16-45 on cantilever hexes and
- * 12-110 on the tet cube, so 32, inside sec. 4.1's 10-100; degree 1 crosses at 1-2 on hexes
- * (whose continuous degree-1 fields are nearly affine: eta 8 makes the beam 58-86 % too stiff)
- * and 2-20 on tets, so it keeps the search's 1. */
+ * below would stop at its first value; BZ's penalty is chosen here instead. BZ's face weight
+ * grows like h^-(p+1) under refinement (pf_dg_face_penalty; Babuska and Zlamal 1973), so its
+ * error falls with h; eta sets the constant. Its error against the consistent (IP) limit is
+ * signed: too soft at a low eta (glue), too stiff at a high one (the continuous fields of the
+ * space, fig. 3). The defaults are round values on the soft side of the cantilever
+ * of tests/test_sim.c at 8 x 2 x 2, 16 x 4 x 4 and 32 x 8 x 8 hexes (bench_dg bzconverge,
+ * docs/scene.md), where the error falls at every refinement: degree 1 +50, +15, +3.8 % at 3/16
+ * (+0.7 % at 64 x 16 x 16; at 1/4 it crosses zero between the second and third mesh), degree 2
+ * +11, +1.4, -0.1 % at 1/2 (at 1 it crosses between the first and second). */
 static double bz_default_penalty(int32_t degree)
 {
-    return degree >= 2 ? 32 : 1;
+    return degree >= 2 ? 0.5 : 0.1875;
 }
 
 /* Whether K at rest, plus the rigid-mode shift, is positive definite. */

@@ -61,6 +61,8 @@ typedef struct pf_dg_face {
     pf_vec3 centroid;
     double eta_geometry; /* area(f) (1 / vol(L) + 1 / vol(R)) of eq. 20 (R omitted on the
                             boundary), 1 / length */
+    double bz_growth;    /* (L / h_f)^p: BZ's penalty growth under refinement (pf_dg_face_penalty),
+                            h_f = sides / eta_geometry, L = pf_dg.body_length */
     double *S;           /* [4 nb nb] (s, t, a, b) row-major */
     double *G;           /* [4 nb nb 3] */
 } pf_dg_face;
@@ -71,6 +73,8 @@ typedef struct pf_dg {
     int32_t n_elems;
     int64_t n_dofs; /* 3 nb n_elems */
     double lambda, mu, density;
+    double body_length; /* (total volume)^(1/3): the fixed length BZ's penalty growth is measured
+                           against (pf_dg_face_penalty) */
     pf_frame *frame;  /* [n_elems] */
     double *volume;   /* [n_elems] */
     double *centroid; /* [3 n_elems] */
@@ -122,6 +126,16 @@ typedef struct pf_dg_terms {
     const int32_t *face_fixed;  /* [n mesh faces] index into fixed_disp, or -1 */
     const double *fixed_disp;   /* [12 k] prescribed affine displacements */
 } pf_dg_terms;
+
+/* The weight of the penalty term on face f, the factor of int_f (2 mu [u].[v] + lambda
+ * ([u].n)([v].n)) (1 / length):
+ *   IP: eta eta_f, eta_f of eq. 20 (Hansbo and Larson 2002), which scales like 1 / h;
+ *   BZ: eta eta_f (L / h_f)^p, p the degree: a penalty that grows like h^-(p+1) under refinement.
+ * BZ is not consistent (sec. 3.3): with the 1 / h weight of a consistent method it converges to
+ * a body whose faces are glued by a finite spring, and its error tends to a constant of order
+ * 1 / eta. Babuska and Zlamal (1973) let the penalty grow faster than 1 / h, so that the
+ * inconsistency vanishes under refinement; see libcore/fem/dg_setup.c for the exponent. */
+double pf_dg_face_penalty(const pf_dg_terms *terms, const pf_dg_face *f);
 
 /* The block pattern: one block per element, coupled across interior faces. */
 pf_status pf_dg_pattern(const pf_dg *dg, pf_block_matrix *k, pf_error *err);

@@ -94,11 +94,12 @@ typedef struct pf_scene {
 
     /* method */
     pf_method method;     /* default dg */
-    int32_t degree;       /* dg: 1 or 2 (default 1) */
+    int32_t degree;       /* dg: 1 or 2 (default 1; docs/scene.md says why) */
     pf_flux flux;         /* dg: ip (default) or bz */
     double penalty;       /* dg: eta of eq. 20; 0 = automatic (default): ip, the smallest power of
                              two from 1 for which the stiffness matrix is positive definite; bz
-                             (definite for any eta), 1 for degree 1 and 32 for degree 2 */
+                             (definite for any eta), 3/16 for degree 1 and 1/2 for degree 2,
+                             with BZ's growth under refinement (pf_dg_face_penalty) */
     bool corotation;      /* default true */
     pf_mass mass;         /* cg: consistent (default) or lumped */
     int32_t edge_samples; /* cg: MFS kernel samples inside each edge (pf_basis_params; 1-16,

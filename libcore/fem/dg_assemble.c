@@ -77,8 +77,8 @@ static void add_warp_force(const double *r, const double *b, int n, bool transpo
     double y[MAX_N], z[MAX_N];
     for (int a = 0; a < n; a += 3)
         for (int i = 0; i < 3; ++i) /* y = x0 - R^T x0, per 3-vector */
-            y[a + i] = x0_cols[a + i] - (r[i] * x0_cols[a] + r[3 + i] * x0_cols[a + 1] +
-                                         r[6 + i] * x0_cols[a + 2]);
+            y[a + i] = x0_cols[a + i] -
+                       (r[i] * x0_cols[a] + r[3 + i] * x0_cols[a + 1] + r[6 + i] * x0_cols[a + 2]);
     for (int p = 0; p < n; ++p) {
         double s = 0;
         for (int q = 0; q < n; ++q)
@@ -90,13 +90,25 @@ static void add_warp_force(const double *r, const double *b, int n, bool transpo
             f_rows[a + i] += r[3 * i] * z[a] + r[3 * i + 1] * z[a + 1] + r[3 * i + 2] * z[a + 2];
 }
 
+/* The slot of the diagonal block (e, e): it closes its block column. */
+static int64_t diagonal_slot(const pf_block_matrix *k, int32_t e)
+{
+    return k->adj_offsets[e + 1] - 1;
+}
+
+void pf_dg_face_slots(const pf_dg *dg, const pf_block_matrix *k, int64_t *slot)
+{
+    for (int32_t q = 0; q < dg->n_interior; ++q)
+        slot[q] = pf_block_matrix_slot(k, dg->faces[q].elem[0], dg->faces[q].elem[1]);
+}
+
 static void add_symmetric_part(pf_block_matrix *k, int32_t e, const double *b, int n)
 {
     double sym[MAX_N * MAX_N];
     for (int p = 0; p < n; ++p)
         for (int q = 0; q < n; ++q)
             sym[p * n + q] = b[p * n + q] + b[q * n + p];
-    pf_block_matrix_add(k, pf_block_matrix_slot(k, e, e), e, e, sym, n);
+    pf_block_matrix_add(k, diagonal_slot(k, e), e, e, sym, n);
 }
 
 /* ---- face blocks ------------------------------------------------------------------------- */
@@ -127,8 +139,7 @@ static void consistency_block(const pf_dg *dg, const pf_dg_face *f, int s, int t
                 for (int k = 0; k < 3; ++k)
                     out[(3 * a + i) * n + 3 * b + k] =
                         -w * sign *
-                        (dg->lambda * nv[i] * g[k] +
-                         dg->mu * ((i == k ? ng : 0) + nv[k] * g[i]));
+                        (dg->lambda * nv[i] * g[k] + dg->mu * ((i == k ? ng : 0) + nv[k] * g[i]));
         }
 }
 
@@ -157,8 +168,8 @@ static const double *rotation_of(const double *rot, int32_t e)
 /* The consistency terms of a face (IP): for each strain side t and row side s, K1 warped with
  * R_t at (s, t) and its transpose at (t, s). */
 static void assemble_consistency(const pf_dg *dg, const pf_dg_face *f, int sides, double w,
-                                 const double *rot, const double *x0, pf_block_matrix *k,
-                                 double *rhs)
+                                 const double *rot, const double *x0, int64_t slot,
+                                 pf_block_matrix *k, double *rhs)
 {
     int n = 3 * dg->nb;
     double b[MAX_N * MAX_N], warped[MAX_N * MAX_N];
@@ -178,13 +189,13 @@ static void assemble_consistency(const pf_dg *dg, const pf_dg_face *f, int sides
             if (es == et)
                 add_symmetric_part(k, es, use, n);
             else
-                pf_block_matrix_add(k, pf_block_matrix_slot(k, es, et), es, et, use, n);
+                pf_block_matrix_add(k, slot, es, et, use, n);
         }
     }
 }
 
 static void assemble_penalty(const pf_dg *dg, const pf_dg_face *f, int sides, double weight,
-                             pf_block_matrix *k)
+                             int64_t slot, pf_block_matrix *k)
 {
     int n = 3 * dg->nb;
     double b[MAX_N * MAX_N];
@@ -192,7 +203,7 @@ static void assemble_penalty(const pf_dg *dg, const pf_dg_face *f, int sides, do
         for (int t = s; t < sides; ++t) {
             int32_t es = f->elem[s], et = f->elem[t];
             penalty_block(dg, f, s, t, weight, b);
-            pf_block_matrix_add(k, pf_block_matrix_slot(k, es, et), es, et, b, n);
+            pf_block_matrix_add(k, es == et ? diagonal_slot(k, es) : slot, es, et, b, n);
         }
 }
 
@@ -242,7 +253,7 @@ void pf_dg_assemble_stiffness(const pf_dg *dg, const pf_dg_terms *terms, const d
                            f + (size_t)e * n);
             use = warped;
         }
-        pf_block_matrix_add(k, pf_block_matrix_slot(k, e, e), e, e, use, n);
+        pf_block_matrix_add(k, diagonal_slot(k, e), e, e, use, n);
     }
     for (int32_t q = 0; q < dg->n_faces; ++q) {
         const pf_dg_face *face = &dg->faces[q];
@@ -253,9 +264,12 @@ void pf_dg_assemble_stiffness(const pf_dg *dg, const pf_dg_terms *terms, const d
         int sides = interior ? 2 : 1;
         double w = interior ? 0.5 : 1;
         double weight = pf_dg_face_penalty(terms, face);
+        int64_t slot = !interior          ? -1
+                       : terms->face_slot ? terms->face_slot[q]
+                                          : pf_block_matrix_slot(k, face->elem[0], face->elem[1]);
         if (terms->ip)
-            assemble_consistency(dg, face, sides, w, rot, x0, k, f);
-        assemble_penalty(dg, face, sides, weight, k);
+            assemble_consistency(dg, face, sides, w, rot, x0, slot, k, f);
+        assemble_penalty(dg, face, sides, weight, slot, k);
         if (!interior)
             add_dirichlet_force(dg, face, terms->ip, weight, terms->fixed_disp + 12 * fixed, f);
     }
@@ -274,7 +288,7 @@ void pf_dg_add_mass(const pf_dg *dg, double alpha, pf_block_matrix *k)
             for (int c = 0; c < nb; ++c)
                 for (int i = 0; i < 3; ++i)
                     b[(3 * a + i) * n + 3 * c + i] = alpha * me[a * nb + c];
-        pf_block_matrix_add(k, pf_block_matrix_slot(k, e, e), e, e, b, n);
+        pf_block_matrix_add(k, diagonal_slot(k, e), e, e, b, n);
     }
 }
 

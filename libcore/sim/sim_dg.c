@@ -19,6 +19,7 @@ typedef struct dg_method {
     double *fixed_affine; /* [12 n_fixed] */
     double *x0;           /* rest coefficients */
     double *rot;          /* [9 n_elems] */
+    int64_t *face_slot; /* [n_interior] scatter map of the matrix (filled at the first assembly) */
     /* the stitching as a matrix (method.h, nodal_map) */
     int64_t *map_offsets; /* [n_nodes + 1] */
     int64_t *map_triple;  /* [map_offsets[n_nodes]] */
@@ -55,6 +56,10 @@ static void update_rotations(dg_method *d, const double *u)
 static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *k, double *f)
 {
     dg_method *d = m;
+    if (!d->terms.face_slot && d->face_slot) { /* the scatter map, once: the pattern is fixed */
+        pf_dg_face_slots(&d->dg, k, d->face_slot);
+        d->terms.face_slot = d->face_slot;
+    }
     if (corotate)
         update_rotations(d, u);
     pf_dg_assemble_stiffness(&d->dg, &d->terms, corotate ? d->rot : NULL, d->x0, k, f);
@@ -297,6 +302,7 @@ static void destroy(void *m)
     pf_free(d->map_offsets);
     pf_free(d->map_triple);
     pf_free(d->map_w);
+    pf_free(d->face_slot);
     pf_free(d);
 }
 
@@ -376,9 +382,10 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     if (st >= 0) {
         d->x0 = pf_alloc_array((size_t)(d->dg.n_dofs ? d->dg.n_dofs : 1), sizeof *d->x0);
         d->rot = pf_alloc_array(9 * (size_t)(d->dg.n_elems ? d->dg.n_elems : 1), sizeof *d->rot);
-        st = d->x0 && d->rot ? PF_OK
-                             : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                                            "cannot allocate the DG state");
+        d->face_slot = pf_alloc_array((size_t)d->dg.n_interior + 1, sizeof *d->face_slot);
+        st = d->x0 && d->rot && d->face_slot ? PF_OK
+                                             : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                                            "cannot allocate the DG state");
     }
     if (st >= 0) {
         pf_dg_rest_coefficients(&d->dg, d->x0);

@@ -10,12 +10,12 @@
  * 4 nnz(L) + 4 nnz(A) flops; a factorisation what CHOLMOD's analysis counted, divided by
  * FACTOR_RATE (its supernodal dense blocks run that much faster per flop than the
  * memory-bound triangular solves and products: measured 2.6 on an embedded CG bunny, 3.0 and 5.7
- * on the CG and DG beams of 1,911 hexes, CPU seconds of pf-sim's summary against its flops). A fresh factor solves
- * exactly, as one iteration would; the iterations a solve spends beyond one are charged to the
- * factor's age, and when they add up to one factorisation, the next solve refactorises. One solve
- * stops iterating when it has spent a factorisation's worth, and refactorises: a factor that needs
- * more is worse than a new one. Flops, not seconds: the same inputs make the same decisions, and so
- * the same bits, on any machine and under any load. */
+ * on the CG and DG beams of 1,911 hexes, CPU seconds of pf-sim's summary against its flops). A
+ * fresh factor solves exactly, as one iteration would; the iterations a solve spends beyond one are
+ * charged to the factor's age, and when they add up to one factorisation, the next solve
+ * refactorises. One solve stops iterating when it has spent a factorisation's worth, and
+ * refactorises: a factor that needs more is worse than a new one. Flops, not seconds: the same
+ * inputs make the same decisions, and so the same bits, on any machine and under any load. */
 #include <pf/solve.h>
 
 #include <math.h>

@@ -125,6 +125,9 @@ typedef struct pf_dg_terms {
     double eta;          /* global penalty factor, > 0 */
     const int32_t *face_fixed;  /* [n mesh faces] index into fixed_disp, or -1 */
     const double *fixed_disp;   /* [12 k] prescribed affine displacements */
+    const int64_t *face_slot;   /* [n_interior] the block slot of each interior face's element
+                                   pair in the matrix assembled into (pf_dg_face_slots), or NULL:
+                                   looked up each time */
 } pf_dg_terms;
 
 /* The weight of the penalty term on face f, the factor of int_f (2 mu [u].[v] + lambda
@@ -139,6 +142,10 @@ double pf_dg_face_penalty(const pf_dg_terms *terms, const pf_dg_face *f);
 
 /* The block pattern: one block per element, coupled across interior faces. */
 pf_status pf_dg_pattern(const pf_dg *dg, pf_block_matrix *k, pf_error *err);
+
+/* The scatter map of k (from pf_dg_pattern): the slot of each interior face's element pair,
+ * slot [n_interior], so that a step's assembly looks nothing up. */
+void pf_dg_face_slots(const pf_dg *dg, const pf_block_matrix *k, int64_t *slot);
 
 /* Assembles the stiffness into k (zeroed first; k from pf_dg_pattern) and adds its constant
  * right-hand side terms to f [n_dofs] (prescribed displacements; with rotations, the warping

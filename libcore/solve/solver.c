@@ -23,6 +23,11 @@
 
 enum { FACTOR_RATE = 4 };
 
+/* auto takes direct when a factorisation costs at most this many iterations: a solve on an old
+ * factor needs 3-6 (measured on the beams and bodies of bench/bench_solver.c), and the factor
+ * still has to be renewed every few steps. */
+enum { AUTO_DIRECT = 10 };
+
 struct pf_solver {
     pf_solver_params params;
     pf_cholesky *chol;
@@ -114,7 +119,7 @@ pf_status pf_solver_create(pf_solver **out, const pf_block_matrix *a,
     if (s->iteration_limit > pr.max_iterations)
         s->iteration_limit = pr.max_iterations;
     if (pr.method == PF_SOLVER_AUTO)
-        pr.method = !matrix_changes || s->factor_cost <= 3 * s->stats.iteration_flops
+        pr.method = !matrix_changes || s->factor_cost <= AUTO_DIRECT * s->stats.iteration_flops
                         ? PF_SOLVER_DIRECT
                         : PF_SOLVER_PCG;
     s->params.method = pr.method;

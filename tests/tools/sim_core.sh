@@ -8,12 +8,14 @@ probe_z() { # probe_z STREAM X,Y,Z FRAME: the z displacement of the node nearest
   "$bin/pf-info" --probe "$2" "$1" | awk -v f="$3" '$1 == "frame" && $2 == f { print $8 }'
 }
 
-# The bunny sliced, MLS-embedded and dropped with CG: it lands (the embedded contact kept the
-# method's pattern: this aborted with "matrix not positive definite" when contact grew it) and
-# rests: its lowest rendered vertex in the last frames lies on the ground (auto: 5 % of the
-# height, 0.0766, below the model's lowest point) within a penalty depth, and no longer falls.
-"$bin/pf-slice" "$data/../../data/models/bunny.obj" --res 8 --quiet |
-  "$bin/pf-embed" --quiet >"$tmp/bunny.pfs"
+# The bunny voxelized, MLS-embedded and dropped with CG: it lands (the embedded contact kept the
+# method's pattern: CG aborted with "matrix not positive definite" at its first contact when
+# contact grew the pattern under its scatter map, sliced or voxelized alike) and rests: its
+# lowest rendered vertex in the last frames lies on the ground (auto: 5 % of the height below the
+# model's lowest point) within a centimetre, and no longer falls. (A sliced bunny runs the same
+# way but its cells carry thousands of surface nodes: too slow for the suite.)
+"$bin/pf-voxelize" "$data/../../data/models/bunny.obj" --res 10 --quiet |
+  "$bin/pf-embed" --quiet 2>/dev/null >"$tmp/bunny.pfs"
 expect 0 "" "$bin/pf-sim" --method cg --frames 30 --input "$tmp/bunny.pfs"
 cp "$tmp/out" "$tmp/bunny_cg.pfs"
 "$bin/pf-export" --obj "$tmp/obj" --quiet "$tmp/bunny_cg.pfs"
@@ -25,7 +27,7 @@ low28=$(lowest "$tmp/obj/frame_00028.obj")
 low30=$(lowest "$tmp/obj/frame_00030.obj")
 check "the CG bunny rests on the ground: lowest vertex $low28, $low30 (from $z0)" \
   awk -v z0="$z0" -v top="$top" -v a="$low28" -v b="$low30" 'BEGIN {
-    g = z0 - 0.05 * (top - z0); exit !(b < z0 && b > g - 0.01 && a - b < 2e-3 && b - a < 2e-3) }'
+    g = z0 - 0.05 * (top - z0); exit !(b < g && b > g - 0.01 && a - b < 2e-3 && b - a < 2e-3) }'
 
 # A box clamped at one end under gravity, default DG settings: bounded, and its tip swings down
 # as CG's and degree 2's do. CG and degree 2 agree to 1 % (4.85 and 4.87 below the start after a
@@ -54,9 +56,10 @@ expect 1 "the simulation diverged" "$bin/pf-sim" "$tmp/clamp.json" --penalty 2 -
 check "the diverged run's stream is complete up to its last good frame" \
   bash -c "'$bin/pf-info' '$tmp/out' | grep -q '^END_'"
 
-# A cube of 8 vertices embedded in 512 elements: the samples on its large triangles hold the
+# A cube of 8 vertices embedded in 216 elements: the samples on its large triangles hold the
 # mesh, so the bottom centre node rests on the ground (auto: 0.05 below) within a penalty depth,
-# instead of sinking through it (it sank 0.75 with contact at the 8 corners only).
+# instead of sinking through it (over 1000 elements it sank 0.75 with contact at the 8 corners
+# only).
 cat >"$tmp/cube.obj" <<'OBJ'
 v 0 0 0
 v 1 0 0
@@ -79,17 +82,17 @@ f 3 8 7
 f 4 1 5
 f 4 5 8
 OBJ
-"$bin/pf-slice" "$tmp/cube.obj" --res 8 --quiet | "$bin/pf-embed" --quiet >"$tmp/cube.pfs"
-expect 0 "samples on large triangles" "$bin/pf-sim" --frames 20 --input "$tmp/cube.pfs"
+"$bin/pf-slice" "$tmp/cube.obj" --res 6 --quiet | "$bin/pf-embed" --quiet >"$tmp/cube.pfs"
+expect 0 "samples on large triangles" "$bin/pf-sim" --frames 15 --input "$tmp/cube.pfs"
 cp "$tmp/out" "$tmp/cube_out.pfs"
-z=$(probe_z "$tmp/cube_out.pfs" 0.5,0.5,0 20)
+z=$(probe_z "$tmp/cube_out.pfs" 0.5,0.5,0 15)
 check "the coarse cube's bottom centre $z rests on the ground at -0.05" \
   awk -v z="$z" 'BEGIN { exit !(z < -0.045 && z > -0.06) }'
 
 # Threads change no bit: pcg streams with one thread and with two are identical.
-OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$bin/pf-sim" "$tmp/clamp.json" --frames 8 --quiet \
+OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 "$bin/pf-sim" "$tmp/clamp.json" --frames 8 --solver pcg --quiet \
   --input "$tmp/box.pfs" >"$tmp/t1.pfs"
-OMP_NUM_THREADS=2 OPENBLAS_NUM_THREADS=2 "$bin/pf-sim" "$tmp/clamp.json" --frames 8 --quiet \
+OMP_NUM_THREADS=2 OPENBLAS_NUM_THREADS=2 "$bin/pf-sim" "$tmp/clamp.json" --frames 8 --solver pcg --quiet \
   --input "$tmp/box.pfs" >"$tmp/t2.pfs"
 check "pcg streams are byte-identical with 1 and 2 threads" cmp -s "$tmp/t1.pfs" "$tmp/t2.pfs"
 

@@ -118,7 +118,7 @@ void pf_cholesky_destroy(pf_cholesky **c);
  *           than a factorisation (both counted in flops from CHOLMOD's analysis, so the decision
  *           is deterministic), when the matrix gained or lost terms (PF_MATRIX_NEW: a contact
  *           set that changed), or when PCG fails.
- *   auto    direct when the matrix never changes or a factorisation costs less than three
+ *   auto    direct when the matrix never changes or a factorisation costs at most ten
  *           iterations; pcg otherwise.
  * Every decision depends on the inputs only: the same sequence of systems gives the same bits. */
 

@@ -305,7 +305,7 @@ pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer 
 {
     bool from_stream = !path || strcmp(path, "-") == 0 || pf_cli_file_is_stream(path);
     if (!from_stream) {
-        PF_TRY(pf_import_surface(path, s, err));
+        PF_TRY(pf_import_surface_ex(path, s, imp ? &imp->how : NULL, err));
         if (!imp)
             return PF_OK;
         if (!imp->up_given)

@@ -89,6 +89,7 @@ typedef struct pf_cli_import {
     bool up_given;    /* --up given: else the file's convention (glTF, Collada: +y) */
     bool scale_given;
     bool applied;     /* set by pf_cli_read_surface: the fix ran, report valid */
+    pf_surface_import_info how; /* set by pf_cli_read_surface for a file: the reader it used */
     pf_surface_fix_report report;
 } pf_cli_import;
 

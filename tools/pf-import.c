@@ -12,8 +12,9 @@ static const char USAGE[] =
     "Writes a pf stream with INFO and MESH (volume meshes) or SURF (surfaces) to stdout.\n"
     "\n"
     "  FILE        Gmsh .msh (v2.2 or v4.1 ASCII; tets and hexes), TetGen .node/.ele (give either\n"
-    "              file or the common stem), or a surface in any format assimp reads (OBJ, PLY,\n"
-    "              STL, glTF, DAE, FBX, ...).\n"
+    "              file or the common stem), or a surface: OBJ, PLY, STL, OFF (read by pf in\n"
+    "              double precision) or any other format assimp reads (glTF, DAE, FBX, ...;\n"
+    "              assimp keeps coordinates in single precision, which the report says).\n"
     "  --surface   read FILE as a surface whatever its extension\n"
     "  --volume    read FILE as a volume mesh whatever its extension\n"
     "Surfaces are turned so that their up axis is pf's +z, scaled, and oriented consistently\n"
@@ -97,9 +98,13 @@ int main(int argc, char **argv)
         } else {
             pf_surface_stats st;
             if (pf_surface_compute_stats(&surface, &st, &err) >= 0)
-                fprintf(stderr, "pf-import: %s: %d vertices, %d triangles, %s, %s, volume %.17g\n",
+                fprintf(stderr, "pf-import: %s: %d vertices, %d triangles, %s, %s, volume %.17g%s\n",
                         path, (int)st.n_verts, (int)st.n_tris, st.closed ? "closed" : "open",
-                        st.manifold ? "manifold" : "not manifold", st.volume);
+                        st.manifold ? "manifold" : "not manifold", st.volume,
+                        imp.how.single_precision ? " (read by assimp: coordinates rounded to "
+                                                   "single precision; OBJ, PLY, STL and OFF are "
+                                                   "read in double)"
+                                                 : "");
             char line[320];
             if (pf_cli_import_summary(&imp, line, sizeof line))
                 fprintf(stderr, "pf-import: %s\n", line);

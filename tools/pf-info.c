@@ -12,7 +12,8 @@ static const char USAGE[] =
     "Prints every chunk of a pf stream (default: stdin).\n"
     "  MESH  counts of nodes, faces, elements by kind, exact total volume, smallest and largest\n"
     "        element volume, bounding box, and the validation result (first offending entity)\n"
-    "  SURF  vertices, triangles, enclosed volume, closed / manifold\n"
+    "  SURF  vertices, triangles, enclosed volume, closed / manifold, and whether every\n"
+    "        coordinate is a float32 value (the surface came through single precision)\n"
     "  FRAM  consecutive frames as one entry: frame count, time range, largest displacement\n"
     "  STRS  consecutive stress chunks as one entry: count, largest value\n"
     "  others: tag, version, size; unknown chunks are listed, not interpreted\n"
@@ -115,8 +116,19 @@ static void print_mesh_chunk(info *in, const pf_chunk *c, pf_mesh *m)
     }
 }
 
+/* True when every coordinate is a float32 value: the surface came through single precision (an
+ * assimp import, a float STL or PLY) or is that coarse by nature, as a unit cube is. */
+static bool fits_float32(const pf_surface *s)
+{
+    for (size_t i = 0; i < 3 * (size_t)s->n_verts; ++i)
+        if ((double)(float)s->x[i] != s->x[i])
+            return false;
+    return true;
+}
+
 static void print_surface_chunk(const info *in, const pf_chunk *c, const pf_surface *s)
 {
+    const bool single = fits_float32(s);
     pf_error err = {0};
     pf_surface_stats st;
     if (pf_surface_compute_stats(s, &st, &err) < 0) {
@@ -127,11 +139,12 @@ static void print_surface_chunk(const info *in, const pf_chunk *c, const pf_surf
         printf("{\"chunk\":\"SURF\",\"offset\":%llu,\"version\":%u,\"id\":%llu,\"vertices\":%d,"
                "\"triangles\":%d,\"volume\":%.17g,\"area\":%.17g,\"closed\":%s,\"manifold\":%s,"
                "\"boundary_edges\":%lld,\"nonmanifold_edges\":%lld,\"flipped_edges\":%lld,"
-               "\"bbox\":[",
+               "\"single_precision\":%s,\"bbox\":[",
                (unsigned long long)c->offset, c->version, (unsigned long long)s->id,
                (int)st.n_verts, (int)st.n_tris, st.volume, st.area, st.closed ? "true" : "false",
                st.manifold ? "true" : "false", (long long)st.n_boundary_edges,
-               (long long)st.n_nonmanifold_edges, (long long)st.n_flipped_edges);
+               (long long)st.n_nonmanifold_edges, (long long)st.n_flipped_edges,
+               single ? "true" : "false");
         json_vec(lo);
         printf(",");
         json_vec(hi);
@@ -142,6 +155,9 @@ static void print_surface_chunk(const info *in, const pf_chunk *c, const pf_surf
                (int)st.n_tris, st.closed ? "closed" : "open (not watertight)",
                st.manifold ? "manifold" : "not manifold");
         printf("      enclosed volume %.17g, area %.17g\n", st.volume, st.area);
+        if (single)
+            printf("      every coordinate is a float32 value: single precision (as from assimp, "
+                   "a float STL or PLY)\n");
         if (st.n_boundary_edges || st.n_nonmanifold_edges || st.n_flipped_edges)
             printf("      %lld boundary edges, %lld non-manifold edges, %lld inconsistently "
                    "oriented edges\n",

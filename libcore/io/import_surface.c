@@ -1,17 +1,21 @@
-/* Triangle surfaces through assimp's C API, then vertices joined by exact position.
+/* Triangle surfaces from files: pf's own double-precision readers for OBJ, OFF, PLY and STL, and
+ * assimp's C API for every other format.
  *
- * assimp's JoinIdenticalVertices joins only vertices equal in every attribute, so a cube whose
- * file gives each face its own normals comes out as six separate patches: open, and useless as
- * the boundary of a solid. Positions are therefore joined here, by exact equality of the
- * coordinates assimp returns (no tolerance: distinct but close vertices are the file's business).
+ * assimp keeps coordinates in float: a surface it reads is rounded to about 7 significant digits
+ * (a sphere sliced from it loses 1.6e-8 of its volume), and its FindDegenerates step drops
+ * triangles by an absolute area threshold and JoinIdenticalVertices joins within an absolute
+ * distance, which together empty a valid surface scaled to 1e-12. The
+ * formats users give most are therefore read here, exactly; the rest go through assimp with the
+ * area test off, and the caller is told the coordinates came through single precision. Either way
+ * the polygons end in one soup (surface_soup.c), joined and cleaned by the same rules.
  */
 #include <pf/io.h>
 
+#include <ctype.h>
 #include <errno.h>
-#include <stdbool.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include <assimp/cimport.h>
@@ -19,25 +23,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
-/* One vertex of the scene with its position, for sorting by position. */
-typedef struct vertex_key {
-    double p[3];
-    int64_t index; /* in the concatenation of the scene's meshes */
-} vertex_key;
-
-static int compare_vertex_key(const void *pa, const void *pb)
-{
-    const vertex_key *a = pa, *b = pb;
-    for (int c = 0; c < 3; ++c)
-        if (a->p[c] != b->p[c])
-            return a->p[c] < b->p[c] ? -1 : 1;
-    return (a->index > b->index) - (a->index < b->index);
-}
-
-typedef struct scene_counts {
-    size_t verts; /* all vertices of all meshes */
-    size_t tris;  /* faces with 3 indices */
-} scene_counts;
+#include "surface_soup.h"
 
 static const struct aiScene *read_scene(const char *path, pf_error *err)
 {
@@ -49,10 +35,15 @@ static const struct aiScene *read_scene(const char *path, pf_error *err)
     /* Degenerate triangles are removed rather than turned into lines and points, and points and
      * lines (from the file or from that) are dropped by the sort by primitive type. */
     aiSetImportPropertyInteger(props, AI_CONFIG_PP_FD_REMOVE, 1);
+    /* No absolute area threshold: a valid surface at any scale keeps its triangles (the exact
+     * degenerate test of the join remains). */
+    aiSetImportPropertyInteger(props, AI_CONFIG_PP_FD_CHECKAREA, 0);
     aiSetImportPropertyInteger(props, AI_CONFIG_PP_SBP_REMOVE,
                                aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-    const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                           aiProcess_PreTransformVertices | aiProcess_FindDegenerates |
+    /* No JoinIdenticalVertices: it joins within an absolute distance (1e-5), which collapses a
+     * surface scaled small; the soup joins exactly equal positions instead. */
+    const unsigned flags = aiProcess_Triangulate | aiProcess_PreTransformVertices |
+                           aiProcess_FindDegenerates |
                            aiProcess_SortByPType | aiProcess_ValidateDataStructure;
     const struct aiScene *scene = aiImportFileExWithProperties(path, flags, NULL, props);
     aiReleasePropertyStore(props);
@@ -62,139 +53,103 @@ static const struct aiScene *read_scene(const char *path, pf_error *err)
     return scene;
 }
 
-/* Counts, and every position checked finite before any work. */
-static pf_status count_scene(const char *path, const struct aiScene *scene, scene_counts *n,
-                             pf_error *err)
+/* The triangles of every mesh of the scene into the soup; positions checked finite. */
+static pf_status scene_to_soup(const char *path, const struct aiScene *scene, surface_soup *soup,
+                               pf_error *err)
 {
-    memset(n, 0, sizeof *n);
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
         const struct aiMesh *mesh = scene->mMeshes[m];
+        const int64_t base = soup->n_verts;
         for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
             const struct aiVector3D p = mesh->mVertices[v];
             PF_CHECK(isfinite(p.x) && isfinite(p.y) && isfinite(p.z), err, PF_ERR_FORMAT,
                      "%s: mesh %u, vertex %u has a non-finite coordinate", path, m, v);
+            const double x[3] = {p.x, p.y, p.z};
+            PF_TRY(surface_soup_vertex(soup, x, err));
         }
-        n->verts += mesh->mNumVertices;
-        for (unsigned f = 0; f < mesh->mNumFaces; ++f)
-            n->tris += mesh->mFaces[f].mNumIndices == 3;
+        for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+            const struct aiFace *face = &mesh->mFaces[f];
+            if (face->mNumIndices != 3)
+                continue; /* points and lines; polygons were triangulated by assimp */
+            uint32_t c[3];
+            for (int i = 0; i < 3; ++i) {
+                PF_CHECK(face->mIndices[i] < mesh->mNumVertices, err, PF_ERR_FORMAT,
+                         "%s: mesh %u, face %u refers to vertex %u of %u", path, m, f,
+                         face->mIndices[i], mesh->mNumVertices);
+                c[i] = (uint32_t)(base + face->mIndices[i]);
+            }
+            PF_TRY(surface_soup_polygon(soup, c, 3, err));
+        }
     }
-    PF_CHECK(n->verts <= INT32_MAX && n->tris <= INT32_MAX, err, PF_ERR_TOO_LARGE,
-             "%s: %zu vertices and %zu triangles: more than pf handles", path, n->verts, n->tris);
-    PF_CHECK(n->tris > 0, err, PF_ERR_FORMAT, "%s: no triangles (%u meshes read by assimp)", path,
-             scene->mNumMeshes);
+    PF_CHECK(soup->n_polys > 0, err, PF_ERR_FORMAT, "%s: no triangles (%u meshes read by assimp)",
+             path, scene->mNumMeshes);
     return PF_OK;
 }
 
-/* Equal coordinates (so -0 and +0 are one position; NaN was refused before). */
-static bool same_position(const vertex_key *a, const vertex_key *b)
+static pf_status read_with_assimp(const char *path, surface_soup *soup, pf_error *err)
 {
-    return a->p[0] == b->p[0] && a->p[1] == b->p[1] && a->p[2] == b->p[2];
+    const struct aiScene *scene = read_scene(path, err);
+    if (!scene)
+        return err ? err->status : PF_ERR_FORMAT;
+    pf_status st = scene_to_soup(path, scene, soup, err);
+    aiReleaseImport(scene);
+    return st;
 }
 
-/* group[i]: the joined vertex of scene vertex i, numbered in the order of first occurrence. */
-static void join_positions(vertex_key *keys, size_t n, int32_t *group, int32_t *n_groups)
+/* True when path ends in "." ext, case-insensitive. */
+static bool has_extension(const char *path, const char *ext)
 {
-    qsort(keys, n, sizeof *keys, compare_vertex_key);
-    /* Sorted by position, then index: each run of equal positions starts with its smallest
-     * index, which every vertex of the run points at. */
-    for (size_t i = 0, run = 0; i < n; ++i) {
-        if (!same_position(&keys[i], &keys[run]))
-            run = i;
-        group[keys[i].index] = (int32_t)keys[run].index;
-    }
-    int32_t count = 0;
+    const char *dot = strrchr(path, '.');
+    if (!dot || strchr(dot, '/'))
+        return false;
+    ++dot;
+    size_t n = strlen(ext);
+    if (strlen(dot) != n)
+        return false;
     for (size_t i = 0; i < n; ++i)
-        group[i] = group[i] == (int32_t)i ? count++ : group[group[i]];
-    *n_groups = count;
+        if (tolower((unsigned char)dot[i]) != ext[i])
+            return false;
+    return true;
 }
 
-static pf_status build_surface(const char *path, const struct aiScene *scene, const scene_counts *n,
-                               pf_surface *s, pf_error *err)
+typedef pf_status (*surface_reader)(const char *path, surface_soup *soup, pf_error *err);
+
+static const struct {
+    const char *ext;
+    surface_reader read;
+} OWN_READERS[] = {{"obj", surface_read_obj},
+                   {"off", surface_read_off},
+                   {"ply", surface_read_ply},
+                   {"stl", surface_read_stl}};
+
+pf_status pf_import_surface_ex(const char *path, pf_surface *s, pf_surface_import_info *info,
+                               pf_error *err)
 {
-    vertex_key *keys = pf_alloc_array(n->verts, sizeof *keys);
-    int32_t *group = pf_alloc_array(n->verts, sizeof *group);
-    uint32_t *tri = pf_alloc_array(3 * n->tris, sizeof *tri);
-    int32_t *used = NULL;
-    pf_status st = PF_OK;
-    if (!keys || !group || !tri)
-        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "%s: out of memory", path);
-    int32_t n_groups = 0, n_tris = 0, n_used = 0;
-    if (st == PF_OK) {
-        size_t k = 0;
-        for (unsigned m = 0; m < scene->mNumMeshes; ++m)
-            for (unsigned v = 0; v < scene->mMeshes[m]->mNumVertices; ++v, ++k) {
-                const struct aiVector3D p = scene->mMeshes[m]->mVertices[v];
-                keys[k] = (vertex_key){{p.x, p.y, p.z}, (int64_t)k};
-            }
-        join_positions(keys, n->verts, group, &n_groups);
-        /* Triangles on joined vertices; those that lost a corner to the join are degenerate. */
-        size_t base = 0;
-        for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-            const struct aiMesh *mesh = scene->mMeshes[m];
-            for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
-                const struct aiFace *face = &mesh->mFaces[f];
-                if (face->mNumIndices != 3)
-                    continue;
-                uint32_t c[3];
-                for (int i = 0; i < 3; ++i)
-                    c[i] = (uint32_t)group[base + face->mIndices[i]];
-                if (c[0] == c[1] || c[1] == c[2] || c[2] == c[0])
-                    continue;
-                memcpy(tri + 3 * (size_t)n_tris++, c, sizeof c);
-            }
-            base += mesh->mNumVertices;
+    memset(s, 0, sizeof *s);
+    if (info)
+        *info = (pf_surface_import_info){"assimp", true};
+    /* A missing file is an I/O error, not a format one: checked before any reader guesses. */
+    FILE *f = fopen(path, "rb");
+    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    fclose(f);
+    surface_reader read = read_with_assimp;
+    for (size_t i = 0; i < sizeof OWN_READERS / sizeof OWN_READERS[0]; ++i)
+        if (has_extension(path, OWN_READERS[i].ext)) {
+            read = OWN_READERS[i].read;
+            if (info)
+                *info = (pf_surface_import_info){OWN_READERS[i].ext, false};
         }
-        used = pf_alloc_array((size_t)n_groups, sizeof *used);
-        if (n_tris == 0)
-            st = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,
-                              "%s: no triangles (all degenerate)", path);
-        else if (!used)
-            st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "%s: out of memory", path);
-    }
-    if (st == PF_OK) {
-        /* Vertices no triangle uses (points, dropped degenerates) are left out. */
-        for (int32_t g = 0; g < n_groups; ++g)
-            used[g] = -1;
-        for (size_t i = 0; i < 3 * (size_t)n_tris; ++i)
-            used[tri[i]] = 0;
-        for (int32_t g = 0; g < n_groups; ++g)
-            if (used[g] == 0)
-                used[g] = n_used++;
-        st = pf_surface_alloc(s, n_used, n_tris, err);
-    }
-    if (st == PF_OK) {
-        s->id = 1;
-        for (size_t i = 0; i < n->verts; ++i) {
-            int32_t v = used[group[keys[i].index]];
-            if (v >= 0)
-                memcpy(s->x + 3 * (size_t)v, keys[i].p, sizeof keys[i].p);
-        }
-        for (size_t i = 0; i < 3 * (size_t)n_tris; ++i)
-            s->tri[i] = (uint32_t)used[tri[i]];
-    }
-    pf_free(keys);
-    pf_free(group);
-    pf_free(tri);
-    pf_free(used);
+    surface_soup soup = {0};
+    pf_status st = read(path, &soup, err);
+    if (st == PF_OK)
+        st = surface_soup_finish(&soup, path, s, err);
+    surface_soup_release(&soup);
+    if (st < 0)
+        pf_surface_release(s);
     return st;
 }
 
 pf_status pf_import_surface(const char *path, pf_surface *s, pf_error *err)
 {
-    memset(s, 0, sizeof *s);
-    /* A missing file is an I/O error, not a format one: checked before assimp guesses. */
-    FILE *f = fopen(path, "rb");
-    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    fclose(f);
-    const struct aiScene *scene = read_scene(path, err);
-    if (!scene)
-        return err ? err->status : PF_ERR_FORMAT;
-    scene_counts n;
-    pf_status st = count_scene(path, scene, &n, err);
-    if (st == PF_OK)
-        st = build_surface(path, scene, &n, s, err);
-    aiReleaseImport(scene);
-    if (st < 0)
-        pf_surface_release(s);
-    return st;
+    return pf_import_surface_ex(path, s, NULL, err);
 }

@@ -306,14 +306,30 @@ pf_status pf_import_tetgen(const char *path, pf_mesh *m, pf_error *err);
  * PF_ERR_UNSUPPORTED for any other path; otherwise the statuses of the reader it calls. */
 pf_status pf_import_volume(const char *path, pf_mesh *m, pf_error *err);
 
-/* A triangle surface from any format assimp reads (OBJ, PLY, STL, glTF, DAE, FBX, ...): all meshes
- * of the scene, in world coordinates (node transforms applied), polygons triangulated, identical
- * vertex positions joined (so a surface whose file splits vertices by normal or UV is still
- * closed), degenerate triangles dropped, and so are vertices no triangle uses. s->id = 1. PF_ERR_IO
- * when the file cannot be opened; PF_ERR_FORMAT with assimp's reason when assimp cannot read it or
- * it holds no triangles; PF_ERR_FORMAT for non-finite coordinates. Prints nothing. s is zeroed
+/* A triangle surface from a file: OBJ, OFF, PLY (ASCII and binary) and STL (ASCII and binary),
+ * chosen by extension (case-insensitive), through pf's own readers in double precision; any other
+ * format assimp reads (glTF, DAE, FBX, ...) through assimp, whose coordinates are single precision
+ * (float). All meshes of the scene, in world coordinates (assimp's node transforms applied),
+ * polygons triangulated, identical vertex positions joined by exact equality (so a surface whose
+ * file splits vertices by normal or UV, or STL's per-triangle corners, is still closed),
+ * degenerate triangles dropped (no area threshold: any scale is kept), and so are vertices no
+ * triangle uses. s->id = 1. Every count a file announces is checked against its size before
+ * anything is allocated. PF_ERR_IO when the file cannot be opened; PF_ERR_FORMAT "path:LINE: ..."
+ * (text) or "path: byte B: ..." (binary), or with assimp's reason, for a malformed file, one with
+ * no triangle, an index out of range or a non-finite coordinate; PF_ERR_TOO_LARGE beyond INT32_MAX
+ * vertices or triangles or for a polygon of more than 4096 vertices. Prints nothing. s is zeroed
  * after a failure. */
 pf_status pf_import_surface(const char *path, pf_surface *s, pf_error *err);
+
+/* Which reader pf_import_surface_ex used. */
+typedef struct pf_surface_import_info {
+    const char *reader;    /* static: "obj", "off", "ply", "stl" (pf's own) or "assimp" */
+    bool single_precision; /* the coordinates went through float (assimp): about 7 digits */
+} pf_surface_import_info;
+
+/* pf_import_surface, also saying which reader it used in *info (may be NULL). */
+pf_status pf_import_surface_ex(const char *path, pf_surface *s, pf_surface_import_info *info,
+                               pf_error *err);
 
 /* A mesh (and optionally one frame) as a VTK unstructured grid (.vtu, XML, ASCII data): every
  * element a VTK_POLYHEDRON cell (tets as VTK_TETRA and hexes as VTK_HEXAHEDRON where the face

@@ -20,12 +20,37 @@ void pf_cli_init(pf_cli *cli, const char *tool, const char *usage, int argc, cha
             break;
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             fputs(usage, stdout);
+            pf_cli_close_stdout(tool);
             exit(PF_EXIT_OK);
         }
         if (strcmp(argv[i], "--version") == 0) {
             printf("%s (pf) %s\n", tool, PF_VERSION_STRING);
+            pf_cli_close_stdout(tool);
             exit(PF_EXIT_OK);
         }
+    }
+}
+
+void pf_cli_close_stdout(const char *tool)
+{
+    /* The error flag catches a failed write long ago (its errno is gone: "write error"); fflush
+     * and fclose catch what was still buffered, with their errno. */
+    errno = 0;
+    bool ok = !ferror(stdout);
+    int saved = 0;
+    if (fflush(stdout) != 0 && ok) {
+        ok = false;
+        saved = errno;
+    }
+    errno = 0;
+    if (fclose(stdout) != 0 && ok) {
+        ok = false;
+        saved = errno;
+    }
+    if (!ok) {
+        fprintf(stderr, "%s: stdout: cannot write: %s\n", tool,
+                saved ? strerror(saved) : "write error");
+        exit(PF_EXIT_INPUT);
     }
 }
 

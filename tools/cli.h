@@ -72,6 +72,11 @@ bool pf_cli_file_is_stream(const char *path);
  * "stdin: chunk SURF", "in.pfs: chunk SURF"), for errors found in the surface after reading it. */
 void pf_cli_prefix_surface_error(const char *path, pf_error *err);
 
+/* Flushes and closes stdout, and exits 1 with "tool: stdout: cannot write: reason" when any
+ * write to it failed (a full disk, an I/O error): output that was lost is never reported as a
+ * success. Every tool calls it on its way out after writing to stdout (text or stream). */
+void pf_cli_close_stdout(const char *tool);
+
 /* Binary output to stdout: refuses (exit 2) when stdout is a terminal. */
 FILE *pf_cli_binary_stdout(const pf_cli *cli);
 

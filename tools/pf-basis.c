@@ -171,8 +171,10 @@ int main(int argc, char **argv)
         pf_cli_fail(&cli, &err);
     pf_status s = run(&t, f, name, &err);
     pf_cli_close_input(f);
-    fflush(stdout);
-    if (s < 0)
+    if (s < 0) {
+        fflush(stdout);
         pf_cli_fail(&cli, &err);
+    }
+    pf_cli_close_stdout(cli.tool);
     return PF_EXIT_OK;
 }

@@ -122,6 +122,7 @@ int main(int argc, char **argv)
                paths[1], (int)b.width, (int)b.height);
         pf_image_release(&a);
         pf_image_release(&b);
+        pf_cli_close_stdout(cli.tool);
         return PF_EXIT_INPUT;
     }
     size_t n = (size_t)a.width * (size_t)a.height;
@@ -151,5 +152,6 @@ int main(int argc, char **argv)
     pf_free(diff);
     pf_image_release(&a);
     pf_image_release(&b);
+    pf_cli_close_stdout(cli.tool); /* a lost report is an error: exit 1 */
     return code;
 }

@@ -426,8 +426,10 @@ int main(int argc, char **argv)
     pf_cli_close_input(f);
     pf_stream_state_release(&in.st);
     pf_free(in.samples);
-    fflush(stdout);
-    if (s < 0)
+    if (s < 0) {
+        fflush(stdout); /* what was read before the damage, then the error */
         pf_cli_fail(&cli, &err);
+    }
+    pf_cli_close_stdout(cli.tool);
     return PF_EXIT_OK;
 }

@@ -399,5 +399,6 @@ int main(int argc, char **argv)
     pf_scene_release(&r.scene);
     if (st < 0)
         pf_cli_fail(&r.cli, err);
+    pf_cli_close_stdout(r.cli.tool);
     return PF_EXIT_OK;
 }

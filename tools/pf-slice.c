@@ -130,5 +130,6 @@ int main(int argc, char **argv)
     pf_surface_release(&surface);
     if (st < 0)
         pf_cli_fail(&cli, &err);
+    pf_cli_close_stdout(cli.tool);
     return PF_EXIT_OK;
 }

@@ -8,6 +8,10 @@
  *   test_export --write-frames FILE   a 2 x 1 x 1 hex box (MESH), a triangle on three of its
  *                                     corners (SURF + WGHT), frames 0, 1, 2 at times 0, 0.5, 1;
  *                                     STRS (von Mises) after frames 0 and 1 only
+ *   test_export --write-bad KIND FILE  a 4 x 4 x 4 hex box (125 nodes) and one frame that every
+ *                                     stream reader must refuse or survive; KIND: nodes-124,
+ *                                     nodes-130, mesh-id (frame of mesh 7), before-mesh, id-reused
+ *                                     (a second MESH with the first's id), huge (u = 1e300, valid)
  */
 #define _POSIX_C_SOURCE 200809L /* mkdtemp, rmdir, geteuid */
 #include <setjmp.h>
@@ -597,10 +601,61 @@ static int write_frames(const char *path)
     return fclose(f) == 0 ? 0 : 1;
 }
 
+/* The streams of --write-bad: each breaks one rule of docs/stream-format.md (or, for huge, none:
+ * a finite frame no renderer can draw). */
+static int write_bad(const char *kind, const char *path)
+{
+    const bool nodes_124 = strcmp(kind, "nodes-124") == 0, nodes_130 = strcmp(kind, "nodes-130") == 0,
+               other_id = strcmp(kind, "mesh-id") == 0, before = strcmp(kind, "before-mesh") == 0,
+               reused = strcmp(kind, "id-reused") == 0, huge = strcmp(kind, "huge") == 0;
+    if (!nodes_124 && !nodes_130 && !other_id && !before && !reused && !huge)
+        return 2;
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return 1;
+    pf_error err = {0};
+    pf_mesh m = {0};
+    make_box(&m, 4, 4, 4);
+    pf_frame_data fr = {0};
+    const int32_t n = nodes_124 ? 124 : nodes_130 ? 130 : m.n_nodes;
+    assert_int_equal(pf_frame_data_alloc(&fr, n, &err), PF_OK);
+    fr.mesh_id = other_id ? 7 : m.id;
+    fr.index = 1;
+    fr.time = 0.25;
+    for (int32_t i = 0; i < 3 * n; ++i)
+        fr.u[i] = huge ? 1e300 : 0.001 * (i % 3);
+    pf_stream_writer *wr = NULL;
+    assert_int_equal(pf_stream_writer_create(&wr, f, path, &err), PF_OK);
+    assert_int_equal(pf_stream_write_info(wr, "test_export", "0", kind, &err), PF_OK);
+    if (before)
+        assert_int_equal(pf_stream_write_frame(wr, &fr, &err), PF_OK);
+    assert_int_equal(pf_stream_write_mesh(wr, &m, &err), PF_OK);
+    if (reused)
+        assert_int_equal(pf_stream_write_mesh(wr, &m, &err), PF_OK);
+    fr.index = 0;
+    if (huge) { /* frame 0 at rest, frame 1 far away */
+        pf_frame_data rest = {0};
+        assert_int_equal(pf_frame_data_alloc(&rest, n, &err), PF_OK);
+        rest.mesh_id = m.id;
+        assert_int_equal(pf_stream_write_frame(wr, &rest, &err), PF_OK);
+        pf_frame_data_release(&rest);
+        fr.index = 1;
+    }
+    if (!before)
+        assert_int_equal(pf_stream_write_frame(wr, &fr, &err), PF_OK);
+    assert_int_equal(pf_stream_writer_finish(wr, &err), PF_OK);
+    pf_stream_writer_destroy(&wr);
+    pf_frame_data_release(&fr);
+    pf_mesh_release(&m);
+    return fclose(f) == 0 ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "--write-frames") == 0)
         return write_frames(argv[2]);
+    if (argc == 4 && strcmp(argv[1], "--write-bad") == 0)
+        return write_bad(argv[2], argv[3]);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_vtu_box),
         cmocka_unit_test(test_vtu_polyhedron_and_tet),

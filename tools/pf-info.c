@@ -51,6 +51,16 @@ typedef struct info {
     int64_t n_samples, cap_samples;
 } info;
 
+/* |v| without overflow for any finite v: 1e300 in each component is a finite 1.7e300, not inf. */
+static double norm3(const double *v)
+{
+    double m = fmax(fabs(v[0]), fmax(fabs(v[1]), fabs(v[2])));
+    if (m == 0 || !isfinite(m))
+        return m;
+    double a = v[0] / m, b = v[1] / m, c = v[2] / m;
+    return m * sqrt(a * a + b * b + c * c);
+}
+
 static void json_vec(const double *v)
 {
     printf("[");
@@ -248,7 +258,7 @@ static pf_status add_frame(info *in, const pf_chunk *c, pf_error *err)
     in->frames++;
     in->t1 = fr.time;
     for (int32_t i = 0; i < fr.n_nodes; ++i)
-        in->max_u = fmax(in->max_u, pf_v3_norm(pf_v3_load(fr.u + 3 * (size_t)i)));
+        in->max_u = fmax(in->max_u, norm3(fr.u + 3 * (size_t)i));
     pf_status s = PF_OK;
     if (in->has_probe && in->probe_node >= 0 && in->probe_node < fr.n_nodes &&
         fr.mesh_id == in->st.mesh.id) {
@@ -283,8 +293,44 @@ static pf_status add_stress(info *in, const pf_chunk *c, pf_error *err)
     return PF_OK;
 }
 
+/* An id names one mesh in a stream: the MESH just taken (the latest in st's list of meshes) must
+ * not reuse the id of an earlier one, which frames and stress of that mesh would then name too. */
+static pf_status check_mesh_id(const info *in, const pf_chunk *c, pf_error *err)
+{
+    const pf_stream_state *st = &in->st;
+    for (int32_t k = 0; k + 1 < st->n_meshes; ++k)
+        PF_CHECK(st->meshes[k].id != st->mesh.id, err, PF_ERR_FORMAT,
+                 "chunk MESH at byte %llu: mesh id %llu is already that of the MESH at byte %llu",
+                 (unsigned long long)c->offset, (unsigned long long)st->mesh.id,
+                 (unsigned long long)st->meshes[k].offset);
+    return PF_OK;
+}
+
+/* A chunk listed, not interpreted: unknown to this pf, or of a version it does not read. */
+static void print_other(const info *in, const pf_chunk *c, const char *note)
+{
+    if (in->json) {
+        printf("{\"chunk\":");
+        json_string(c->tag, 4);
+        printf(",\"offset\":%llu,\"version\":%u,\"bytes\":%llu,\"known\":%s}\n",
+               (unsigned long long)c->offset, c->version, (unsigned long long)c->size,
+               pf_stream_tag_is_known(c->tag) ? "true" : "false");
+    } else {
+        printf("%s  at byte %llu: version %u, %llu bytes%s\n", c->tag,
+               (unsigned long long)c->offset, c->version, (unsigned long long)c->size, note);
+    }
+}
+
 static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
 {
+    /* A non-critical chunk of a version this pf does not read is skipped (the stream spec);
+     * critical ones reach their decoder, which refuses them. */
+    if (pf_stream_tag_is_known(c->tag) && !pf_stream_tag_is_critical(c->tag) &&
+        c->version != pf_stream_tag_version(c->tag)) {
+        print_frames(in);
+        print_other(in, c, " (a version this pf does not read: skipped)");
+        return PF_OK;
+    }
     if (strcmp(c->tag, "FRAM") == 0)
         return add_frame(in, c, err);
     if (strcmp(c->tag, "STRS") == 0)
@@ -292,6 +338,7 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
     print_frames(in);
     PF_TRY(pf_stream_state_take(&in->st, c, err)); /* the id checks of WGHT and the others */
     if (strcmp(c->tag, "MESH") == 0) {
+        PF_TRY(check_mesh_id(in, c, err));
         print_mesh_chunk(in, c, &in->st.mesh);
         in->probe_node = in->has_probe ? nearest_node(&in->st.mesh, in->probe) : -1;
     } else if (strcmp(c->tag, "SURF") == 0) {
@@ -323,16 +370,9 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
         else
             printf("END_  at byte %llu: %llu chunks, %llu frames\n", (unsigned long long)c->offset,
                    (unsigned long long)d.chunk_count, (unsigned long long)d.frame_count);
-    } else if (in->json) {
-        printf("{\"chunk\":");
-        json_string(c->tag, 4);
-        printf(",\"offset\":%llu,\"version\":%u,\"bytes\":%llu,\"known\":%s}\n",
-               (unsigned long long)c->offset, c->version, (unsigned long long)c->size,
-               pf_stream_tag_is_known(c->tag) ? "true" : "false");
     } else {
-        printf("%s  at byte %llu: version %u, %llu bytes%s\n", c->tag,
-               (unsigned long long)c->offset, c->version, (unsigned long long)c->size,
-               pf_stream_tag_is_known(c->tag) ? "" : " (unknown to this pf, passed through)");
+        print_other(in, c,
+                    pf_stream_tag_is_known(c->tag) ? "" : " (unknown to this pf, passed through)");
     }
     return PF_OK;
 }

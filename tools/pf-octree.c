@@ -117,8 +117,11 @@ int main(int argc, char **argv)
         fprintf(stderr, "pf-octree: %d triangles, depth %d..%d%s ...\n", (int)surface.n_tris,
                 (int)p.min_depth, (int)p.depth, p.slice ? ", slicing" : "");
     pf_octree_stats stats;
-    if (st >= 0)
+    if (st >= 0) {
         st = pf_mesh_octree(&mesh, &surface, &p, &stats, &err);
+        if (st < 0)
+            pf_cli_prefix_surface_error(path, &err);
+    }
     if (st >= 0)
         st = pf_mesh_validate(&mesh, NULL, &err);
     if (st >= 0)

@@ -127,6 +127,22 @@ static void frame_bounds(picture *pic, pf_render_mode m, const double *u, pf_vec
     }
 }
 
+/* The renderer works in float, and its view transform multiplies positions by distances:
+ * positions beyond 1e30 (float's range ends at 3.4e38) cannot be drawn. Refused naming the frame,
+ * rather than failing later on a camera built from an overflowing box. */
+static pf_status check_drawable(pf_vec3 lo, pf_vec3 hi, uint32_t index, pf_error *err)
+{
+    if (!(lo.x <= hi.x))
+        return PF_OK; /* nothing drawn */
+    double m = fmax(fmax(fmax(fabs(lo.x), fabs(lo.y)), fmax(fabs(lo.z), fabs(hi.x))),
+                    fmax(fabs(hi.y), fabs(hi.z)));
+    PF_CHECK(m <= 1e30, err, PF_ERR_FORMAT,
+             "frame %u: displaced positions reach %.3g, beyond the 1e30 the renderer's single "
+             "precision can draw (a diverged simulation?)",
+             (unsigned)index, m);
+    return PF_OK;
+}
+
 static bool ground_height(const pf_render_stream *rs, const picture *pic, double *z)
 {
     const pf_render_stream_hooks *h = &rs->p.hooks;
@@ -167,9 +183,11 @@ static pf_status survey_chunk(picture *pic, survey *sv, pf_render_mode m, const 
     PF_TRY(pf_stream_state_frame(&pic->st, c, &f, err));
     pf_vec3 lo, hi;
     frame_bounds(pic, m, f.u, &lo, &hi);
-    grow_box(sv, lo, hi);
+    pf_status st = check_drawable(lo, hi, f.index, err); /* ends the survey before the box */
+    if (st == PF_OK)
+        grow_box(sv, lo, hi);
     pf_frame_data_release(&f);
-    return PF_OK;
+    return st;
 }
 
 void pf_render_stream_survey(pf_render_stream *rs, FILE *f, const char *name)
@@ -324,6 +342,9 @@ static void ensure_view(pf_render_stream *rs, const double *u)
 static pf_status render_frame(pf_render_stream *rs, const pf_frame_data *f, pf_error *err)
 {
     const pf_render_stream_hooks *h = &rs->p.hooks;
+    pf_vec3 lo, hi;
+    frame_bounds(&rs->pic, rs->p.mode, f ? f->u : NULL, &lo, &hi);
+    PF_TRY(check_drawable(lo, hi, f ? f->index : 0u, err));
     bool legend;
     PF_TRY(build_geometry(rs, f, &legend, err));
     ensure_view(rs, f ? f->u : NULL); /* framed on the body, not the obstacles */

@@ -39,7 +39,7 @@ check "sliced octree of the cube: 8 cells of depth 2 and 448 of depth 3, volume 
   grep -q '"elements":456,.*"volume":1,' "$tmp/ocube.json"
 check "the cube's octree mesh is valid" grep -q '"valid":true' "$tmp/ocube.json"
 expect 0 "winding-number test" "$bin/pf-octree" --depth 3 "$data/open_box.obj"
-expect 1 "closed" "$bin/pf-octree" --slice --exact "$data/open_box.obj"
+expect 1 "open_box.obj: slicing needs a closed, manifold" "$bin/pf-octree" --slice --exact "$data/open_box.obj"
 expect 0 "winding-number solid was sliced" "$bin/pf-octree" --depth 3 --slice "$data/open_box.obj"
 expect 2 "" "$bin/pf-octree" --depth 0 "$data/cube.obj"
 expect 2 "" "$bin/pf-octree" --depth 3 --min-depth 4 "$data/cube.obj"

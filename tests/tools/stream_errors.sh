@@ -31,10 +31,55 @@ printf '\000\000\000\000\000\000\000\100' |
   dd of="$tmp/huge.pfs" bs=1 seek=16 conv=notrunc status=none
 expect 1 "INFO" "$bin/pf-info" "$tmp/huge.pfs"
 
-# Version 7 of INFO: unsupported, named.
+# Version 7 of INFO, which is not critical: listed and skipped, as the spec says.
 cp "$tmp/good.pfs" "$tmp/version.pfs"
 printf '\007' | dd of="$tmp/version.pfs" bs=1 seek=12 conv=notrunc status=none
-expect 1 "version 7" "$bin/pf-info" "$tmp/version.pfs"
+expect 0 "" "$bin/pf-info" "$tmp/version.pfs"
+check "INFO version 7 is listed as skipped" \
+  grep -q "^INFO  at byte 8: version 7, .* bytes (a version this pf does not read: skipped)" "$tmp/out"
+check "the MESH after it is read" grep -q "^MESH" "$tmp/out"
+# Version 7 of MESH, which is critical: refused, named.
+info_size=$(od -An -tu8 -j 16 -N8 "$tmp/good.pfs" | tr -d ' ')
+mesh_at=$((8 + 16 + info_size + 4))
+cp "$tmp/good.pfs" "$tmp/mesh7.pfs"
+printf '\007' | dd of="$tmp/mesh7.pfs" bs=1 seek=$((mesh_at + 4)) conv=notrunc status=none
+expect 1 "version 7" "$bin/pf-info" "$tmp/mesh7.pfs"
+check "the MESH version message names MESH" grep -q "MESH" "$tmp/err"
+
+# Streams whose frames do not fit their mesh: pf-info refuses them as pf-render and pf-export do
+# (the reader state's checks), after printing what came before, and --probe does not drop the bad frame silently.
+gen="$bin/../tests/test_export"
+for kind in nodes-124 nodes-130 mesh-id before-mesh id-reused; do
+  "$gen" --write-bad "$kind" "$tmp/$kind.pfs" || { echo "FAIL: test_export --write-bad $kind"; exit 1; }
+done
+expect 1 "chunk FRAM at byte 10925: frame 0 has 124 nodes, but its MESH (mesh 1 with 125 nodes and 64 elements) has 125" \
+  "$bin/pf-info" "$tmp/nodes-124.pfs"
+check "the MESH before the bad frame is printed" grep -q "^MESH" "$tmp/out"
+expect 1 "frame 0 has 130 nodes, but its MESH" "$bin/pf-info" --json "$tmp/nodes-130.pfs"
+expect 1 "frame 0 refers to mesh 7, which no MESH chunk before it declares" "$bin/pf-info" "$tmp/mesh-id.pfs"
+expect 1 "frame 0 refers to mesh 7" "$bin/pf-info" --probe 0,0,0 "$tmp/mesh-id.pfs"
+expect 1 "frame 0 has 124 nodes" "$bin/pf-info" --probe 1,1,1 "$tmp/nodes-124.pfs"
+expect 1 "chunk FRAM at byte 63: frame 1 refers to mesh 1, which no MESH chunk before it declares (the latest MESH is missing)" "$bin/pf-info" "$tmp/before-mesh.pfs"
+expect 1 "mesh id 1 is already that of the MESH at byte 61" "$bin/pf-info" "$tmp/id-reused.pfs"
+for kind in nodes-124 mesh-id before-mesh; do
+  expect 1 "FRAM" "$bin/pf-render" --quiet --size 40x30 --out "$tmp/r-$kind" "$tmp/$kind.pfs"
+  expect 1 "FRAM" "$bin/pf-export" --quiet --obj "$tmp/e-$kind" "$tmp/$kind.pfs"
+done
+
+# A finite but huge displacement (1e300 per component): pf-info prints its length, not inf;
+# pf-render names the frame and the cause.
+"$gen" --write-bad huge "$tmp/huge.pfs" || { echo "FAIL: test_export --write-bad huge"; exit 1; }
+expect 0 "" "$bin/pf-info" "$tmp/huge.pfs"
+check "largest displacement 1.73205e+300 (not inf)" grep -q "largest displacement 1.73205e+300" "$tmp/out"
+expect 0 "" "$bin/pf-info" --json "$tmp/huge.pfs"
+check "JSON max_displacement finite" grep -q '"max_displacement":1.73205080756887[0-9]*e+300' "$tmp/out"
+expect 1 "frame 1: displaced positions reach 1e+300, beyond the 1e30" \
+  "$bin/pf-render" --quiet --size 40x30 --out "$tmp/r-huge" "$tmp/huge.pfs"
+checks=$((checks + 1))
+if ! cat "$tmp/huge.pfs" | "$bin/pf-render" --quiet --size 40x30 --out "$tmp/r-huge-pipe" 2>"$tmp/err" &&
+  grep -q "frame 1: displaced positions" "$tmp/err"; then :; else
+  echo "FAIL: pf-render on a pipe: frame 1 not named: $(cat "$tmp/err")"; failures=$((failures + 1))
+fi
 
 # A stream from stdin works like a file.
 checks=$((checks + 1))

@@ -446,15 +446,17 @@ static void patch_test_on_mixed_meshes(void **state)
             make_mixed_block(&m, 1);
         else
             make_sliced_sphere(&m, 3);
-        double with = patch_error(&m, true), without = mesh == 0 ? patch_error(&m, false) : 1;
-        if (mesh == 0)
-            printf("patch test, tet/hex/polyhedron block: interior error %.2e (without the "
-                   "consistency correction %.2e)\n",
-                   with, without);
-        else
-            printf("patch test, sliced sphere: interior error %.2e\n", with);
+        double with = patch_error(&m, true);
+        printf("patch test, %s: interior error %.2e\n",
+               mesh == 0 ? "tet/hex/polyhedron block" : "sliced sphere", with);
         assert_true(with < 1e-8);
-        assert_true(without > 1e-6); /* (measured on the block only: set-up time) */
+        if (mesh == 0) {
+            /* The correction is what passes the test: without it the block's harmonic cell
+             * fails it (checked on the block only, whose set-up is fast). */
+            double without = patch_error(&m, false);
+            printf("  without the consistency correction %.2e\n", without);
+            assert_true(without > 1e-6);
+        }
         pf_mesh_release(&m);
     }
     assert_int_equal(pf_alloc_live_bytes(), live);

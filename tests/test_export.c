@@ -12,6 +12,8 @@
  *                                     stream reader must refuse or survive; KIND: nodes-124,
  *                                     nodes-130, mesh-id (frame of mesh 7), before-mesh, id-reused
  *                                     (a second MESH with the first's id), huge (u = 1e300, valid)
+ *   test_export --drop TAG IN OUT     IN without its TAG chunks (a new END_): the same frames
+ *                                     without, say, the SCEN that names the obstacles
  */
 #define _POSIX_C_SOURCE 200809L /* mkdtemp, rmdir, geteuid */
 #include <setjmp.h>
@@ -650,12 +652,43 @@ static int write_bad(const char *kind, const char *path)
     return fclose(f) == 0 ? 0 : 1;
 }
 
+static int drop_chunks(const char *tag, const char *in_path, const char *out_path)
+{
+    FILE *in = fopen(in_path, "rb"), *out = fopen(out_path, "wb");
+    if (!in || !out)
+        return 1;
+    pf_error err = {0};
+    pf_stream_reader *r = NULL;
+    pf_stream_writer *w = NULL;
+    pf_status st = pf_stream_reader_create(&r, in, in_path, &err);
+    if (st == PF_OK)
+        st = pf_stream_writer_create(&w, out, out_path, &err);
+    for (bool end = false; st == PF_OK;) {
+        pf_chunk c;
+        st = pf_stream_read_chunk(r, &c, &end, &err);
+        if (st != PF_OK || end)
+            break;
+        if (strcmp(c.tag, tag) != 0 && strcmp(c.tag, "END_") != 0)
+            st = pf_stream_write_raw(w, &c, &err);
+    }
+    if (st == PF_OK)
+        st = pf_stream_writer_finish(w, &err);
+    if (st != PF_OK)
+        fprintf(stderr, "test_export --drop: %s\n", err.msg);
+    pf_stream_writer_destroy(&w);
+    pf_stream_reader_destroy(&r);
+    fclose(in);
+    return fclose(out) == 0 && st == PF_OK ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "--write-frames") == 0)
         return write_frames(argv[2]);
     if (argc == 4 && strcmp(argv[1], "--write-bad") == 0)
         return write_bad(argv[2], argv[3]);
+    if (argc == 5 && strcmp(argv[1], "--drop") == 0)
+        return drop_chunks(argv[2], argv[3], argv[4]);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_vtu_box),
         cmocka_unit_test(test_vtu_polyhedron_and_tet),

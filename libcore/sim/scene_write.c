@@ -8,10 +8,29 @@
 
 #include <cjson/cJSON.h>
 
+/* A number printed with %.17g as a raw item: cJSON's own printing keeps 15 digits whenever they
+ * read back within an ulp, so a written scene did not read back into the same numbers (a ground
+ * normal (5, 1, 0) normalised changed its last bit on every write and read). Scene values are
+ * finite (checked on input). */
+static cJSON *number(double v)
+{
+    char text[32];
+    snprintf(text, sizeof text, "%.17g", v);
+    return cJSON_CreateRaw(text);
+}
+
+static void add_number(cJSON *o, const char *key, double v)
+{
+    cJSON_AddItemToObject(o, key, number(v));
+}
+
 static cJSON *vector(pf_vec3 v)
 {
-    const double xyz[3] = {v.x, v.y, v.z};
-    return cJSON_CreateDoubleArray(xyz, 3);
+    cJSON *a = cJSON_CreateArray();
+    cJSON_AddItemToArray(a, number(v.x));
+    cJSON_AddItemToArray(a, number(v.y));
+    cJSON_AddItemToArray(a, number(v.z));
+    return a;
 }
 
 static cJSON *region(const pf_region *r)
@@ -27,7 +46,7 @@ static cJSON *region(const pf_region *r)
         cJSON_AddItemToObject(plane, "point", vector(point));
         cJSON_AddItemToObject(plane, "normal", vector(r->plane.n));
         if (r->tol >= 0)
-            cJSON_AddNumberToObject(plane, "tol", r->tol);
+            add_number(plane, "tol", r->tol);
     }
     return o;
 }
@@ -44,7 +63,7 @@ static cJSON *obstacle(const pf_obstacle *o)
     } else if (o->kind == PF_OBSTACLE_SPHERE) {
         cJSON *sphere = cJSON_AddObjectToObject(j, "sphere");
         cJSON_AddItemToObject(sphere, "centre", vector(o->centre));
-        cJSON_AddNumberToObject(sphere, "radius", o->radius);
+        add_number(sphere, "radius", o->radius);
     } else if (o->kind == PF_OBSTACLE_BOX) {
         cJSON *box = cJSON_AddArrayToObject(j, "box");
         cJSON_AddItemToArray(box, vector(o->lo));
@@ -52,14 +71,14 @@ static cJSON *obstacle(const pf_obstacle *o)
     } else {
         cJSON *mesh = cJSON_AddObjectToObject(j, "mesh");
         cJSON_AddStringToObject(mesh, "file", o->file ? o->file : "");
-        cJSON_AddNumberToObject(mesh, "depth", o->depth);
+        add_number(mesh, "depth", o->depth);
     }
-    cJSON_AddNumberToObject(j, "stiffness", o->stiffness);
+    add_number(j, "stiffness", o->stiffness);
     if (o->n_keys > 0) {
         cJSON *path = cJSON_AddArrayToObject(j, "path");
         for (int32_t k = 0; k < o->n_keys; ++k) {
             cJSON *key = cJSON_CreateObject();
-            cJSON_AddNumberToObject(key, "time", o->key_time[k]);
+            add_number(key, "time", o->key_time[k]);
             cJSON_AddItemToObject(key, "translation", vector(o->key_translation[k]));
             cJSON_AddItemToArray(path, key);
         }
@@ -71,20 +90,20 @@ static cJSON *scene_object(const pf_scene *s)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON *material = cJSON_AddObjectToObject(root, "material");
-    cJSON_AddNumberToObject(material, "E", s->E);
-    cJSON_AddNumberToObject(material, "nu", s->nu);
-    cJSON_AddNumberToObject(material, "density", s->density);
+    add_number(material, "E", s->E);
+    add_number(material, "nu", s->nu);
+    add_number(material, "density", s->density);
 
     cJSON *method = cJSON_AddObjectToObject(root, "method");
     cJSON_AddStringToObject(method, "name", s->method == PF_METHOD_CG ? "cg" : "dg");
     if (s->method == PF_METHOD_DG) {
-        cJSON_AddNumberToObject(method, "degree", s->degree);
+        add_number(method, "degree", s->degree);
         cJSON_AddStringToObject(method, "flux", s->flux == PF_FLUX_BZ ? "bz" : "ip");
-        cJSON_AddNumberToObject(method, "penalty", s->penalty);
+        add_number(method, "penalty", s->penalty);
     } else {
         cJSON_AddStringToObject(method, "mass",
                                 s->mass == PF_MASS_LUMPED ? "lumped" : "consistent");
-        cJSON_AddNumberToObject(method, "edge_samples", s->edge_samples);
+        add_number(method, "edge_samples", s->edge_samples);
     }
     cJSON_AddBoolToObject(method, "corotation", s->corotation);
 
@@ -95,8 +114,8 @@ static cJSON *scene_object(const pf_scene *s)
     cJSON_AddNumberToObject(solver, "tolerance", s->solver.tolerance);
     cJSON_AddNumberToObject(solver, "max_iterations", s->solver.max_iterations);
     cJSON *damping = cJSON_AddObjectToObject(root, "damping");
-    cJSON_AddNumberToObject(damping, "alpha", s->damping_alpha);
-    cJSON_AddNumberToObject(damping, "beta", s->damping_beta);
+    add_number(damping, "alpha", s->damping_alpha);
+    add_number(damping, "beta", s->damping_beta);
 
     cJSON *fixed = cJSON_AddArrayToObject(root, "fixed");
     for (int32_t k = 0; k < s->n_fixed; ++k) {
@@ -118,7 +137,7 @@ static cJSON *scene_object(const pf_scene *s)
         if (!s->ground_auto) /* an automatic ground is placed again under the same mesh */
             cJSON_AddItemToObject(ground, "point", vector(s->ground_point));
         cJSON_AddItemToObject(ground, "normal", vector(s->ground_normal));
-        cJSON_AddNumberToObject(ground, "stiffness", s->ground_stiffness);
+        add_number(ground, "stiffness", s->ground_stiffness);
     }
 
     cJSON *obstacles = cJSON_AddArrayToObject(root, "obstacles");
@@ -126,9 +145,9 @@ static cJSON *scene_object(const pf_scene *s)
         cJSON_AddItemToArray(obstacles, obstacle(&s->obstacles[k]));
 
     cJSON *time = cJSON_AddObjectToObject(root, "time");
-    cJSON_AddNumberToObject(time, "dt", s->dt);
-    cJSON_AddNumberToObject(time, "frames", s->frames);
-    cJSON_AddNumberToObject(time, "substeps", s->substeps);
+    add_number(time, "dt", s->dt);
+    add_number(time, "frames", s->frames);
+    add_number(time, "substeps", s->substeps);
     cJSON_AddBoolToObject(root, "static", s->is_static);
     return root;
 }

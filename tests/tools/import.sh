@@ -87,6 +87,33 @@ bad "no-such-file.msh" "$data/no-such-file.msh"
 bad "no-such-file.obj" "$data/no-such-file.obj"
 bad "cube.obj: not a volume mesh" --volume "$data/cube.obj"
 
+# Precision: OBJ is read in double (no note), a DirectX .x file through assimp in single
+# precision, which the report and pf-info say.
+expect 0 "" "$bin/pf-import" "$data/cube.obj"
+check "an OBJ import has no single-precision note" bash -c "! grep -q 'single precision' '$tmp/err'"
+expect 0 "read by assimp: coordinates rounded to single precision" "$bin/pf-import" "$data/tet.x"
+"$bin/pf-import" --quiet "$data/tet.x" | "$bin/pf-info" >"$tmp/info.txt"
+check "pf-info says the surface is single precision" \
+  grep -q "every coordinate is a float32 value: single precision" "$tmp/info.txt"
+
+# Any scale: the issue's sphere scaled by 1e-12 (refused before as "no triangles") imports and
+# slices, and so does one scaled by 1e12.
+for scale in 1e-12 1e12; do
+  awk -v s="$scale" 'BEGIN { pi = 3.14159265358979; n = 8; m = 16; printf "v 0 0 %.17g\n", s
+    for (i = 1; i < n; i++) for (j = 0; j < m; j++) {
+      t = pi * i / n; p = 2 * pi * j / m
+      printf "v %.17g %.17g %.17g\n", s * sin(t) * cos(p), s * sin(t) * sin(p), s * cos(t) }
+    printf "v 0 0 %.17g\n", -s
+    for (j = 0; j < m; j++) print "f 1", 2 + j, 2 + (j + 1) % m
+    for (i = 0; i < n - 2; i++) for (j = 0; j < m; j++) {
+      a = 2 + i * m + j; b = 2 + i * m + (j + 1) % m; print "f", a, a + m, b + m; print "f", a, b + m, b }
+    z = 2 + (n - 1) * m
+    for (j = 0; j < m; j++) print "f", z, 2 + (n - 2) * m + (j + 1) % m, 2 + (n - 2) * m + j }' \
+    >"$tmp/sphere-$scale.obj"
+  expect 0 "114 vertices, 224 triangles, closed, manifold" "$bin/pf-import" "$tmp/sphere-$scale.obj"
+  expect 0 "elements" "$bin/pf-slice" --res 6 "$tmp/sphere-$scale.obj"
+done
+
 # Bad usage: exit 2.
 expect 2 "no input file" "$bin/pf-import"
 expect 2 "one input file only" "$bin/pf-import" "$data/cube.msh" "$data/cube.obj"

@@ -100,14 +100,17 @@ static void write_off(const char *path, const pf_surface *s)
 
 typedef enum { PLY_ASCII, PLY_LE, PLY_BE } ply_kind;
 
-/* A PLY with an extra vertex property and an extra element, which the reader reads past. */
+/* A PLY with an extra vertex property and an extra element, which the reader reads past, and a
+ * free-text header line as old Blender exporters wrote ("Created by Blender3D 247 ..."), which it
+ * skips as a comment. */
 static void write_ply(const char *path, const pf_surface *s, ply_kind kind)
 {
     static const char *FORMAT[] = {"ascii", "binary_little_endian", "binary_big_endian"};
     FILE *f = fopen(path, "wb");
     assert_non_null(f);
     fprintf(f,
-            "ply\nformat %s 1.0\ncomment reference sphere\nelement vertex %d\nproperty double x\n"
+            "ply\nformat %s 1.0\ncomment reference sphere\nCreated by hand, source file: \n"
+            "element vertex %d\nproperty double x\n"
             "property double y\nproperty uchar red\nproperty double z\nelement face %d\n"
             "property list uchar int vertex_indices\nelement note 2\nproperty list int short k\n"
             "property float w\nend_header\n",

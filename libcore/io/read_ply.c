@@ -189,10 +189,10 @@ static pf_status read_header(text_reader *r, ply_header *h, pf_error *err)
             PF_TRY(read_element(r, h, err));
         } else if (token_is(key, len, "property")) {
             PF_TRY(read_property(r, h->n_elements ? &h->elements[h->n_elements - 1] : NULL, err));
-        } else if (!token_is(key, len, "comment") && !token_is(key, len, "obj_info")) {
-            return TEXT_FAIL(r, err, PF_ERR_FORMAT, "unknown header line '%.*s'",
-                             (int)(len < 24 ? len : 24), key);
         }
+        /* Any other line ("comment", "obj_info", or free text such as old Blender exporters'
+         * "Created by Blender3D 247 ...") is skipped as a comment, as other readers do: the
+         * layout comes from the format, element and property lines alone. */
     }
     TEXT_CHECK(have_format, r, err, PF_ERR_FORMAT, "header without a format line");
     int roles = 0;

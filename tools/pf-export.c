@@ -459,5 +459,6 @@ int main(int argc, char **argv)
     pf_cli_close_input(in);
     if (s != PF_OK)
         pf_cli_fail(&cli, &err);
+    pf_cli_close_stdout(cli.tool); /* nothing written there, but every tool checks it alike */
     return PF_EXIT_OK;
 }

@@ -13,13 +13,17 @@
 
 static const char USAGE[] =
     "Usage: pf-export (--vtu DIR | --obj DIR | --ply DIR) [--frames A:B] [--quiet] [FILE | -]\n"
+    "                 [--ascii] [--tets]\n"
     "\n"
     "Exports the frames (FRAM chunks) of a pf stream (default: stdin) as they arrive.\n"
     "  --vtu DIR     DIR/mesh_NNNNN.vtu per frame, NNNNN being the frame's index: the frame's\n"
     "                MESH (a new MESH mid-stream changes the cells from its first frame on) at rest with point data 'displacement' and cell data 'kind' (0 tet, 1 hex,\n"
     "                2 polyhedron), 'volume' and, when a STRS chunk for the frame follows it,\n"
     "                'stress'; and DIR/mesh.pvd listing the files with their times (open it in\n"
-    "                ParaView, apply Warp By Vector to see the motion)\n"
+    "                ParaView, apply Warp By Vector to see the motion); binary, zlib-compressed\n"
+    "  --ascii       with --vtu: ASCII arrays instead (17 digits, 5 to 10 times larger)\n"
+    "  --tets        with --vtu: each element as its exact tetrahedral decomposition, so that\n"
+    "                ParaView's volumes and integrals are right for non-convex cells\n"
     "  --obj DIR     DIR/frame_NNNNN.obj per frame: the displaced surface (doubles, exact)\n"
     "  --ply DIR     DIR/frame_NNNNN.ply: the same as binary PLY (float32, compact)\n"
     "                The surface is the SURF chunk moved by its WGHT embedding when the stream\n"
@@ -35,7 +39,7 @@ static const char USAGE[] =
     "the frames before the damage are written (and listed in mesh.pvd), then the error; exit 1.\n"
     "Exit 2 on bad usage.\n";
 
-enum { OPT_VTU = 1, OPT_OBJ, OPT_PLY, OPT_FRAMES, OPT_QUIET };
+enum { OPT_VTU = 1, OPT_OBJ, OPT_PLY, OPT_FRAMES, OPT_QUIET, OPT_ASCII, OPT_TETS };
 
 typedef enum format { FORMAT_NONE, FORMAT_VTU, FORMAT_OBJ, FORMAT_PLY } format;
 
@@ -44,6 +48,7 @@ typedef struct options {
     const char *dir, *input;
     int64_t first, last; /* frame range, inclusive */
     bool quiet;
+    pf_vtu_params vtu;
 } options;
 
 /* ---- options --------------------------------------------------------------------------------- */
@@ -62,7 +67,8 @@ static void parse_options(pf_cli *cli, options *o)
 {
     static const pf_cli_option OPTIONS[] = {
         {"vtu", true, OPT_VTU},       {"obj", true, OPT_OBJ},      {"ply", true, OPT_PLY},
-        {"frames", true, OPT_FRAMES}, {"quiet", false, OPT_QUIET}, {NULL, false, 0}};
+        {"frames", true, OPT_FRAMES}, {"quiet", false, OPT_QUIET}, {"ascii", false, OPT_ASCII},
+        {"tets", false, OPT_TETS},    {NULL, false, 0}};
     *o = (options){.first = 0, .last = (int64_t)UINT32_MAX};
     const char *value;
     for (int id; (id = pf_cli_next(cli, OPTIONS, &value)) != PF_CLI_END;) {
@@ -72,6 +78,8 @@ static void parse_options(pf_cli *cli, options *o)
         case OPT_PLY: set_format(cli, o, FORMAT_PLY, value); break;
         case OPT_FRAMES: pf_cli_parse_frames(cli, value, &o->first, &o->last); break;
         case OPT_QUIET: o->quiet = true; break;
+        case OPT_ASCII: o->vtu.ascii = true; break;
+        case OPT_TETS: o->vtu.tets = true; break;
         default:
             if (o->input)
                 pf_cli_usage_error(cli, "one input only (got '%s' and '%s')", o->input, value);
@@ -80,6 +88,8 @@ static void parse_options(pf_cli *cli, options *o)
     }
     if (o->format == FORMAT_NONE)
         pf_cli_usage_error(cli, "say what to write: --vtu DIR, --obj DIR or --ply DIR");
+    if ((o->vtu.ascii || o->vtu.tets) && o->format != FORMAT_VTU)
+        pf_cli_usage_error(cli, "--ascii and --tets go with --vtu");
     if ((!o->input || strcmp(o->input, "-") == 0) && isatty(STDIN_FILENO))
         pf_cli_usage_error(cli, "refusing to read a binary pf stream from a terminal; give a FILE "
                                 "or pipe a stream in");
@@ -176,7 +186,7 @@ static pf_status write_vtu(exporter *x, uint32_t index, double time, const doubl
                            const pf_stress_data *stress, pf_error *err)
 {
     sprintf(x->path, "%s/mesh_%05u.vtu", x->o->dir, (unsigned)index);
-    PF_TRY(pf_export_vtu(x->path, &x->st.mesh, u, stress, err));
+    PF_TRY(pf_export_vtu_with(x->path, &x->st.mesh, u, stress, &x->o->vtu, err));
     PF_TRY(add_to_series(x, index, time, err));
     report(x, index);
     return PF_OK;

@@ -76,6 +76,8 @@ static pf_status push_point(pf_quadrature *q, pf_vec3 p, double w, int64_t *cap,
 }
 
 typedef struct rule {
+    bool tets;   /* collect the tetrahedra themselves (4 points each) instead of a rule */
+    double flat; /* with tets: |6 V| at or below this is a flat tet (a zero volume's rounding) */
     int n;
     double node[MAX_POINTS_1D], weight[MAX_POINTS_1D];
     pf_quadrature *out;
@@ -91,6 +93,14 @@ static pf_status add_tet(rule *r, pf_vec3 v0, pf_vec3 v1, pf_vec3 v2, pf_vec3 v3
     double six_v = pf_v3_dot(e1, pf_v3_cross(e2, e3)); /* signed: reversed tets subtract */
     if (six_v == 0)
         return PF_OK;
+    if (r->tets) {
+        if (fabs(six_v) <= r->flat)
+            return PF_OK;
+        const pf_vec3 v[4] = {v0, v1, v2, v3};
+        for (int i = 0; i < 4; ++i)
+            PF_TRY(push_point(r->out, v[i], six_v / 24, &r->cap, err));
+        return PF_OK;
+    }
     for (int i = 0; i < r->n; ++i)
         for (int j = 0; j < r->n; ++j)
             for (int k = 0; k < r->n; ++k) {
@@ -300,5 +310,29 @@ pf_status pf_polyhedron_quadrature(const pf_polyhedron *p, int32_t n_nodes, int 
     pf_arena_release(&r.scratch);
     if (st < 0)
         pf_quadrature_release(q);
+    return st;
+}
+
+pf_status pf_polyhedron_tetrahedra(const pf_polyhedron *p, int32_t n_nodes, double **tets,
+                                   int64_t *n_tets, pf_error *err)
+{
+    *tets = NULL;
+    *n_tets = 0;
+    PF_CHECK(p->n_faces > 0, err, PF_ERR_INVALID, "polyhedron without faces");
+    pf_quadrature q = {0};
+    pf_vec3 lo, hi;
+    pf_polyhedron_bounds(p, &lo, &hi);
+    double size = pf_v3_norm(pf_v3_sub(hi, lo));
+    /* a cone over a face with collinear nodes, or over a face through the apex, gives tets of
+     * zero volume whose computed 6 V is rounding, ~1e-16 size^3, of either sign */
+    rule r = {.tets = true, .flat = 1e-12 * size * size * size, .out = &q};
+    pf_status st = add_pieces(&r, p, n_nodes, 1e-10 * size, size, 0, err);
+    pf_arena_release(&r.scratch);
+    if (st >= 0) {
+        *tets = q.x;
+        *n_tets = q.n / 4;
+        q.x = NULL;
+    }
+    pf_quadrature_release(&q);
     return st;
 }

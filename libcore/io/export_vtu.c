@@ -6,11 +6,14 @@
  * count, then per face its node count and nodes. That layout is our element -> face -> node CSR
  * spelled out cell by cell, with every face walked outward (counter-clockwise seen from outside),
  * as VTK expects. */
+#include <pf/integrate.h>
 #include <pf/io.h>
 
 #include <math.h>
 #include <stdbool.h>
 #include <string.h>
+
+#include <zlib.h>
 
 #include "atomic_file.h"
 
@@ -86,6 +89,7 @@ typedef struct vtk_cells {
     int64_t n_faces;
     int64_t *faceoffsets; /* [n_elems] end of each polyhedron's stream in faces, -1 for others */
     bool any_poly;
+    const int32_t *element; /* [n cells] the element a cell comes from (tets), or NULL: itself */
     int32_t *seen;        /* [n_nodes] scratch: element that last listed the node, -1 */
 } vtk_cells;
 
@@ -222,126 +226,454 @@ static pf_status build_cells(const char *path, const pf_mesh *m, vtk_cells *c, p
     return PF_OK;
 }
 
-/* ---- writing --------------------------------------------------------------------------------- */
+/* ---- writing --------------------------------------------------------------------------------
+ * ASCII: every array inline, one row a line. Binary: each array's values, little-endian as in
+ * memory, zlib-compressed in blocks of VTU_BLOCK bytes (vtkZLibDataCompressor's layout: a UInt64
+ * header [blocks, block size, size of the last block or 0 when it is full, compressed size of
+ * every block], then the compressed blocks) and appended after the XML in one raw
+ * <AppendedData> section; the DataArray tag gives the array's offset into that section. */
 
-static void open_array(FILE *f, const char *type, const char *name, int components)
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "binary VTU output assumes a little-endian machine (byte_order=\"LittleEndian\")"
+#endif
+
+enum { VTU_BLOCK = 1 << 15 };
+
+typedef struct vtu_writer {
+    FILE *f;
+    bool ascii;
+    pf_buffer appended; /* binary: the <AppendedData> bytes so far */
+    pf_buffer block;    /* binary: one compressed block */
+    pf_status status;   /* first failure of a binary append (the caller stops there) */
+    pf_error *err;
+    const char *path;
+} vtu_writer;
+
+static void open_array(vtu_writer *w, const char *type, const char *name, int components)
 {
-    fprintf(f, "        <DataArray type=\"%s\" Name=\"%s\"", type, name);
+    fprintf(w->f, "        <DataArray type=\"%s\" Name=\"%s\"", type, name);
     if (components > 1)
-        fprintf(f, " NumberOfComponents=\"%d\"", components);
-    fputs(" format=\"ascii\">\n", f);
+        fprintf(w->f, " NumberOfComponents=\"%d\"", components);
+    if (w->ascii)
+        fputs(" format=\"ascii\">\n", w->f);
+    else
+        fprintf(w->f, " format=\"appended\" offset=\"%zu\"/>\n", w->appended.size);
 }
 
-static void close_array(FILE *f) { fputs("        </DataArray>\n", f); }
+static void close_array(vtu_writer *w)
+{
+    if (w->ascii)
+        fputs("        </DataArray>\n", w->f);
+}
+
+/* Appends bytes [n] as one compressed array to w->appended (binary mode). */
+static void append_compressed(vtu_writer *w, const void *bytes, size_t n)
+{
+    if (w->status < 0)
+        return;
+    uint64_t blocks = (n + VTU_BLOCK - 1) / VTU_BLOCK;
+    uint64_t head[3] = {blocks, VTU_BLOCK, n % VTU_BLOCK};
+    size_t head_at = w->appended.size;
+    pf_status s = pf_buffer_append(&w->appended, head, sizeof head, w->err);
+    for (uint64_t b = 0; s == PF_OK && b < blocks; ++b) /* room for the block sizes */
+        s = pf_buffer_append(&w->appended, &(uint64_t){0}, sizeof(uint64_t), w->err);
+    const unsigned char *src = bytes;
+    for (uint64_t b = 0; s == PF_OK && b < blocks; ++b) {
+        size_t len = b + 1 < blocks || n % VTU_BLOCK == 0 ? VTU_BLOCK : n % VTU_BLOCK;
+        uLongf out = compressBound((uLong)len);
+        s = pf_buffer_reserve(&w->block, out, w->err);
+        if (s == PF_OK && compress(w->block.data, &out, src + b * VTU_BLOCK, (uLong)len) != Z_OK)
+            s = pf_error_set(w->err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                             "%s: zlib cannot compress a block of %zu bytes", w->path, len);
+        if (s == PF_OK) {
+            uint64_t size = out;
+            memcpy(w->appended.data + head_at + sizeof head + b * sizeof size, &size, sizeof size);
+            s = pf_buffer_append(&w->appended, w->block.data, out, w->err);
+        }
+    }
+    w->status = s;
+}
 
 /* rows of `components` doubles, one row a line */
-static void write_doubles(FILE *f, const char *name, const double *v, int64_t rows,
+static void write_doubles(vtu_writer *w, const char *name, const double *v, int64_t rows,
                           int components)
 {
-    open_array(f, "Float64", name, components);
-    for (int64_t i = 0; i < rows; ++i) {
-        fputs("         ", f);
-        for (int c = 0; c < components; ++c)
-            fprintf(f, " %.17g", v[i * components + c]);
-        fputc('\n', f);
+    open_array(w, "Float64", name, components);
+    if (!w->ascii) {
+        append_compressed(w, v, (size_t)(rows * components) * sizeof *v);
+        return;
     }
-    close_array(f);
+    for (int64_t i = 0; i < rows; ++i) {
+        fputs("         ", w->f);
+        for (int c = 0; c < components; ++c)
+            fprintf(w->f, " %.17g", v[i * components + c]);
+        fputc('\n', w->f);
+    }
+    close_array(w);
 }
 
 /* v[ends[i-1] .. ends[i]) on line i; ends NULL: one value a line */
-static void write_int64s(FILE *f, const char *name, const int64_t *v, int64_t n,
+static void write_int64s(vtu_writer *w, const char *name, const int64_t *v, int64_t n,
                          const int64_t *ends, int64_t rows)
 {
-    open_array(f, "Int64", name, 1);
+    open_array(w, "Int64", name, 1);
+    if (!w->ascii) {
+        append_compressed(w, v, (size_t)n * sizeof *v);
+        return;
+    }
     int64_t start = 0;
     for (int64_t r = 0; r < (ends ? rows : n); ++r) {
         int64_t end = ends ? ends[r] : r + 1;
         if (end < 0) /* faceoffsets of a non-polyhedron: nothing in the stream */
             continue;
-        fputs("         ", f);
+        fputs("         ", w->f);
         for (int64_t i = start; i < end; ++i)
-            fprintf(f, " %lld", (long long)v[i]);
-        fputc('\n', f);
+            fprintf(w->f, " %lld", (long long)v[i]);
+        fputc('\n', w->f);
         start = end;
     }
-    close_array(f);
+    close_array(w);
 }
 
-static void write_cells(FILE *f, const pf_mesh *m, const vtk_cells *c)
+static void write_int32s(vtu_writer *w, const char *name, const int32_t *v, int64_t n)
 {
-    fputs("      <Cells>\n", f);
-    write_int64s(f, "connectivity", c->conn, c->n_conn, c->offsets, m->n_elems);
-    write_int64s(f, "offsets", c->offsets, m->n_elems, NULL, 0);
-    open_array(f, "UInt8", "types", 1);
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        fprintf(f, "          %u\n", (unsigned)c->types[e]);
-    close_array(f);
-    if (c->any_poly) {
-        write_int64s(f, "faces", c->faces, c->n_faces, c->faceoffsets, m->n_elems);
-        write_int64s(f, "faceoffsets", c->faceoffsets, m->n_elems, NULL, 0);
+    open_array(w, "Int32", name, 1);
+    if (!w->ascii) {
+        append_compressed(w, v, (size_t)n * sizeof *v);
+        return;
     }
-    fputs("      </Cells>\n", f);
+    for (int64_t i = 0; i < n; ++i)
+        fprintf(w->f, "          %d\n", (int)v[i]);
+    close_array(w);
 }
 
-static void write_cell_data(FILE *f, const pf_mesh *m, const vtk_cells *c,
-                            const pf_stress_data *stress)
+static void write_uint8s(vtu_writer *w, const char *name, const uint8_t *v, int64_t n)
 {
-    fputs("      <CellData Scalars=\"kind\">\n", f);
-    open_array(f, "Int32", "kind", 1);
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        fprintf(f, "          %d\n", (int)c->kind[e]);
-    close_array(f);
-    open_array(f, "Float64", "volume", 1);
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        fprintf(f, "          %.17g\n", pf_mesh_elem_volume(m, e));
-    close_array(f);
-    if (stress)
-        write_doubles(f, "stress", stress->values, m->n_elems, stress->components);
-    fputs("      </CellData>\n", f);
+    open_array(w, "UInt8", name, 1);
+    if (!w->ascii) {
+        append_compressed(w, v, (size_t)n);
+        return;
+    }
+    for (int64_t i = 0; i < n; ++i)
+        fprintf(w->f, "          %u\n", (unsigned)v[i]);
+    close_array(w);
 }
 
-static void write_vtu(FILE *f, const pf_mesh *m, const vtk_cells *c, const double *u,
+static void write_cells(vtu_writer *w, const vtk_cells *c, int32_t n_cells)
+{
+    fputs("      <Cells>\n", w->f);
+    write_int64s(w, "connectivity", c->conn, c->n_conn, c->offsets, n_cells);
+    write_int64s(w, "offsets", c->offsets, n_cells, NULL, 0);
+    write_uint8s(w, "types", c->types, n_cells);
+    if (c->any_poly) {
+        write_int64s(w, "faces", c->faces, c->n_faces, c->faceoffsets, n_cells);
+        write_int64s(w, "faceoffsets", c->faceoffsets, n_cells, NULL, 0);
+    }
+    fputs("      </Cells>\n", w->f);
+}
+
+static void write_cell_data(vtu_writer *w, const vtk_cells *c, int32_t n_cells,
+                            const double *volume, const pf_stress_data *stress)
+{
+    fputs("      <CellData Scalars=\"kind\">\n", w->f);
+    write_int32s(w, "kind", c->kind, n_cells);
+    if (c->element)
+        write_int32s(w, "element", c->element, n_cells);
+    write_doubles(w, "volume", volume, n_cells, 1);
+    if (stress)
+        write_doubles(w, "stress", stress->values, n_cells, stress->components);
+    fputs("      </CellData>\n", w->f);
+}
+
+static void write_vtu(vtu_writer *w, const vtk_cells *c, int32_t n_points, const double *x,
+                      int32_t n_cells, const double *u, const double *volume,
                       const pf_stress_data *stress)
 {
-    fputs("<?xml version=\"1.0\"?>\n"
-          "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-          "header_type=\"UInt64\">\n"
-          "  <UnstructuredGrid>\n",
-          f);
-    fprintf(f, "    <Piece NumberOfPoints=\"%d\" NumberOfCells=\"%d\">\n", (int)m->n_nodes,
-            (int)m->n_elems);
+    FILE *f = w->f;
+    fprintf(f,
+            "<?xml version=\"1.0\"?>\n"
+            "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+            "header_type=\"UInt64\"%s>\n"
+            "  <UnstructuredGrid>\n",
+            w->ascii ? "" : " compressor=\"vtkZLibDataCompressor\"");
+    fprintf(f, "    <Piece NumberOfPoints=\"%d\" NumberOfCells=\"%d\">\n", (int)n_points,
+            (int)n_cells);
     if (u) {
         fputs("      <PointData Vectors=\"displacement\">\n", f);
-        write_doubles(f, "displacement", u, m->n_nodes, 3);
+        write_doubles(w, "displacement", u, n_points, 3);
         fputs("      </PointData>\n", f);
     }
-    write_cell_data(f, m, c, stress);
+    write_cell_data(w, c, n_cells, volume, stress);
     fputs("      <Points>\n", f);
-    write_doubles(f, "Points", m->x, m->n_nodes, 3);
+    write_doubles(w, "Points", x, n_points, 3);
     fputs("      </Points>\n", f);
-    write_cells(f, m, c);
+    write_cells(w, c, n_cells);
     fputs("    </Piece>\n"
-          "  </UnstructuredGrid>\n"
-          "</VTKFile>\n",
+          "  </UnstructuredGrid>\n",
           f);
+    if (!w->ascii && w->status == PF_OK) {
+        fputs("  <AppendedData encoding=\"raw\">\n   _", f);
+        fwrite(w->appended.data, 1, w->appended.size, f);
+        fputs("\n  </AppendedData>\n", f);
+    }
+    fputs("</VTKFile>\n", f);
+}
+
+static pf_status write_file(const char *path, const vtk_cells *c, int32_t n_points,
+                            const double *x, int32_t n_cells, const double *u,
+                            const double *volume, const pf_stress_data *stress,
+                            const pf_vtu_params *p, pf_error *err)
+{
+    pf_atomic_file out = {0};
+    PF_TRY(pf_atomic_file_open(&out, path, err));
+    vtu_writer w = {.f = out.f, .ascii = p->ascii, .err = err, .path = path};
+    write_vtu(&w, c, n_points, x, n_cells, u, volume, stress);
+    pf_buffer_release(&w.appended);
+    pf_buffer_release(&w.block);
+    if (w.status < 0) {
+        pf_atomic_file_abort(&out);
+        return w.status;
+    }
+    return pf_atomic_file_commit(&out, "VTU file", err);
+}
+
+/* ---- the tetrahedral decomposition ------------------------------------------------------------
+ * VTK computes a polyhedron's volume (and integrates over it) as if it were convex; pf's cells
+ * need not be. With params->tets every element is written as the tetrahedra of
+ * pf_polyhedron_tetrahedra, whose volumes sum to the element's exactly up to rounding. A tet
+ * vertex that is an element node (same coordinates bit for bit) is that mesh point; the others
+ * (cone apexes, nodes of the cuts) are new points, one per element and position, whose
+ * displacement is the element's affine least-squares fit of its nodes' displacements
+ * u(x) = mean(u) + B (x - mean(x)), B^T = S^-1 sum_i (x_i - c)(u_i - mean u)^T with
+ * S = sum_i (x_i - c)(x_i - c)^T: exact when the element moves affinely, and not interpolating
+ * otherwise (the node values themselves are kept). */
+
+typedef struct tet_points {
+    pf_buffer x, u; /* new points' positions and displacements, 3 doubles each */
+    int32_t n;      /* all points: the mesh's, then the new ones */
+} tet_points;
+
+/* The cells being built, one buffer per array. */
+typedef struct tet_cells {
+    pf_buffer conn;                   /* int64 [4 n] point ids */
+    pf_buffer element, kind;          /* int32 [n] the element a tet comes from, and its kind */
+    pf_buffer volume, stress;         /* double [n], [components n] */
+    int64_t n;
+} tet_cells;
+
+static void tet_cells_release(tet_cells *t)
+{
+    pf_buffer_release(&t->conn);
+    pf_buffer_release(&t->element);
+    pf_buffer_release(&t->kind);
+    pf_buffer_release(&t->volume);
+    pf_buffer_release(&t->stress);
+}
+
+/* The affine fit's centre c, mean displacement and gradient B for element e's nodes. */
+static void affine_fit(const pf_mesh *m, const double *u, int32_t e, pf_vec3 *c, pf_vec3 *mean,
+                       pf_mat3 *b)
+{
+    const pf_vec3 zero = {0, 0, 0};
+    pf_vec3 sx = zero, su = zero;
+    int64_t count = 0;
+    for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+        for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j, ++count) {
+            sx = pf_v3_add(sx, pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]));
+            su = pf_v3_add(su, pf_v3_load(u + 3 * (size_t)m->face_nodes[j]));
+        }
+    }
+    *c = pf_v3_scale(sx, 1.0 / (double)count); /* nodes weighted by their face count: any */
+    *mean = pf_v3_scale(su, 1.0 / (double)count); /* weights give an exact affine fit */
+    pf_mat3 s = {{{0}}}, r = {{{0}}};
+    for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+        for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+            pf_vec3 d = pf_v3_sub(pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]), *c);
+            pf_vec3 du = pf_v3_sub(pf_v3_load(u + 3 * (size_t)m->face_nodes[j]), *mean);
+            for (int i = 0; i < 3; ++i)
+                for (int l = 0; l < 3; ++l) {
+                    s.m[i][l] += pf_v3_get(d, i) * pf_v3_get(d, l);
+                    r.m[i][l] += pf_v3_get(d, i) * pf_v3_get(du, l);
+                }
+        }
+    }
+    double det;
+    *b = pf_m3_transpose(pf_m3_mul(pf_m3_inverse(s, &det), r));
+}
+
+/* The point id of tet vertex v of element e: a node of e, or a new point. */
+static pf_status tet_vertex(const pf_mesh *m, const double *u, int32_t e, const double *v,
+                            int64_t first_new, tet_points *pts, int64_t *id, pf_error *err)
+{
+    for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+        for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+            const double *x = m->x + 3 * (size_t)m->face_nodes[j];
+            if (x[0] == v[0] && x[1] == v[1] && x[2] == v[2]) {
+                *id = m->face_nodes[j];
+                return PF_OK;
+            }
+        }
+    }
+    const double *xs = (const double *)pts->x.data;
+    for (int64_t i = first_new; i < pts->n - m->n_nodes; ++i)
+        if (xs[3 * i] == v[0] && xs[3 * i + 1] == v[1] && xs[3 * i + 2] == v[2]) {
+            *id = m->n_nodes + i;
+            return PF_OK;
+        }
+    PF_CHECK(pts->n < INT32_MAX, err, PF_ERR_TOO_LARGE, "too many points for one VTU file");
+    PF_TRY(pf_buffer_append(&pts->x, v, 3 * sizeof *v, err));
+    if (u) {
+        pf_vec3 c, mean;
+        pf_mat3 b;
+        affine_fit(m, u, e, &c, &mean, &b);
+        pf_vec3 d = pf_v3_add(mean, pf_m3_mulv(b, pf_v3_sub(pf_v3_load(v), c)));
+        double du[3] = {d.x, d.y, d.z};
+        PF_TRY(pf_buffer_append(&pts->u, du, sizeof du, err));
+    }
+    *id = pts->n++;
+    return PF_OK;
+}
+
+/* Appends element e's tetrahedra to c (cells), pts (new points), volume and stress rows. */
+static pf_status add_elem_tets(const pf_mesh *m, const double *u, const pf_stress_data *stress,
+                               int32_t e, pf_arena *scratch, tet_cells *c, tet_points *pts,
+                               pf_error *err)
+{
+    pf_polyhedron poly;
+    double *tets = NULL;
+    int64_t n_tets = 0, first_new = pts->n - m->n_nodes;
+    pf_arena_reset(scratch, 0);
+    PF_TRY(pf_mesh_elem_polyhedron(m, e, scratch, &poly, err));
+    PF_TRY(pf_polyhedron_tetrahedra(&poly, m->n_nodes, &tets, &n_tets, err));
+    pf_status s = PF_OK;
+    int32_t kind = (int32_t)(m->elem_kind ? (pf_elem_kind)m->elem_kind[e]
+                                          : pf_mesh_classify_elem(m, e));
+    for (int64_t t = 0; s == PF_OK && t < n_tets; ++t) {
+        const double *v = tets + 12 * t;
+        int64_t ids[4];
+        for (int i = 0; s == PF_OK && i < 4; ++i)
+            s = tet_vertex(m, u, e, v + 3 * i, first_new, pts, &ids[i], err);
+        pf_vec3 a = pf_v3_load(v);
+        double vol = pf_v3_dot(pf_v3_sub(pf_v3_load(v + 3), a),
+                               pf_v3_cross(pf_v3_sub(pf_v3_load(v + 6), a),
+                                           pf_v3_sub(pf_v3_load(v + 9), a))) / 6;
+        if (s == PF_OK)
+            s = pf_buffer_append(&c->conn, ids, sizeof ids, err);
+        if (s == PF_OK)
+            s = pf_buffer_append(&c->volume, &vol, sizeof vol, err);
+        if (s == PF_OK)
+            s = pf_buffer_append(&c->element, &e, sizeof e, err);
+        if (s == PF_OK)
+            s = pf_buffer_append(&c->kind, &kind, sizeof kind, err);
+        if (s == PF_OK && stress)
+            s = pf_buffer_append(&c->stress, stress->values + (size_t)e * stress->components,
+                                 (size_t)stress->components * sizeof(double), err);
+        c->n += s == PF_OK;
+    }
+    pf_free(tets);
+    return s;
+}
+
+/* Everything in one array: the mesh's points then the new ones (positions, displacements). */
+static pf_status join_points(const pf_mesh *m, const double *u, const tet_points *pts,
+                             double **x, double **ux, pf_error *err)
+{
+    size_t n_new = pts->x.size / sizeof(double), n_mesh = 3 * (size_t)m->n_nodes;
+    *x = pf_alloc_array(n_mesh + n_new + 1, sizeof **x);
+    *ux = u ? pf_alloc_array(n_mesh + n_new + 1, sizeof **ux) : NULL;
+    PF_CHECK(*x && (*ux || !u), err, PF_ERR_NOMEM, "out of memory for %zu points",
+             (n_mesh + n_new) / 3);
+    memcpy(*x, m->x, n_mesh * sizeof **x);
+    if (n_new)
+        memcpy(*x + n_mesh, pts->x.data, n_new * sizeof **x);
+    if (u) {
+        memcpy(*ux, u, n_mesh * sizeof **ux);
+        if (n_new)
+            memcpy(*ux + n_mesh, pts->u.data, n_new * sizeof **ux);
+    }
+    return PF_OK;
+}
+
+static pf_status export_tets(const char *path, const pf_mesh *m, const double *u,
+                             const pf_stress_data *stress, const pf_vtu_params *p, pf_error *err)
+{
+    tet_cells tc = {0};
+    tet_points pts = {.n = m->n_nodes};
+    pf_arena scratch = {0};
+    pf_status s = pf_arena_init(&scratch, 1 << 20, err);
+    for (int32_t e = 0; s == PF_OK && e < m->n_elems; ++e) {
+        s = add_elem_tets(m, u, stress, e, &scratch, &tc, &pts, err);
+        if (s < 0)
+            pf_error_prefix(err, "%s: element %d", path, (int)e);
+    }
+    PF_CHECK(s < 0 || tc.n < INT32_MAX, err, PF_ERR_TOO_LARGE, "%s: too many tetrahedra", path);
+    double *x = NULL, *ux = NULL;
+    vtk_cells c = {0};
+    if (s == PF_OK)
+        s = join_points(m, u, &pts, &x, &ux, err);
+    if (s == PF_OK && !(PF_ALLOC_N(c.offsets, tc.n) && PF_ALLOC_N(c.types, tc.n)))
+        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "%s: out of memory", path);
+    if (s == PF_OK) {
+        c.conn = (int64_t *)tc.conn.data;
+        c.n_conn = 4 * tc.n;
+        c.kind = (int32_t *)tc.kind.data;
+        c.element = (int32_t *)tc.element.data;
+        for (int64_t t = 0; t < tc.n; ++t) {
+            c.offsets[t] = 4 * (t + 1);
+            c.types[t] = VTK_TETRA;
+        }
+        pf_stress_data ts = {.n_elems = (int32_t)tc.n,
+                             .components = stress ? stress->components : 1,
+                             .values = (double *)tc.stress.data};
+        s = write_file(path, &c, pts.n, x, (int32_t)tc.n, ux, (const double *)tc.volume.data,
+                       stress ? &ts : NULL, p, err);
+    }
+    pf_free(c.offsets);
+    pf_free(c.types);
+    pf_free(x);
+    pf_free(ux);
+    pf_buffer_release(&pts.x);
+    pf_buffer_release(&pts.u);
+    tet_cells_release(&tc);
+    pf_arena_release(&scratch);
+    return s;
+}
+
+pf_vtu_params pf_vtu_params_default(void)
+{
+    return (pf_vtu_params){.ascii = false, .tets = false};
+}
+
+pf_status pf_export_vtu_with(const char *path, const pf_mesh *m, const double *u,
+                             const pf_stress_data *stress, const pf_vtu_params *params,
+                             pf_error *err)
+{
+    pf_vtu_params p = params ? *params : pf_vtu_params_default();
+    PF_TRY(check_mesh(path, m, err));
+    PF_TRY(check_fields(path, m, u, stress, err));
+    if (p.tets)
+        return export_tets(path, m, u, stress, &p, err);
+    vtk_cells c = {0};
+    double *volume = NULL;
+    pf_status s = build_cells(path, m, &c, err);
+    if (s == PF_OK && !PF_ALLOC_N(volume, m->n_elems))
+        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "%s: out of memory", path);
+    for (int32_t e = 0; s == PF_OK && e < m->n_elems; ++e)
+        volume[e] = pf_mesh_elem_volume(m, e);
+    if (s == PF_OK)
+        s = write_file(path, &c, m->n_nodes, m->x, m->n_elems, u, volume, stress, &p, err);
+    pf_free(volume);
+    cells_release(&c);
+    return s;
 }
 
 pf_status pf_export_vtu(const char *path, const pf_mesh *m, const double *u,
                         const pf_stress_data *stress, pf_error *err)
 {
-    PF_TRY(check_mesh(path, m, err));
-    PF_TRY(check_fields(path, m, u, stress, err));
-    vtk_cells c = {0};
-    pf_status s = build_cells(path, m, &c, err);
-    pf_atomic_file out = {0};
-    if (s == PF_OK)
-        s = pf_atomic_file_open(&out, path, err);
-    if (s == PF_OK) {
-        write_vtu(out.f, m, &c, u, stress);
-        s = pf_atomic_file_commit(&out, "VTU file", err);
-    }
-    cells_release(&c);
-    return s;
+    return pf_export_vtu_with(path, m, u, stress, NULL, err);
 }
 
 /* ---- .pvd ------------------------------------------------------------------------------------ */

@@ -97,6 +97,17 @@ void pf_quadrature_release(pf_quadrature *q);
 pf_status pf_polyhedron_quadrature(const pf_polyhedron *p, int32_t n_nodes, int degree,
                                    pf_quadrature *q, pf_error *err);
 
+/* The tetrahedra pf_polyhedron_quadrature integrates over: the same cones of p (convex, star-shaped
+ * or cut into such pieces by its reflex face planes), a decomposition whose volumes sum to p's
+ * (pf_polyhedron_volume) up to rounding. On success *tets [12 *n_tets] is allocated with pf_alloc
+ * (the caller frees it): tetrahedron t has vertices tets[12 t ..], each vertex either a node of p
+ * (coordinates copied bit for bit) or a new point inside p or on its boundary, ordered so that
+ * det[v1 - v0, v2 - v0, v3 - v0] > 0 (VTK_TETRA's order). Flat ones (|det| at most 1e-12 d^3, d
+ * the diagonal of p's bounding box: a zero volume's rounding) are left out. Statuses as
+ * pf_polyhedron_quadrature. */
+pf_status pf_polyhedron_tetrahedra(const pf_polyhedron *p, int32_t n_nodes, double **tets,
+                                   int64_t *n_tets, pf_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -335,13 +335,35 @@ pf_status pf_import_surface_ex(const char *path, pf_surface *s, pf_surface_impor
  * element a VTK_POLYHEDRON cell (tets as VTK_TETRA and hexes as VTK_HEXAHEDRON where the face
  * structure allows it); points at rest; point data "displacement" when u is given ([3 n_nodes]);
  * cell data "kind" (0 tet, 1 hex, 2 polyhedron) and "volume", plus "stress" (von Mises, or 6
- * components xx yy zz xy yz zx) when stress is given. Numbers printed with %.17g: round-trips.
+ * components xx yy zz xy yz zx) when stress is given. Binary (zlib-compressed, appended), as
+ * pf_export_vtu_with with the default pf_vtu_params; ASCII numbers are printed with %.17g.
  * Polyhedron faces are written outward. Statuses: PF_ERR_INVALID (naming path and entity) for an
  * index out of range, a non-finite position, displacement or stress, or a stress whose element
  * count or components (1 or 6) do not fit; PF_ERR_IO "path: ...: reason" (no .part left);
  * PF_ERR_NOMEM. */
 pf_status pf_export_vtu(const char *path, const pf_mesh *m, const double *u,
                         const pf_stress_data *stress, pf_error *err);
+
+/* How pf_export_vtu_with writes. Zero values are the defaults (pf_vtu_params_default). */
+typedef struct pf_vtu_params {
+    /* false (default): binary, every array zlib-compressed (vtkZLibDataCompressor, UInt64
+     * headers) in one raw <AppendedData> section after the XML; true: ASCII, inline, %.17g. */
+    bool ascii;
+    /* Every element as the tetrahedra of pf_polyhedron_tetrahedra (VTK_TETRA cells) instead of one
+     * cell: VTK assumes polyhedron cells are convex, so its volumes and integrals over pf's
+     * non-convex cells are wrong; the tetrahedra's are exact. Adds cell data "element" (the
+     * element a tet comes from); "kind" and "stress" are the element's, "volume" the tet's. New
+     * points (cone apexes, cut nodes) get the element's affine least-squares fit of its nodes'
+     * displacements. */
+    bool tets;
+} pf_vtu_params;
+pf_vtu_params pf_vtu_params_default(void);
+
+/* pf_export_vtu with params (NULL: the defaults). Statuses as pf_export_vtu, plus those of
+ * pf_polyhedron_tetrahedra (prefixed with the path and element) with tets. */
+pf_status pf_export_vtu_with(const char *path, const pf_mesh *m, const double *u,
+                             const pf_stress_data *stress, const pf_vtu_params *params,
+                             pf_error *err);
 
 /* A ParaView .pvd collection naming n files (relative to the .pvd's directory, XML-escaped) with
  * their times. PF_ERR_INVALID for a missing name or a non-finite time; PF_ERR_IO as above. */

@@ -527,6 +527,92 @@ static void test_vtu_tets(void **state)
     teardown_check();
 }
 
+/* The samples of attribute decl in a .usda text: count, and the tuple or value count of each. */
+static int usd_samples(const char *text, const char *decl, int counts[8], double codes[8])
+{
+    char key[96];
+    snprintf(key, sizeof key, "%s.timeSamples = {\n", decl);
+    const char *p = strstr(text, key);
+    if (!p)
+        return 0;
+    p += strlen(key);
+    const char *end = strstr(p, "        }\n");
+    int n = 0;
+    while (p < end && n < 8) {
+        char *colon;
+        codes[n] = strtod(p, &colon);
+        const char *open = strchr(colon, '['), *close = strchr(open, ']');
+        int items = 0;
+        bool tuples = open[1] == '(';
+        for (const char *q = open + 1; q < close; ++q)
+            items += tuples ? *q == '(' : *q == ',';
+        counts[n++] = tuples ? items : (close > open + 1 ? items + 1 : 0);
+        p = close + 3; /* "],\n" */
+    }
+    return n;
+}
+
+static void test_usd(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 4, 8, &err), PF_OK);
+    tmpdir t;
+    tmp_open(&t);
+    pf_usd_writer *w = NULL;
+    assert_int_equal(pf_usd_writer_create(&w, tmp_file(&t, "a.usda"), &err), PF_OK);
+    assert_int_equal(pf_usd_writer_finish(w, &err), PF_ERR_INVALID); /* nothing to write */
+    double *x = pf_alloc_array(3 * (size_t)s.n_verts, sizeof *x);
+    double *stress = pf_alloc_array((size_t)s.n_tris, sizeof *stress);
+    for (int32_t i = 0; i < s.n_tris; ++i)
+        stress[i] = i;
+    for (int k = 0; k < 3; ++k) { /* frames 10, 11, 12 at 0.5 s apart: 2 time codes a second */
+        for (int32_t i = 0; i < 3 * s.n_verts; ++i)
+            x[i] = s.x[i] * (1 + 0.1 * k);
+        if (k == 2)
+            s.n_tris -= 2; /* the topology changes at the last frame */
+        assert_int_equal(pf_usd_writer_add(w, 10 + k, 0.5 * k, &s, x, stress, &err), PF_OK);
+    }
+    assert_int_equal(pf_usd_writer_add(w, 12, 2, &s, x, NULL, &err), PF_ERR_INVALID);
+    assert_int_equal(pf_usd_writer_finish(w, &err), PF_OK);
+    pf_usd_writer_destroy(&w);
+    assert_null(w);
+    char *text = slurp(t.path, NULL);
+    assert_true(strncmp(text, "#usda 1.0\n", 10) == 0);
+    assert_non_null(strstr(text, "timeCodesPerSecond = 2\n"));
+    assert_non_null(strstr(text, "startTimeCode = 10\n"));
+    assert_non_null(strstr(text, "endTimeCode = 12\n"));
+    int counts[8];
+    double codes[8];
+    assert_int_equal(usd_samples(text, "point3f[] points", counts, codes), 3);
+    for (int k = 0; k < 3; ++k)
+        assert_true(counts[k] == s.n_verts && codes[k] == 10 + k);
+    assert_int_equal(usd_samples(text, "normal3f[] normals", counts, codes), 3);
+    assert_true(counts[2] == s.n_verts);
+    assert_int_equal(usd_samples(text, "int[] faceVertexCounts", counts, codes), 2);
+    assert_true(counts[0] == s.n_tris + 2 && counts[1] == s.n_tris && codes[1] == 12);
+    assert_int_equal(usd_samples(text, "int[] faceVertexIndices", counts, codes), 2);
+    assert_true(counts[0] == 3 * (s.n_tris + 2) && counts[1] == 3 * s.n_tris);
+    assert_int_equal(usd_samples(text, "float[] primvars:stress", counts, codes), 3);
+    assert_true(counts[0] == s.n_tris + 2 && counts[2] == s.n_tris);
+    assert_non_null(strstr(text, "normal3f[] normals (\n            interpolation = \"vertex\""));
+    /* on a sphere, vertex 0's normal is close to its direction from the centre (outward) */
+    const char *n0 = strstr(strstr(text, "normals.timeSamples"), "10: [(") + 6;
+    double nx = strtod(n0, (char **)&n0), ny = strtod(n0 + 1, (char **)&n0);
+    double nz = strtod(n0 + 1, NULL);
+    pf_vec3 radial = pf_v3_normalize(pf_v3_load(s.x));
+    assert_true(fabs(nx * nx + ny * ny + nz * nz - 1) < 1e-6);
+    assert_true(pf_v3_dot(pf_v3(nx, ny, nz), radial) > 0.9);
+    free(text);
+    static const char *const names[] = {"a.usda", NULL};
+    tmp_close(&t, names);
+    pf_free(x);
+    pf_free(stress);
+    pf_surface_release(&s);
+    teardown_check();
+}
+
 static void test_vtu_invalid(void **state)
 {
     (void)state;
@@ -896,6 +982,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_vtu_polyhedron_and_tet),
         cmocka_unit_test(test_vtu_binary_equals_ascii),
         cmocka_unit_test(test_vtu_tets),
+        cmocka_unit_test(test_usd),
         cmocka_unit_test(test_vtu_invalid),
         cmocka_unit_test(test_pvd),
         cmocka_unit_test(test_obj_round_trip),

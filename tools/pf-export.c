@@ -12,7 +12,8 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-export (--vtu DIR | --obj DIR | --ply DIR) [--frames A:B] [--quiet] [FILE | -]\n"
+    "Usage: pf-export (--vtu DIR | --obj DIR | --ply DIR | --usd FILE) [--frames A:B] [--quiet]\n"
+    "                 [FILE | -]\n"
     "                 [--ascii] [--tets]\n"
     "\n"
     "Exports the frames (FRAM chunks) of a pf stream (default: stdin) as they arrive.\n"
@@ -26,6 +27,8 @@ static const char USAGE[] =
     "                ParaView's volumes and integrals are right for non-convex cells\n"
     "  --obj DIR     DIR/frame_NNNNN.obj per frame: the displaced surface (doubles, exact)\n"
     "  --ply DIR     DIR/frame_NNNNN.ply: the same as binary PLY (float32, compact)\n"
+    "  --usd FILE    one text USD stage (.usda) of the same surface: points and normals as time\n"
+    "                samples (time code = frame index), topology again where it changes\n"
     "                The surface is the SURF chunk moved by its WGHT embedding when the stream\n"
     "                has both, else the boundary of the MESH (its referenced nodes only) moved by\n"
     "                the frame's displacements.\n"
@@ -39,9 +42,9 @@ static const char USAGE[] =
     "the frames before the damage are written (and listed in mesh.pvd), then the error; exit 1.\n"
     "Exit 2 on bad usage.\n";
 
-enum { OPT_VTU = 1, OPT_OBJ, OPT_PLY, OPT_FRAMES, OPT_QUIET, OPT_ASCII, OPT_TETS };
+enum { OPT_VTU = 1, OPT_OBJ, OPT_PLY, OPT_USD, OPT_FRAMES, OPT_QUIET, OPT_ASCII, OPT_TETS };
 
-typedef enum format { FORMAT_NONE, FORMAT_VTU, FORMAT_OBJ, FORMAT_PLY } format;
+typedef enum format { FORMAT_NONE, FORMAT_VTU, FORMAT_OBJ, FORMAT_PLY, FORMAT_USD } format;
 
 typedef struct options {
     format format;
@@ -56,7 +59,7 @@ typedef struct options {
 static void set_format(const pf_cli *cli, options *o, format f, const char *dir)
 {
     if (o->format != FORMAT_NONE)
-        pf_cli_usage_error(cli, "one of --vtu, --obj and --ply only");
+        pf_cli_usage_error(cli, "one of --vtu, --obj, --ply and --usd only");
     if (!dir[0])
         pf_cli_usage_error(cli, "the output directory is empty");
     o->format = f;
@@ -68,7 +71,7 @@ static void parse_options(pf_cli *cli, options *o)
     static const pf_cli_option OPTIONS[] = {
         {"vtu", true, OPT_VTU},       {"obj", true, OPT_OBJ},      {"ply", true, OPT_PLY},
         {"frames", true, OPT_FRAMES}, {"quiet", false, OPT_QUIET}, {"ascii", false, OPT_ASCII},
-        {"tets", false, OPT_TETS},    {NULL, false, 0}};
+        {"tets", false, OPT_TETS},    {"usd", true, OPT_USD},      {NULL, false, 0}};
     *o = (options){.first = 0, .last = (int64_t)UINT32_MAX};
     const char *value;
     for (int id; (id = pf_cli_next(cli, OPTIONS, &value)) != PF_CLI_END;) {
@@ -76,6 +79,7 @@ static void parse_options(pf_cli *cli, options *o)
         case OPT_VTU: set_format(cli, o, FORMAT_VTU, value); break;
         case OPT_OBJ: set_format(cli, o, FORMAT_OBJ, value); break;
         case OPT_PLY: set_format(cli, o, FORMAT_PLY, value); break;
+        case OPT_USD: set_format(cli, o, FORMAT_USD, value); break;
         case OPT_FRAMES: pf_cli_parse_frames(cli, value, &o->first, &o->last); break;
         case OPT_QUIET: o->quiet = true; break;
         case OPT_ASCII: o->vtu.ascii = true; break;
@@ -87,7 +91,7 @@ static void parse_options(pf_cli *cli, options *o)
         }
     }
     if (o->format == FORMAT_NONE)
-        pf_cli_usage_error(cli, "say what to write: --vtu DIR, --obj DIR or --ply DIR");
+        pf_cli_usage_error(cli, "say what to write: --vtu DIR, --obj DIR, --ply DIR or --usd FILE");
     if ((o->vtu.ascii || o->vtu.tets) && o->format != FORMAT_VTU)
         pf_cli_usage_error(cli, "--ascii and --tets go with --vtu");
     if ((!o->input || strcmp(o->input, "-") == 0) && isatty(STDIN_FILENO))
@@ -117,6 +121,8 @@ typedef struct exporter {
     double *series_time;
     int64_t n_series, cap_series;
     char *path; /* scratch for file names */
+    pf_usd_writer *usd; /* --usd: the stage, written at the end */
+    double time;        /* the time of the frame being written */
     int64_t written;
     bool progress;
 } exporter;
@@ -124,6 +130,7 @@ typedef struct exporter {
 static void exporter_release(exporter *x)
 {
     pf_stream_state_release(&x->st);
+    pf_usd_writer_destroy(&x->usd);
     pf_surface_release(&x->boundary);
     pf_free(x->surface_x);
     pf_free(x->boundary_node);
@@ -319,6 +326,11 @@ static pf_status write_surface(exporter *x, uint32_t index, const double *u, pf_
     const pf_surface *s;
     const double *pos;
     PF_TRY(frame_surface(x, u, &s, &pos, err));
+    if (x->usd) {
+        PF_TRY(pf_usd_writer_add(x->usd, index, x->time, s, pos, NULL, err));
+        report(x, index);
+        return PF_OK;
+    }
     bool obj = x->o->format == FORMAT_OBJ;
     sprintf(x->path, "%s/frame_%05u.%s", x->o->dir, (unsigned)index, obj ? "obj" : "ply");
     PF_TRY(obj ? pf_export_obj(x->path, s, pos, err) : pf_export_ply(x->path, s, pos, err));
@@ -342,6 +354,7 @@ static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
         x->have_pending = true;
         return PF_OK;
     }
+    x->time = f.time;
     pf_status s = write_surface(x, f.index, f.u, err);
     pf_frame_data_release(&f);
     return s;
@@ -399,6 +412,11 @@ static pf_status export_stream(exporter *x, FILE *f, pf_error *err)
         s = fs;
     if (s == PF_OK && frames == 0 && in_range(x->o, 0))
         s = write_rest(x, err);
+    if (x->usd && x->written) {
+        pf_status us = pf_usd_writer_finish(x->usd, s == PF_OK ? err : &later);
+        if (s == PF_OK)
+            s = us;
+    }
     if (x->o->format == FORMAT_VTU) {
         pf_status ps = write_pvd(x, s == PF_OK ? err : &later);
         if (s == PF_OK)
@@ -437,7 +455,12 @@ static pf_status make_dirs(const char *dir, pf_error *err)
 
 static void summary(const exporter *x)
 {
-    static const char *const WHAT[] = {"", "VTU", "OBJ", "PLY"};
+    static const char *const WHAT[] = {"", "VTU", "OBJ", "PLY", "USD"};
+    if (x->usd) {
+        fprintf(stderr, "%s: %lld frame%s written to %s\n", x->cli->tool, (long long)x->written,
+                x->written == 1 ? "" : "s", x->o->dir);
+        return;
+    }
     fprintf(stderr, "%s: %lld %s file%s written to %s%s\n", x->cli->tool, (long long)x->written,
             WHAT[x->o->format], x->written == 1 ? "" : "s", x->o->dir,
             x->o->format == FORMAT_VTU && x->n_series ? ", listed in mesh.pvd" : "");
@@ -455,7 +478,8 @@ int main(int argc, char **argv)
     if (pf_cli_open_input(o.input, &in, &name, &err) != PF_OK)
         pf_cli_fail(&cli, &err);
     exporter x = {.o = &o, .cli = &cli, .name = name, .progress = pf_cli_show_progress(o.quiet)};
-    pf_status s = make_dirs(o.dir, &err);
+    pf_status s = o.format == FORMAT_USD ? pf_usd_writer_create(&x.usd, o.dir, &err)
+                                         : make_dirs(o.dir, &err);
     if (s == PF_OK) {
         x.path = pf_alloc(strlen(o.dir) + 32);
         s = x.path ? export_stream(&x, in, &err)

@@ -163,3 +163,26 @@ pf_status pf_surface_compute_stats(const pf_surface *s, pf_surface_stats *out, p
     out->manifold = out->n_nonmanifold_edges == 0 && out->n_flipped_edges == 0 && bad_vertices == 0;
     return PF_OK;
 }
+
+void pf_surface_vertex_normals(const pf_surface *s, const double *x, double *normals)
+{
+    /* Each triangle adds its area vector (a - c) x (b - c) / 2 to its three vertices: the
+     * area-weighted average normal, the usual choice for smooth shading of a triangle mesh. */
+    if (!x)
+        x = s->x;
+    memset(normals, 0, 3 * (size_t)s->n_verts * sizeof *normals);
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        const uint32_t *v = s->tri + 3 * (size_t)t;
+        pf_vec3 a = pf_v3_load(x + 3 * (size_t)v[0]), b = pf_v3_load(x + 3 * (size_t)v[1]);
+        pf_vec3 c = pf_v3_load(x + 3 * (size_t)v[2]);
+        pf_vec3 n = pf_v3_cross(pf_v3_sub(b, a), pf_v3_sub(c, a));
+        for (int k = 0; k < 3; ++k) {
+            double *o = normals + 3 * (size_t)v[k];
+            o[0] += n.x, o[1] += n.y, o[2] += n.z;
+        }
+    }
+    for (int32_t i = 0; i < s->n_verts; ++i) {
+        pf_vec3 n = pf_v3_normalize(pf_v3_load(normals + 3 * (size_t)i));
+        normals[3 * i] = n.x, normals[3 * i + 1] = n.y, normals[3 * i + 2] = n.z;
+    }
+}

@@ -80,6 +80,15 @@ expect 0 "" "$bin/pf-export" --quiet --ply "$tmp/ply" "$tmp/frames.pfs"
 check "PLY: three frames" test "$(ls "$tmp/ply" | wc -l)" = 3
 check "PLY: binary header" grep -aq '^format binary_little_endian 1.0$' "$tmp/ply/frame_00001.ply"
 
+# USD: one stage, a points sample per frame (3 vertices each), topology sampled once
+expect 0 "3 frames written" "$bin/pf-export" --usd "$tmp/anim.usda" "$tmp/frames.pfs"
+check "USD: header" test "$(head -1 "$tmp/anim.usda")" = "#usda 1.0"
+check "USD: three points samples of 3 points" test "$(sed -n '/points.timeSamples/,/^        }/p' "$tmp/anim.usda" | grep -c '^ *[0-9]*: \[(.*), (.*), (.*)\],$')" = 3
+check "USD: three normals samples" test "$(sed -n '/normals.timeSamples/,/^        }/p' "$tmp/anim.usda" | grep -c '^ *[0-9]*: \[')" = 3
+check "USD: one topology sample" test "$(sed -n '/faceVertexIndices.timeSamples/,/^        }/p' "$tmp/anim.usda" | grep -c '^ *0: \[0, 1, 2\],$')" = 1
+check "USD: frame 2 sagged" grep -q '^ *2: \[(0, 0, 0), (2, 0, -0.0399999991), (2, 1, 0.959999979)\],$' "$tmp/anim.usda"
+expect 2 "one of --vtu" "$bin/pf-export" --usd a.usda --obj b "$tmp/box.pfs"
+
 # damaged streams: the frames before the damage stay (and are listed), exit 1 naming the chunk
 size=$(stat -c %s "$tmp/frames.pfs")
 head -c $((size - 200)) "$tmp/frames.pfs" >"$tmp/cut.pfs"

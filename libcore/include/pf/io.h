@@ -377,6 +377,26 @@ pf_status pf_export_pvd(const char *path, const char *const *files, const double
 pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err);
 pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, pf_error *err);
 
+/* ---- USD ------------------------------------------------------------------------------------
+ * One text USD stage (.usda) of an animated triangle surface: a Mesh prim "/pf/surface" (up axis
+ * Z) whose points and vertex normals are time samples, the time code being the frame index and
+ * timeCodesPerSecond derived from the frames' times (24 for a single frame); faceVertexCounts /
+ * faceVertexIndices sampled at the first frame and again whenever the triangles change; an
+ * optional per-triangle primvar "stress" (interpolation uniform). Values as float32 (%.9g). */
+typedef struct pf_usd_writer pf_usd_writer;
+
+/* path is copied; nothing is written before pf_usd_writer_finish. PF_ERR_NOMEM. */
+pf_status pf_usd_writer_create(pf_usd_writer **w, const char *path, pf_error *err);
+/* A sample at time code `code` (greater than the last one) and time seconds: the triangles of s
+ * at positions x [3 n_verts] (NULL: s->x), stress [n_tris] or NULL. Kept in memory (as text).
+ * PF_ERR_INVALID for a decreasing code, an index out of range, a position that is not a finite
+ * float or a non-finite stress; PF_ERR_NOMEM. */
+pf_status pf_usd_writer_add(pf_usd_writer *w, double code, double time, const pf_surface *s,
+                            const double *x, const double *stress, pf_error *err);
+/* Writes the stage (temp file + rename). PF_ERR_INVALID without samples; PF_ERR_IO. */
+pf_status pf_usd_writer_finish(pf_usd_writer *w, pf_error *err);
+void pf_usd_writer_destroy(pf_usd_writer **w);
+
 /* ==== PNG ======================================================================================
  * 8-bit RGB and RGBA images as PNG files. The writer is deterministic: no time stamp (tIME) or text
  * chunks, the sRGB chunk, zlib level 6 with the default strategy, window and memory level, and the

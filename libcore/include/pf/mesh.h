@@ -205,6 +205,12 @@ pf_status pf_surface_parts_overlap(const pf_surface *s, bool *overlap, pf_error 
 pf_status pf_surface_fix(pf_surface *s, const pf_surface_fix_params *params,
                          pf_surface_fix_report *report, pf_error *err);
 
+/* Unit vertex normals normals [3 n_verts] of s at positions x [3 n_verts] (NULL: s->x): the
+ * area-weighted average of the normals of the triangles around each vertex (outward for an
+ * outward surface); the zero vector for a vertex no triangle with area uses. Indices must be in
+ * range (pf_surface_compute_stats checks them). */
+void pf_surface_vertex_normals(const pf_surface *s, const double *x, double *normals);
+
 /* ---- generated models (tests, benchmarks, the demo) -------------------------------------------- */
 
 /* Hex grid of nx * ny * nz cells filling the box [lo, hi]; nodes numbered x fastest, then y,

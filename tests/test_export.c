@@ -691,9 +691,20 @@ static void test_obj_round_trip(void **state)
     tmp_open(&t);
     assert_int_equal(pf_export_obj(tmp_file(&t, "t.obj"), &s, x, &err), PF_OK);
     char *text = slurp(t.path, NULL);
-    int32_t nv = 0, nt = 0;
+    int32_t nv = 0, nt = 0, nn = 0;
+    double *normals = pf_alloc_array(3 * (size_t)s.n_verts, sizeof *normals);
+    pf_surface_vertex_normals(&s, x, normals);
     for (char *line = strtok(text, "\n"); line; line = strtok(NULL, "\n")) {
-        if (line[0] == 'v') {
+        if (line[0] == 'v' && line[1] == 'n') {
+            double n[3];
+            assert_int_equal(sscanf(line, "vn %lf %lf %lf", &n[0], &n[1], &n[2]), 3);
+            assert_true(nn < s.n_verts);
+            /* 9 significant digits of a unit vector: within 5e-9 */
+            for (int c = 0; c < 3; ++c)
+                assert_true(fabs(n[c] - normals[3 * nn + c]) <= 5e-9);
+            assert_true(fabs(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1) <= 2e-8);
+            ++nn;
+        } else if (line[0] == 'v') {
             double p[3];
             assert_int_equal(sscanf(line, "v %lf %lf %lf", &p[0], &p[1], &p[2]), 3);
             assert_true(nv < s.n_verts);
@@ -701,8 +712,10 @@ static void test_obj_round_trip(void **state)
                 assert_true(p[c] == x[3 * nv + c]);
             ++nv;
         } else if (line[0] == 'f') {
-            unsigned long a, b, c;
-            assert_int_equal(sscanf(line, "f %lu %lu %lu", &a, &b, &c), 3);
+            unsigned long a, b, c, na, nb, nc;
+            assert_int_equal(sscanf(line, "f %lu//%lu %lu//%lu %lu//%lu", &a, &na, &b, &nb, &c,
+                                    &nc), 6);
+            assert_true(a == na && b == nb && c == nc);
             assert_true(nt < s.n_tris);
             assert_true(a == s.tri[3 * nt] + 1ul && b == s.tri[3 * nt + 1] + 1ul &&
                         c == s.tri[3 * nt + 2] + 1ul);
@@ -712,7 +725,9 @@ static void test_obj_round_trip(void **state)
         }
     }
     assert_int_equal(nv, s.n_verts);
+    assert_int_equal(nn, s.n_verts);
     assert_int_equal(nt, s.n_tris);
+    pf_free(normals);
     free(text);
     /* NULL positions: the surface's own */
     assert_int_equal(pf_export_obj(tmp_file(&t, "rest.obj"), &s, NULL, &err), PF_OK);
@@ -751,19 +766,25 @@ static void test_ply_round_trip(void **state)
     char header[512];
     snprintf(header, sizeof header,
              "ply\nformat binary_little_endian 1.0\ncomment pf surface\nelement vertex %d\n"
-             "property float x\nproperty float y\nproperty float z\nelement face %d\n"
+             "property float x\nproperty float y\nproperty float z\nproperty float nx\n"
+             "property float ny\nproperty float nz\nelement face %d\n"
              "property list uchar uint vertex_indices\nend_header\n",
              (int)s.n_verts, (int)s.n_tris);
     size_t h = strlen(header);
-    assert_int_equal(size, h + 12 * (size_t)s.n_verts + 13 * (size_t)s.n_tris);
+    assert_int_equal(size, h + 24 * (size_t)s.n_verts + 13 * (size_t)s.n_tris);
     assert_memory_equal(bytes, header, h);
     const unsigned char *p = (const unsigned char *)bytes + h;
-    for (int32_t i = 0; i < 3 * s.n_verts; ++i, p += 4) {
+    double *normals = pf_alloc_array(3 * (size_t)s.n_verts, sizeof *normals);
+    pf_surface_vertex_normals(&s, x, normals);
+    for (int32_t i = 0; i < 6 * s.n_verts; ++i, p += 4) {
         uint32_t bits = get_u32(p);
         float v;
         memcpy(&v, &bits, sizeof v);
-        assert_true(v == (float)x[i]); /* float-exact: the nearest float32 */
+        int32_t vert = i / 6, c = i % 6;
+        /* float-exact: the nearest float32 of the position, then of the normal */
+        assert_true(v == (float)(c < 3 ? x[3 * vert + c] : normals[3 * vert + c - 3]));
     }
+    pf_free(normals);
     for (int32_t k = 0; k < s.n_tris; ++k, p += 13) {
         assert_int_equal(p[0], 3);
         for (int c = 0; c < 3; ++c)

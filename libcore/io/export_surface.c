@@ -1,5 +1,6 @@
 /* Blender / Houdini output: a triangle surface as Wavefront OBJ (text, exact doubles) or binary
- * little-endian PLY (compact float32), one file per frame of a sequence. */
+ * little-endian PLY (compact float32), one file per frame of a sequence, with area-weighted vertex
+ * normals (pf_surface_vertex_normals) so that viewers shade it smooth without recomputing them. */
 #include <pf/io.h>
 
 #include <math.h>
@@ -27,20 +28,41 @@ static pf_status check_surface(const char *path, const pf_surface *s, const doub
     return PF_OK;
 }
 
+static pf_status vertex_normals(const char *path, const pf_surface *s, const double *x,
+                                double **normals, pf_error *err)
+{
+    *normals = pf_alloc_array(3 * (size_t)s->n_verts + 1, sizeof **normals);
+    PF_CHECK(*normals, err, PF_ERR_NOMEM, "%s: out of memory for %d normals", path,
+             (int)s->n_verts);
+    pf_surface_vertex_normals(s, x, *normals);
+    return PF_OK;
+}
+
 pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err)
 {
     if (!x)
         x = s->x;
     PF_TRY(check_surface(path, s, x, false, err));
+    double *n;
+    PF_TRY(vertex_normals(path, s, x, &n, err));
     pf_atomic_file out;
-    PF_TRY(pf_atomic_file_open(&out, path, err));
+    pf_status st = pf_atomic_file_open(&out, path, err);
+    if (st != PF_OK) {
+        pf_free(n);
+        return st;
+    }
     FILE *f = out.f;
     fprintf(f, "# pf surface: %d vertices, %d triangles\n", (int)s->n_verts, (int)s->n_tris);
     for (int64_t i = 0; i < s->n_verts; ++i)
         fprintf(f, "v %.17g %.17g %.17g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2]);
-    for (int64_t t = 0; t < s->n_tris; ++t) /* OBJ counts vertices from 1 */
-        fprintf(f, "f %lu %lu %lu\n", (unsigned long)s->tri[3 * t] + 1,
-                (unsigned long)s->tri[3 * t + 1] + 1, (unsigned long)s->tri[3 * t + 2] + 1);
+    for (int64_t i = 0; i < s->n_verts; ++i) /* unit vectors: 9 digits are float precision */
+        fprintf(f, "vn %.9g %.9g %.9g\n", n[3 * i], n[3 * i + 1], n[3 * i + 2]);
+    for (int64_t t = 0; t < s->n_tris; ++t) { /* OBJ counts from 1; normal k is vertex k's */
+        unsigned long a = (unsigned long)s->tri[3 * t] + 1, b = (unsigned long)s->tri[3 * t + 1] + 1,
+                      c = (unsigned long)s->tri[3 * t + 2] + 1;
+        fprintf(f, "f %lu//%lu %lu//%lu %lu//%lu\n", a, a, b, b, c, c);
+    }
+    pf_free(n);
     return pf_atomic_file_commit(&out, "OBJ file", err);
 }
 
@@ -65,8 +87,14 @@ pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, 
     if (!x)
         x = s->x;
     PF_TRY(check_surface(path, s, x, true, err));
+    double *n;
+    PF_TRY(vertex_normals(path, s, x, &n, err));
     pf_atomic_file out;
-    PF_TRY(pf_atomic_file_open(&out, path, err));
+    pf_status st = pf_atomic_file_open(&out, path, err);
+    if (st != PF_OK) {
+        pf_free(n);
+        return st;
+    }
     FILE *f = out.f;
     fprintf(f,
             "ply\n"
@@ -76,16 +104,22 @@ pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, 
             "property float x\n"
             "property float y\n"
             "property float z\n"
+            "property float nx\n"
+            "property float ny\n"
+            "property float nz\n"
             "element face %d\n"
             "property list uchar uint vertex_indices\n"
             "end_header\n",
             (int)s->n_verts, (int)s->n_tris);
-    unsigned char rec[13];
+    unsigned char rec[24];
     for (int64_t i = 0; i < s->n_verts; ++i) {
-        for (int c = 0; c < 3; ++c)
+        for (int c = 0; c < 3; ++c) {
             put_f32(rec + 4 * c, (float)x[3 * i + c]);
-        fwrite(rec, 1, 12, f);
+            put_f32(rec + 12 + 4 * c, (float)n[3 * i + c]);
+        }
+        fwrite(rec, 1, 24, f);
     }
+    pf_free(n);
     rec[0] = 3;
     for (int64_t t = 0; t < s->n_tris; ++t) {
         for (int c = 0; c < 3; ++c)

@@ -72,13 +72,15 @@ expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/obj" "$tmp/frames.pfs"
 check "OBJ: three frames" test "$(ls "$tmp/obj" | tr '\n' ' ')" = "frame_00000.obj frame_00001.obj frame_00002.obj "
 check "OBJ: the embedded triangle" test "$(grep -c '^v ' "$tmp/obj/frame_00002.obj")" = 3
 check "OBJ frame 2: corner 2 (x = 2) sagged by 0.04" grep -q '^v 2 0 -0.040000000000000001$' "$tmp/obj/frame_00002.obj"
-check "OBJ: one face" grep -q '^f 1 2 3$' "$tmp/obj/frame_00001.obj"
+check "OBJ: one face, with normals" grep -q '^f 1//1 2//2 3//3$' "$tmp/obj/frame_00001.obj"
+check "OBJ: three normals" test "$(grep -c '^vn ' "$tmp/obj/frame_00001.obj")" = 3
 expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/bobj" "$tmp/box.pfs"
 check "OBJ of a mesh: its boundary, 12 nodes, 20 triangles" \
   test "$(grep -c '^v ' "$tmp/bobj/frame_00000.obj") $(grep -c '^f ' "$tmp/bobj/frame_00000.obj")" = "12 20"
 expect 0 "" "$bin/pf-export" --quiet --ply "$tmp/ply" "$tmp/frames.pfs"
 check "PLY: three frames" test "$(ls "$tmp/ply" | wc -l)" = 3
 check "PLY: binary header" grep -aq '^format binary_little_endian 1.0$' "$tmp/ply/frame_00001.ply"
+check "PLY: normals" grep -aq '^property float nz$' "$tmp/ply/frame_00001.ply"
 
 # USD: one stage, a points sample per frame (3 vertices each), topology sampled once
 expect 0 "3 frames written" "$bin/pf-export" --usd "$tmp/anim.usda" "$tmp/frames.pfs"

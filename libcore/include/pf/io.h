@@ -370,8 +370,9 @@ pf_status pf_export_vtu_with(const char *path, const pf_mesh *m, const double *u
 pf_status pf_export_pvd(const char *path, const char *const *files, const double *times, int32_t n,
                         pf_error *err);
 
-/* A triangle surface at positions x [3 n_verts] (NULL: s->x) as Wavefront OBJ (v / f lines,
- * 1-based, %.17g) or binary little-endian PLY (float32 positions, uint32 indices) for
+/* A triangle surface at positions x [3 n_verts] (NULL: s->x) as Wavefront OBJ (v, vn and f a//a
+ * lines, 1-based, positions %.17g, normals %.9g) or binary little-endian PLY (float32 positions x
+ * y z and normals nx ny nz per vertex, uint32 indices) for
  * Blender/Houdini sequences. PF_ERR_INVALID for an index out of range or a non-finite position
  * (for PLY also one beyond float32's range); PF_ERR_IO as above. */
 pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err);

@@ -93,9 +93,10 @@ int pf_cli_next(pf_cli *cli, const pf_cli_option *options, const char **value)
     for (const pf_cli_option *o = options; o && o->name; ++o) {
         if (strlen(o->name) != len || strncmp(o->name, name, len) != 0)
             continue;
-        if (!o->has_value) {
-            if (eq)
+        if (o->has_value != true) {
+            if (eq && !o->has_value)
                 pf_cli_usage_error(cli, "option '--%s' takes no value", o->name);
+            *value = eq ? eq + 1 : NULL;
             return o->id;
         }
         if (eq) {

@@ -15,9 +15,12 @@ enum { PF_EXIT_OK = 0, PF_EXIT_INPUT = 1, PF_EXIT_USAGE = 2 };
 
 typedef struct pf_cli_option {
     const char *name;  /* long name without "--" */
-    bool has_value;    /* takes a value: "--name VALUE" or "--name=VALUE" */
+    int has_value;     /* true: takes a value, "--name VALUE" or "--name=VALUE"; false: none;
+                          PF_CLI_OPTIONAL_VALUE: "--name" (value NULL) or "--name=VALUE" */
     int id;            /* returned by pf_cli_next */
 } pf_cli_option;
+
+enum { PF_CLI_OPTIONAL_VALUE = 2 };
 
 typedef struct pf_cli {
     const char *tool;   /* "pf-info" */

@@ -7,7 +7,7 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-info [--json] [--probe X,Y,Z] [--print-mesh] [FILE | -]\n"
+    "Usage: pf-info [--json] [--probe X,Y,Z] [--print-mesh] [--scene] [FILE | -]\n"
     "\n"
     "Prints every chunk of a pf stream (default: stdin).\n"
     "  MESH  counts of nodes, faces, elements by kind, exact total volume, smallest and largest\n"
@@ -16,6 +16,7 @@ static const char USAGE[] =
     "        coordinate is a float32 value (the surface came through single precision)\n"
     "  FRAM  consecutive frames as one entry: frame count, time range, largest displacement\n"
     "  STRS  consecutive stress chunks as one entry: count, largest value\n"
+    "  SCEN  the scene as simulated (JSON, every key, overrides applied)\n"
     "  others: tag, version, size; unknown chunks are listed, not interpreted\n"
     "and at the end every mesh of the stream (a refining or cutting run has several) with the\n"
     "frames on it. WGHT, STRS and FRAM chunks must refer to the latest MESH (and SURF).\n"
@@ -24,12 +25,14 @@ static const char USAGE[] =
     "  --probe X,Y,Z   for every frame, the displacement of the mesh node nearest to the point,\n"
     "                  with that node's position and its distance to the point\n"
     "  --print-mesh    also print every node, face and element of each MESH (text mode)\n"
+    "  --scene         print only the scene (the last SCEN chunk), verbatim: a scene file that\n"
+    "                  pf-sim reads back (exit 1 when the stream has none)\n"
     "  --help, --version\n"
     "\n"
     "A damaged or truncated stream: everything before the damage is printed, then the error;\n"
     "exit 1. Exit 2 on bad usage.\n";
 
-enum { OPT_JSON = 1, OPT_PROBE, OPT_PRINT_MESH };
+enum { OPT_JSON = 1, OPT_PROBE, OPT_PRINT_MESH, OPT_SCENE };
 
 typedef struct probe_sample {
     uint32_t frame;
@@ -39,6 +42,9 @@ typedef struct probe_sample {
 
 typedef struct info {
     bool json, print_mesh, has_probe;
+    bool scene_only; /* --scene */
+    char *scene;     /* with scene_only: the last SCEN's JSON, NUL-terminated */
+    size_t scene_size;
     double probe[3];
     pf_stream_state st;    /* the latest MESH (for probes), SURF, ...; the meshes and frames */
     int32_t probe_node;    /* nearest node of mesh to the probe point, -1 before a mesh */
@@ -321,8 +327,37 @@ static void print_other(const info *in, const pf_chunk *c, const char *note)
     }
 }
 
+/* SCEN: the JSON as stored (docs/scene.md: every key, the overrides applied). */
+static pf_status print_scene(info *in, const pf_chunk *c, pf_error *err)
+{
+    char *json = NULL;
+    size_t size = 0;
+    PF_TRY(pf_stream_decode_scene(c, &json, &size, err));
+    if (in->scene_only) {
+        pf_free(in->scene);
+        in->scene = json;
+        in->scene_size = size;
+        return PF_OK;
+    }
+    if (in->json) {
+        printf("{\"chunk\":\"SCEN\",\"offset\":%llu,\"version\":%u,\"scene\":",
+               (unsigned long long)c->offset, c->version);
+        json_string(json, size);
+        printf("}\n");
+    } else {
+        printf("SCEN  at byte %llu: scene, %zu bytes:\n", (unsigned long long)c->offset, size);
+        fwrite(json, 1, size, stdout);
+        if (size && json[size - 1] != '\n')
+            putchar('\n');
+    }
+    pf_free(json);
+    return PF_OK;
+}
+
 static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
 {
+    if (in->scene_only)
+        return strcmp(c->tag, "SCEN") == 0 ? print_scene(in, c, err) : PF_OK;
     /* A non-critical chunk of a version this pf does not read is skipped (the stream spec);
      * critical ones reach their decoder, which refuses them. */
     if (pf_stream_tag_is_known(c->tag) && !pf_stream_tag_is_critical(c->tag) &&
@@ -330,6 +365,10 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
         print_frames(in);
         print_other(in, c, " (a version this pf does not read: skipped)");
         return PF_OK;
+    }
+    if (strcmp(c->tag, "SCEN") == 0) {
+        print_frames(in);
+        return print_scene(in, c, err);
     }
     if (strcmp(c->tag, "FRAM") == 0)
         return add_frame(in, c, err);
@@ -428,9 +467,16 @@ static pf_status run(info *in, FILE *f, const char *name, pf_error *err)
         if (s < 0)
             break;
     }
-    print_frames(in);
-    print_meshes(in);
+    if (!in->scene_only) {
+        print_frames(in);
+        print_meshes(in);
+    }
     pf_stream_reader_destroy(&r);
+    if (s >= 0 && in->scene_only) {
+        PF_CHECK(in->scene, err, PF_ERR_FORMAT, "%s: no SCEN chunk (the stream did not go "
+                 "through pf-sim)", name);
+        fwrite(in->scene, 1, in->scene_size, stdout);
+    }
     return s;
 }
 
@@ -439,6 +485,7 @@ int main(int argc, char **argv)
     static const pf_cli_option options[] = {{"json", false, OPT_JSON},
                                             {"probe", true, OPT_PROBE},
                                             {"print-mesh", false, OPT_PRINT_MESH},
+                                            {"scene", false, OPT_SCENE},
                                             {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-info", USAGE, argc, argv);
@@ -449,6 +496,8 @@ int main(int argc, char **argv)
             in.json = true;
         else if (id == OPT_PRINT_MESH)
             in.print_mesh = true;
+        else if (id == OPT_SCENE)
+            in.scene_only = true;
         else if (id == OPT_PROBE) {
             pf_cli_parse_vec3(&cli, "probe", value, in.probe);
             in.has_probe = true;
@@ -466,6 +515,7 @@ int main(int argc, char **argv)
     pf_cli_close_input(f);
     pf_stream_state_release(&in.st);
     pf_free(in.samples);
+    pf_free(in.scene);
     if (s < 0) {
         fflush(stdout); /* what was read before the damage, then the error */
         pf_cli_fail(&cli, &err);

@@ -45,7 +45,9 @@ static const char USAGE[] =
     "  --mode stress    coloured by the frame's STRS chunk (von Mises) with the viridis map and\n"
     "                   a legend; the range is that of all frames for a file, of the frames so\n"
     "                   far on a pipe\n"
-    "  --mp4 FILE       also pipe the frames into ffmpeg (H.264), which must be on PATH\n"
+    "  --mp4 FILE       also pipe the frames into ffmpeg (H.264), which must be on PATH; an odd\n"
+    "                   width or height is padded by one black pixel in the MP4 only (H.264's\n"
+    "                   yuv420p needs even sizes), with a note on stderr\n"
     "  --fps N          frame rate of the MP4 (default 30)\n"
     "  --quiet          no progress on stderr\n"
     "  --help, --version\n"
@@ -353,6 +355,9 @@ static pf_status run(options *o, stage *g, FILE *in, const char *name, pf_error 
     PF_TRY(pf_render_stream_create(&rs, &o->p, err));
     pf_status s = o->mp4 ? pf_video_create(&g->video, o->mp4, o->p.width, o->p.height, o->fps, err)
                          : PF_OK;
+    if (s == PF_OK && o->mp4 && !o->quiet && (o->p.width % 2 || o->p.height % 2))
+        fprintf(stderr, "%s: --mp4: %dx%d frames padded to even sizes in %s (H.264 yuv420p); the "
+                "PNGs keep theirs\n", g->cli->tool, (int)o->p.width, (int)o->p.height, o->mp4);
     if (s == PF_OK)
         s = render_input(rs, in, name, err);
     if (g->progress && pf_render_stream_written(rs))

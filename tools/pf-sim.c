@@ -29,8 +29,10 @@ static const char USAGE[] =
     "                     bz 3/16 for degree 1, 1/2 for degree 2, growing under refinement)\n"
     "  --E VALUE --nu VALUE --density VALUE   material\n"
     "  --frames N --dt SECONDS --substeps N     time (dt is the time between frames)\n"
-    "  --static           solve K u = f once and write one frame\n"
-    "  --no-corotation    linear elasticity (corotation is on by default)\n"
+    "  --static[=BOOL]    solve K u = f once and write one frame (true, false; a static scene\n"
+    "                     needs a 'fixed' region that holds boundary faces)\n"
+    "  --corotation[=BOOL]  stiffness warping, on by default; --corotation=false (or\n"
+    "                     --no-corotation) for linear elasticity\n"
     "  --solver auto|direct|pcg   linear solves: direct refactorises whenever the matrix\n"
     "                     changes; pcg iterates on the last factor and refactorises when that\n"
     "                     pays; auto (default) picks pcg where the matrix changes\n"
@@ -60,6 +62,7 @@ enum {
     OPT_NO_COROTATION,
     OPT_SOLVER,
     OPT_TOLERANCE,
+    OPT_COROTATION,
     OPT_INPUT,
     OPT_QUIET
 };
@@ -109,6 +112,7 @@ static const char *override_key(int id)
     case OPT_STATIC:
         return "static";
     case OPT_NO_COROTATION:
+    case OPT_COROTATION:
         return "corotation";
     case OPT_SOLVER:
         return "solver";
@@ -133,7 +137,8 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"frames", true, OPT_FRAMES},
                                             {"dt", true, OPT_DT},
                                             {"substeps", true, OPT_SUBSTEPS},
-                                            {"static", false, OPT_STATIC},
+                                            {"static", PF_CLI_OPTIONAL_VALUE, OPT_STATIC},
+                                            {"corotation", PF_CLI_OPTIONAL_VALUE, OPT_COROTATION},
                                             {"no-corotation", false, OPT_NO_COROTATION},
                                             {"solver", true, OPT_SOLVER},
                                             {"tolerance", true, OPT_TOLERANCE},
@@ -158,7 +163,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->quiet = true;
         } else if (n < 64) {
             ids[n] = id;
-            values[n++] = id == OPT_STATIC ? "true" : id == OPT_NO_COROTATION ? "false" : value;
+            /* --static and --corotation alone mean true (the empty value, docs/scene.md) */
+            values[n++] = id == OPT_NO_COROTATION ? "false" : value ? value : "";
         } else {
             pf_cli_usage_error(&r->cli, "too many options");
         }

@@ -91,6 +91,9 @@ chmod +x "$tmp/fakebin/ffmpeg"
 expect 0 "" env PATH="$tmp/fakebin:$PATH" "$bin/pf-render" --quiet --size 160x120 \
   --out "$tmp/mp4" --mp4 "$tmp/video.raw" "$tmp/beam.pfs"
 check "two raw 160x120 RGB frames reach ffmpeg" test "$(stat -c %s "$tmp/video.raw")" = 115200
+expect 0 "padded to 162x122" env PATH="$tmp/fakebin:$PATH" "$bin/pf-render" --size 161x121 \
+  --out "$tmp/odd" --mp4 "$tmp/odd.raw" --frames 1:1 "$tmp/beam.pfs"
+check "odd size: the note says what is padded" grep -q "161x121 frames padded to 162x122" "$tmp/err"
 
 # usage errors
 expect 2 "--size expects" "$bin/pf-render" --size 0x5 "$tmp/box.pfs"

@@ -81,6 +81,10 @@ int pf_cli_next(pf_cli *cli, const pf_cli_option *options, const char **value)
         cli->only_positional = true;
         return pf_cli_next(cli, options, value);
     }
+    if (!cli->only_positional && strcmp(arg, "-q") == 0) /* the one short option: --quiet */
+        for (const pf_cli_option *o = options; o && o->name; ++o)
+            if (strcmp(o->name, "quiet") == 0)
+                return o->id;
     if (cli->only_positional || strncmp(arg, "--", 2) != 0 || strcmp(arg, "-") == 0) {
         if (!cli->only_positional && arg[0] == '-' && arg[1] != '\0')
             pf_cli_usage_error(cli, "unknown option '%s'", arg);
@@ -244,6 +248,81 @@ char *pf_cli_command_line(const pf_cli *cli)
 }
 
 bool pf_cli_show_progress(bool quiet) { return !quiet && isatty(fileno(stderr)); }
+
+void pf_cli_progress_start(pf_cli_progress *p, const char *tool, bool quiet, double plain)
+{
+    bool tty = isatty(fileno(stderr)) != 0;
+    *p = (pf_cli_progress){.tool = tool, .on = !quiet, .tty = tty && plain < 0,
+                           .interval = plain < 0 ? 5 : plain, .wall0 = pf_time_seconds(),
+                           .cpu0 = pf_cpu_seconds()};
+    p->last = p->wall0;
+}
+
+double pf_cli_parse_progress(const pf_cli *cli, const char *value)
+{
+    if (!value)
+        return 5;
+    double s = pf_cli_parse_double(cli, "progress", value);
+    if (s < 0)
+        pf_cli_usage_error(cli, "--progress expects seconds >= 0, got '%s'", value);
+    return s;
+}
+
+/* "12 s", "4 min 10 s", "2 h 5 min": an ETA needs no more. */
+static void format_duration(double s, char *buf, size_t size)
+{
+    if (s < 60)
+        snprintf(buf, size, "%.0f s", s);
+    else if (s < 3600)
+        snprintf(buf, size, "%d min %d s", (int)(s / 60), (int)fmod(s, 60));
+    else
+        snprintf(buf, size, "%d h %d min", (int)(s / 3600), (int)fmod(s / 60, 60));
+}
+
+const char *pf_cli_progress_times(const pf_cli_progress *p, char *buf, size_t size)
+{
+    snprintf(buf, size, "%.3g s (CPU %.3g s)", pf_time_seconds() - p->wall0,
+             pf_cpu_seconds() - p->cpu0);
+    return buf;
+}
+
+void pf_cli_progress_report(pf_cli_progress *p, const char *what, double done, double total)
+{
+    if (!p->on)
+        return;
+    double now = pf_time_seconds();
+    if (now - p->last < (p->tty ? 0.1 : p->interval))
+        return;
+    p->last = now;
+    char times[64], eta[64] = "";
+    pf_cli_progress_times(p, times, sizeof times);
+    double elapsed = now - p->wall0;
+    if (total > 0 && done > 0 && done < total) {
+        char d[32];
+        format_duration(elapsed * (total - done) / done, d, sizeof d);
+        snprintf(eta, sizeof eta, ", ETA %s", d);
+    }
+    if (total > 0)
+        fprintf(stderr, "%s%s: %s%s%.0f%%, %s%s%s", p->tty ? "\r" : "", p->tool, what,
+                what[0] ? ", " : "", 100 * done / total, times, eta, p->tty ? "\033[K" : "\n");
+    else
+        fprintf(stderr, "%s%s:%s%s, %s%s", p->tty ? "\r" : "", p->tool, what[0] ? " " : "", what,
+                times, p->tty ? "\033[K" : "\n");
+    p->printed = p->tty;
+    fflush(stderr);
+}
+
+void pf_cli_progress_done(pf_cli_progress *p)
+{
+    if (p->printed)
+        fputc('\n', stderr);
+    p->printed = false;
+}
+
+void pf_cli_progress_fn(void *ctx, double done, double total)
+{
+    pf_cli_progress_report(ctx, "", done, total);
+}
 
 /* The SURF of a stream on f, keeping its other chunks to pass on. */
 static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,

@@ -89,6 +89,33 @@ char *pf_cli_command_line(const pf_cli *cli);
 /* True when progress should be printed: stderr is a terminal and --quiet was not given. */
 bool pf_cli_show_progress(bool quiet);
 
+/* Progress on stderr for long-running tools. On a terminal one line rewritten in place at most
+ * 10 times a second; in a log (stderr not a terminal) or with plain, one line every `interval`
+ * seconds (default 5) so that farm logs show the run is alive; nothing when quiet. Each report
+ * gives the percentage (when the total is known), wall and CPU seconds so far, and the ETA
+ * (remaining wall time at the rate so far). */
+typedef struct pf_cli_progress {
+    const char *tool;
+    bool on, tty;
+    double interval;
+    double wall0, cpu0, last; /* wall and CPU seconds at the start, wall at the last report */
+    bool printed;             /* a line is pending on a terminal */
+} pf_cli_progress;
+
+/* plain: the seconds between plain lines given by --progress[=SECONDS], or < 0 when --progress
+ * was not given (then a terminal gets the line in place, a log a line every 5 s). */
+void pf_cli_progress_start(pf_cli_progress *p, const char *tool, bool quiet, double plain);
+/* The value of --progress[=SECONDS]: 5 when value is NULL; usage error unless a number >= 0. */
+double pf_cli_parse_progress(const pf_cli *cli, const char *value);
+/* what: a short label ("frame 12", "slabs"); total <= 0 when unknown (no percentage, no ETA). */
+void pf_cli_progress_report(pf_cli_progress *p, const char *what, double done, double total);
+/* Ends a terminal line; the next report starts a new one. */
+void pf_cli_progress_done(pf_cli_progress *p);
+/* A pf_progress_fn for library calls: ctx is a pf_cli_progress, labelled "done". */
+void pf_cli_progress_fn(void *ctx, double done, double total);
+/* Wall and CPU seconds since start, "1.23 s (CPU 0.98 s)", into buf. */
+const char *pf_cli_progress_times(const pf_cli_progress *p, char *buf, size_t size);
+
 /* ---- surface input and grid options, shared by the meshers ------------------------------------ */
 
 /* The post-import options every tool reading a surface takes: --up AXIS, --scale S, --keep-orientation. */

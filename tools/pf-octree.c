@@ -8,6 +8,7 @@
 static const char USAGE[] =
     "Usage: pf-octree [SURFACE | -] [--depth D] [--min-depth d] [--slice] [--merge F] [--exact]\n"
     "                 [--refine N] [--up AXIS] [--scale S] [--keep-orientation] [--quiet]\n"
+    "                 [--progress[=SECONDS]]\n"
     "\n"
     "Writes a pf stream with the surface (SURF, for embedding and rendering later) and a mesh\n"
     "(MESH) of an adaptive octree over the surface's bounding cube (harmonic paper sec. 7): every\n"
@@ -32,7 +33,10 @@ static const char USAGE[] =
     "  --exact         with --slice: refuse a surface that is not closed, manifold and outward\n"
     "  --refine N      lattice edges per finest cell edge for that boundary, 1..8 (default 2)\n"
     PF_CLI_IMPORT_USAGE
-    "  --quiet         no report on stderr\n"
+    "  --quiet, -q     no progress and no report on stderr\n"
+    "  --progress[=S]  a plain progress line every S seconds (default 5); without it, one\n"
+    "                  line updated in place with the ETA on a terminal, a line every 5 s\n"
+    "                  in a log (stderr not a terminal)\n"
     "\n"
     "Inside test: without --slice the elements are the cells whose centre is inside: for a closed\n"
     "surface by signed ray crossings (Embree) along rows of cell centres in x, y and z, inside\n"
@@ -45,19 +49,31 @@ static const char USAGE[] =
     "Exit 0 ok; 1 bad input (an open surface with --slice --exact says what is wrong); 2 bad\n"
     "usage.\n";
 
-enum { OPT_DEPTH = 1, OPT_MIN_DEPTH, OPT_SLICE, OPT_MERGE, OPT_QUIET, OPT_EXACT, OPT_REFINE, OPT_IMPORT };
+enum {
+    OPT_DEPTH = 1,
+    OPT_MIN_DEPTH,
+    OPT_SLICE,
+    OPT_MERGE,
+    OPT_QUIET,
+    OPT_EXACT,
+    OPT_REFINE,
+    OPT_PROGRESS,
+    OPT_IMPORT /* and the next two: PF_CLI_IMPORT_OPTIONS */
+};
 
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {
         {"depth", true, OPT_DEPTH}, {"min-depth", true, OPT_MIN_DEPTH}, {"slice", false, OPT_SLICE},
         {"merge", true, OPT_MERGE}, {"quiet", false, OPT_QUIET},        {"exact", false, OPT_EXACT},
-        {"refine", true, OPT_REFINE}, PF_CLI_IMPORT_OPTIONS(OPT_IMPORT), {NULL, false, 0}};
+        {"refine", true, OPT_REFINE}, {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROGRESS},
+        PF_CLI_IMPORT_OPTIONS(OPT_IMPORT), {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-octree", USAGE, argc, argv);
     pf_octree_params p = pf_octree_params_default();
     pf_cli_import imp = pf_cli_import_default();
     const char *path = NULL, *value;
+    double plain = -1;
     bool quiet = false, min_given = false, merge_given = false;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         switch (id) {
@@ -88,6 +104,9 @@ int main(int argc, char **argv)
         case OPT_IMPORT:
         case OPT_IMPORT + 1:
         case OPT_IMPORT + 2: pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp); break;
+        case OPT_PROGRESS:
+            plain = pf_cli_parse_progress(&cli, value);
+            break;
         default:
             if (path)
                 pf_cli_usage_error(&cli, "one input only (got '%s' and '%s')", path, value);
@@ -117,8 +136,15 @@ int main(int argc, char **argv)
         fprintf(stderr, "pf-octree: %d triangles, depth %d..%d%s ...\n", (int)surface.n_tris,
                 (int)p.min_depth, (int)p.depth, p.slice ? ", slicing" : "");
     pf_octree_stats stats;
+    pf_cli_progress prog;
+    pf_cli_progress_start(&prog, "pf-octree", quiet, plain);
+    p.progress = pf_cli_progress_fn;
+    p.progress_ctx = &prog;
+    double octree_cpu = 0;
     if (st >= 0) {
         st = pf_mesh_octree(&mesh, &surface, &p, &stats, &err);
+        pf_cli_progress_done(&prog);
+        octree_cpu = pf_cpu_seconds() - prog.cpu0;
         if (st < 0)
             pf_cli_prefix_surface_error(path, &err);
     }
@@ -145,7 +171,7 @@ int main(int argc, char **argv)
         else
             fprintf(stderr, "%s test",
                     stats.method == PF_INSIDE_RAYS ? "ray-crossing" : "winding-number");
-        fprintf(stderr, ", %.3f s\n", stats.seconds);
+        fprintf(stderr, ", %.3f s (CPU %.3f s)\n", stats.seconds, octree_cpu);
         fprintf(stderr, "pf-octree: whole cells by depth:");
         for (int k = 0; k <= p.depth; ++k)
             if (stats.cells_by_depth[k])

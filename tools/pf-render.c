@@ -15,10 +15,12 @@
 #include <pf/sim.h>
 
 #include "cli.h"
+#include "obstacle_shape.h"
 
 static const char USAGE[] =
     "Usage: pf-render [--out DIR] [--size WxH] [--frames A:B] [--camera JSON|auto]\n"
-    "                 [--mode surface|mesh|stress] [--mp4 FILE] [--fps N] [--quiet] [FILE | -]\n"
+    "                 [--mode surface|mesh|stress] [--mp4 FILE] [--fps N] [--quiet]\n"
+    "                 [--progress[=S]] [FILE | -]\n"
     "\n"
     "Renders every frame (FRAM chunk) of a pf stream (default: stdin) to DIR/frame_NNNNN.png,\n"
     "NNNNN being the frame's index, while the stream arrives: 'pf-sim ... | pf-render' renders\n"
@@ -49,19 +51,24 @@ static const char USAGE[] =
     "                   width or height is padded by one black pixel in the MP4 only (H.264's\n"
     "                   yuv420p needs even sizes), with a note on stderr\n"
     "  --fps N          frame rate of the MP4 (default 30)\n"
-    "  --quiet          no progress on stderr\n"
+    "  --quiet, -q      no progress on stderr\n"
+    "  --progress[=S]   a plain progress line every S seconds (default 5); without it, one\n"
+    "                   line updated in place with the ETA on a terminal, a line every 5 s\n"
+    "                   in a log (stderr not a terminal)\n"
     "  --help, --version\n"
     "\n"
     "Each image is written to a temporary name and renamed. A damaged or truncated stream: the\n"
     "frames before the damage are written, then the error; exit 1. Exit 2 on bad usage.\n";
 
-enum { OPT_OUT = 1, OPT_SIZE, OPT_FRAMES, OPT_CAMERA, OPT_MODE, OPT_MP4, OPT_FPS, OPT_QUIET };
+enum { OPT_OUT = 1, OPT_SIZE, OPT_FRAMES, OPT_CAMERA, OPT_MODE, OPT_MP4, OPT_FPS, OPT_QUIET,
+       OPT_PROG };
 
 typedef struct options {
     pf_render_stream_params p;
     const char *input, *mp4;
     long fps;
     bool quiet;
+    double plain_progress; /* --progress[=SECONDS], -1 without */
 } options;
 
 /* ---- options --------------------------------------------------------------------------------- */
@@ -110,8 +117,9 @@ static void parse_options(pf_cli *cli, options *o)
     static const pf_cli_option OPTIONS[] = {
         {"out", true, OPT_OUT},       {"size", true, OPT_SIZE},    {"frames", true, OPT_FRAMES},
         {"camera", true, OPT_CAMERA}, {"mode", true, OPT_MODE},    {"mp4", true, OPT_MP4},
-        {"fps", true, OPT_FPS},       {"quiet", false, OPT_QUIET}, {NULL, false, 0}};
-    *o = (options){.p = pf_render_stream_params_default(), .fps = 30};
+        {"fps", true, OPT_FPS},       {"quiet", false, OPT_QUIET}, {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROG},
+        {NULL, false, 0}};
+    *o = (options){.p = pf_render_stream_params_default(), .fps = 30, .plain_progress = -1};
     static const char *const MODES[] = {"surface", "mesh", "stress"};
     const char *value;
     for (int id; (id = pf_cli_next(cli, OPTIONS, &value)) != PF_CLI_END;) {
@@ -123,6 +131,7 @@ static void parse_options(pf_cli *cli, options *o)
         case OPT_MP4: o->mp4 = value; break;
         case OPT_FPS: o->fps = pf_cli_parse_long(cli, "fps", value, 1, 1000); break;
         case OPT_QUIET: o->quiet = true; break;
+        case OPT_PROG: o->plain_progress = pf_cli_parse_progress(cli, value); break;
         case OPT_MODE: {
             int m = 0;
             while (m < 3 && strcmp(value, MODES[m]) != 0)
@@ -144,7 +153,8 @@ static void parse_options(pf_cli *cli, options *o)
 
 typedef struct stage {
     const pf_cli *cli;
-    bool progress;
+    pf_cli_progress progress;
+    const pf_render_stream *rs; /* for the progress's total */
     int64_t written;
     pf_video *video;
     /* the scene parsed from a state's SCEN (parsed_for, at its scene_serial) */
@@ -205,35 +215,6 @@ static bool ground_height(void *ctx, const pf_stream_state *st, double *z)
     return true;
 }
 
-/* The triangles of obstacle o at rest: a sphere of 16 x 32 bands, a box, the mesh's file, a plane
- * as a square of side 4 size centred under the body's centre c. */
-static pf_status obstacle_shape(const pf_obstacle *o, pf_vec3 c, double size, pf_surface *out,
-                                pf_error *err)
-{
-    if (o->kind == PF_OBSTACLE_BOX)
-        return pf_surface_make_box(out, o->lo, o->hi, err);
-    if (o->kind == PF_OBSTACLE_MESH)
-        return pf_import_surface(o->file, out, err);
-    if (o->kind == PF_OBSTACLE_SPHERE) {
-        PF_TRY(pf_surface_make_sphere(out, o->radius, 16, 32, err));
-        for (int32_t i = 0; i < out->n_verts; ++i)
-            pf_v3_store(pf_v3_add(pf_v3_load(out->x + 3 * i), o->centre), out->x + 3 * i);
-        return PF_OK;
-    }
-    /* a plane: two unit vectors across the normal, the square's centre on the plane below c */
-    pf_vec3 n = o->normal, t = fabs(n.x) < 0.9 ? pf_v3(1, 0, 0) : pf_v3(0, 1, 0);
-    pf_vec3 e1 = pf_v3_normalize(pf_v3_cross(n, t)), e2 = pf_v3_cross(n, e1);
-    pf_vec3 m = pf_v3_sub(c, pf_v3_scale(n, pf_v3_dot(n, pf_v3_sub(c, o->point))));
-    PF_TRY(pf_surface_alloc(out, 4, 2, err));
-    for (int q = 0; q < 4; ++q) {
-        double s1 = (q == 1 || q == 2) ? 2 * size : -2 * size, s2 = q >= 2 ? 2 * size : -2 * size;
-        pf_v3_store(pf_v3_add(m, pf_v3_add(pf_v3_scale(e1, s1), pf_v3_scale(e2, s2))), out->x + 3 * q);
-    }
-    const uint32_t tri[6] = {0, 1, 2, 0, 2, 3}; /* e1 x e2 = n: counter-clockwise seen from n */
-    memcpy(out->tri, tri, sizeof tri);
-    return PF_OK;
-}
-
 /* The obstacles' shapes, once per scene; one that cannot be built is skipped with a warning. */
 static void build_shapes(stage *g, const pf_stream_state *st)
 {
@@ -250,7 +231,7 @@ static void build_shapes(stage *g, const pf_stream_state *st)
     int32_t most = 0;
     for (int32_t k = 0; k < sc->n_obstacles; ++k) {
         pf_error err = {0};
-        if (obstacle_shape(&sc->obstacles[k], c, size, &g->shape[k], &err) < 0) {
+        if (pf_obstacle_shape(&sc->obstacles[k], c, size, &g->shape[k], &err) < 0) {
             fprintf(stderr, "%s: warning: obstacles[%d] is not drawn: %s\n", g->cli->tool, (int)k,
                     err.msg);
             pf_surface_release(&g->shape[k]);
@@ -295,9 +276,10 @@ static pf_status on_image(void *ctx, uint32_t index, const uint8_t *rgb, pf_erro
     stage *g = ctx;
     if (g->video)
         PF_TRY(pf_video_write(g->video, rgb, err));
-    if (g->progress)
-        fprintf(stderr, "\r%s: frame %u, %lld written", g->cli->tool, (unsigned)index,
-                (long long)++g->written);
+    char what[64];
+    snprintf(what, sizeof what, "frame %u, %lld written", (unsigned)index, (long long)++g->written);
+    pf_cli_progress_report(&g->progress, what, (double)g->written,
+                           (double)pf_render_stream_to_draw(g->rs));
     return PF_OK;
 }
 
@@ -353,6 +335,7 @@ static pf_status run(options *o, stage *g, FILE *in, const char *name, pf_error 
         .add_obstacles = add_obstacles, .on_image = on_image, .warn = warn};
     pf_render_stream *rs = NULL;
     PF_TRY(pf_render_stream_create(&rs, &o->p, err));
+    g->rs = rs;
     pf_status s = o->mp4 ? pf_video_create(&g->video, o->mp4, o->p.width, o->p.height, o->fps, err)
                          : PF_OK;
     if (s == PF_OK && o->mp4 && !o->quiet && (o->p.width % 2 || o->p.height % 2))
@@ -360,8 +343,7 @@ static pf_status run(options *o, stage *g, FILE *in, const char *name, pf_error 
                 "PNGs keep theirs\n", g->cli->tool, (int)o->p.width, (int)o->p.height, o->mp4);
     if (s == PF_OK)
         s = render_input(rs, in, name, err);
-    if (g->progress && pf_render_stream_written(rs))
-        fputc('\n', stderr);
+    pf_cli_progress_done(&g->progress);
     pf_error video_err = {0};
     pf_status vs = g->video ? pf_video_finish(g->video, s == PF_OK ? err : &video_err) : PF_OK;
     pf_render_stream_destroy(&rs);
@@ -388,7 +370,8 @@ int main(int argc, char **argv)
     const char *name = NULL;
     if (pf_cli_open_input(o.input, &in, &name, &err) != PF_OK)
         pf_cli_fail(&cli, &err);
-    stage g = {.cli = &cli, .progress = pf_cli_show_progress(o.quiet)};
+    stage g = {.cli = &cli};
+    pf_cli_progress_start(&g.progress, cli.tool, o.quiet, o.plain_progress);
     pf_status s = run(&o, &g, in, name, &err);
     pf_video_destroy(&g.video);
     release_shapes(&g);

@@ -8,6 +8,7 @@
 static const char USAGE[] =
     "Usage: pf-slice [SURFACE | -] [--res N | --cell H] [--origin X,Y,Z] [--merge F] [--exact]\n"
     "                [--refine N] [--up AXIS] [--scale S] [--keep-orientation] [--quiet]\n"
+    "                [--progress[=SECONDS]]\n"
     "\n"
     "Writes a pf stream with the surface (SURF) and a mesh (MESH) of the solid it bounds,\n"
     "intersected with a grid of cubes (DG paper sec. 9.2): cells inside are hexes, every cell the\n"
@@ -33,12 +34,25 @@ static const char USAGE[] =
     "  --exact        refuse a surface that is not closed, manifold and outward\n"
     "  --refine N     lattice edges per cell edge for the winding-number boundary, 1..8 (default 2)\n"
     PF_CLI_IMPORT_USAGE
-    "  --quiet        no report on stderr\n"
+    "  --quiet, -q    no progress and no report on stderr\n"
+    "  --progress[=S] a plain progress line every S seconds (default 5); without it, one\n"
+    "                 line updated in place with the ETA on a terminal, a line every 5 s\n"
+    "                 in a log (stderr not a terminal)\n"
     "\n"
     "Exit 0 ok; 1 bad input (with --exact, an open or non-manifold surface says what is wrong);\n"
     "2 bad usage.\n";
 
-enum { OPT_RES = 1, OPT_CELL, OPT_ORIGIN, OPT_MERGE, OPT_QUIET, OPT_EXACT, OPT_REFINE, OPT_IMPORT };
+enum {
+    OPT_RES = 1,
+    OPT_CELL,
+    OPT_ORIGIN,
+    OPT_MERGE,
+    OPT_QUIET,
+    OPT_EXACT,
+    OPT_REFINE,
+    OPT_PROGRESS,
+    OPT_IMPORT /* and the next two: PF_CLI_IMPORT_OPTIONS */
+};
 
 int main(int argc, char **argv)
 {
@@ -46,6 +60,7 @@ int main(int argc, char **argv)
                                             {"origin", true, OPT_ORIGIN}, {"merge", true, OPT_MERGE},
                                             {"quiet", false, OPT_QUIET},  {"exact", false, OPT_EXACT},
                                             {"refine", true, OPT_REFINE},
+                                            {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROGRESS},
                                             PF_CLI_IMPORT_OPTIONS(OPT_IMPORT),
                                             {NULL, false, 0}};
     pf_cli cli;
@@ -53,6 +68,7 @@ int main(int argc, char **argv)
     pf_slice_params p = pf_slice_params_default();
     pf_cli_import imp = pf_cli_import_default();
     const char *path = NULL, *value;
+    double plain = -1;
     bool quiet = false;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         switch (id) {
@@ -67,6 +83,7 @@ int main(int argc, char **argv)
         case OPT_QUIET: quiet = true; break;
         case OPT_EXACT: p.robust = false; break;
         case OPT_REFINE: p.contour_refine = (int32_t)pf_cli_parse_long(&cli, "refine", value, 1, 8); break;
+        case OPT_PROGRESS: plain = pf_cli_parse_progress(&cli, value); break;
         case OPT_IMPORT:
         case OPT_IMPORT + 1:
         case OPT_IMPORT + 2: pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp); break;
@@ -88,8 +105,15 @@ int main(int argc, char **argv)
     if (st >= 0)
         st = pf_cli_read_surface(path, &surface, w, &imp, &err);
     pf_slice_stats stats;
+    pf_cli_progress prog;
+    double slice_cpu = 0;
+    pf_cli_progress_start(&prog, "pf-slice", quiet, plain);
+    p.progress = pf_cli_progress_fn;
+    p.progress_ctx = &prog;
     if (st >= 0) {
         st = pf_mesh_slice(&mesh, &surface, &p, &stats, &err);
+        pf_cli_progress_done(&prog);
+        slice_cpu = pf_cpu_seconds() - prog.cpu0;
         if (st < 0)
             pf_cli_prefix_surface_error(path, &err);
     }
@@ -104,11 +128,11 @@ int main(int argc, char **argv)
     if (st >= 0 && !quiet)
         fprintf(stderr,
                 "pf-slice: %d x %d x %d grid of cell %.6g: %d elements (%d hexes, %d tets, %d "
-                "polyhedra), %d slivers merged, %d isolated, %lld splits, %.3f s\n",
+                "polyhedra), %d slivers merged, %d isolated, %lld splits, %.3f s (CPU %.3f s)\n",
                 (int)stats.grid.n[0], (int)stats.grid.n[1], (int)stats.grid.n[2], stats.grid.h,
                 (int)mesh.n_elems, (int)stats.kinds[PF_ELEM_HEX], (int)stats.kinds[PF_ELEM_TET],
                 (int)stats.kinds[PF_ELEM_POLY], (int)stats.merged, (int)stats.isolated_slivers,
-                (long long)stats.splits, stats.seconds);
+                (long long)stats.splits, stats.seconds, slice_cpu);
     char line[320];
     if (st >= 0 && !quiet && pf_cli_import_summary(&imp, line, sizeof line))
         fprintf(stderr, "pf-slice: import: %s\n", line);

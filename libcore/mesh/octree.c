@@ -316,6 +316,10 @@ static pf_status build(octree *oc, const int32_t c[3], int level, int64_t b, int
             oc->leaves[oc->n_leaves - 1].n_pieces =
                 oc->n_pieces - oc->leaves[oc->n_leaves - 1].first_piece;
         }
+        if (oc->p.progress) { /* a leaf at level holds 8^-level of the root cube */
+            oc->volume_done += ldexp(1.0, -3 * level);
+            oc->p.progress(oc->p.progress_ctx, oc->volume_done, 1.0);
+        }
         return PF_OK;
     }
     piece_list octant[8];

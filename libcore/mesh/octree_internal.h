@@ -43,6 +43,7 @@ typedef struct octree {
     int32_t *remap;
     int32_t cap_remap;
     int64_t splits;
+    double volume_done; /* fraction of the root cube in built leaves, for progress */
 } octree;
 
 static inline double coord(const octree *oc, int a, int64_t i)

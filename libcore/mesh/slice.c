@@ -354,6 +354,8 @@ typedef struct slicer {
     int32_t cap_remap;
     glue glue;
     int64_t splits;
+    pf_progress_fn progress; /* the caller's, with its context */
+    void *progress_ctx;
 } slicer;
 
 static double plane_coordinate(const pf_grid *g, int axis, int32_t index)
@@ -402,8 +404,12 @@ static pf_status finish_piece(slicer *sl, piece *p, int axis, pf_error *err)
 
 static pf_status slice_axis(slicer *sl, piece *p, int axis, int32_t lo, int32_t hi, pf_error *err)
 {
-    if (hi - lo <= 1)
-        return finish_piece(sl, p, axis, err);
+    if (hi - lo <= 1) {
+        pf_status st = finish_piece(sl, p, axis, err);
+        if (axis == 0 && sl->progress) /* slabs along x are finished in increasing order */
+            sl->progress(sl->progress_ctx, hi, sl->grid->n[0]);
+        return st;
+    }
     int32_t mid = lo + (hi - lo) / 2;
     double c = plane_coordinate(sl->grid, axis, mid);
     if (p->hi[axis] <= c + sl->params.tol) /* wholly below (touching at most): no cut */
@@ -673,7 +679,7 @@ pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
 static pf_status slice_clean(pf_mesh *m, const pf_surface *s, const pf_slice_params *p,
                              double tol, pf_slice_stats *stats, pf_error *err)
 {
-    slicer sl = {.grid = &stats->grid};
+    slicer sl = {.grid = &stats->grid, .progress = p->progress, .progress_ctx = p->progress_ctx};
     sl.params.tol = tol;
     sl.params.assume_closed = true; /* the surface is checked above; pieces of splits are closed */
     piece whole;

@@ -25,6 +25,7 @@ typedef struct survey {
     pf_vec3 lo, hi;
     bool have_stress;
     double stress_lo, stress_hi;
+    int64_t to_draw; /* the images the file gives in the frames range (progress's total) */
 } survey;
 
 struct pf_render_stream {
@@ -55,6 +56,11 @@ pf_render_stream_params pf_render_stream_params_default(void)
                                      .first = 0,
                                      .last = (int64_t)UINT32_MAX,
                                      .out_dir = "frames"};
+}
+
+static bool in_range(const pf_render_stream *rs, uint32_t index)
+{
+    return (int64_t)index >= rs->p.first && (int64_t)index <= rs->p.last;
 }
 
 /* ---- the picture of the stream --------------------------------------------------------------- */
@@ -204,6 +210,10 @@ void pf_render_stream_survey(pf_render_stream *rs, FILE *f, const char *name)
                 break;
             if (survey_chunk(&pic, sv, rs->p.mode, &c, &err) != PF_OK)
                 break; /* the rendering pass reports it */
+            uint32_t index;
+            if (strcmp(c.tag, "FRAM") == 0 && pf_stream_frame_index(&c, &index, &err) == PF_OK &&
+                in_range(rs, index))
+                ++sv->to_draw;
         }
     }
     /* no frames: the rest shape is what is drawn */
@@ -211,6 +221,7 @@ void pf_render_stream_survey(pf_render_stream *rs, FILE *f, const char *name)
         pf_vec3 lo, hi;
         frame_bounds(&pic, rs->p.mode, NULL, &lo, &hi);
         grow_box(sv, lo, hi);
+        sv->to_draw = in_range(rs, 0) ? 1 : 0;
     }
     double ground;
     if (sv->have_box && ground_height(rs, &pic, &ground))
@@ -364,11 +375,6 @@ static pf_status render_frame(pf_render_stream *rs, const pf_frame_data *f, pf_e
     return PF_OK;
 }
 
-static bool in_range(const pf_render_stream *rs, uint32_t index)
-{
-    return (int64_t)index >= rs->p.first && (int64_t)index <= rs->p.last;
-}
-
 static pf_status flush_pending(pf_render_stream *rs, pf_error *err)
 {
     if (!rs->have_pending)
@@ -441,6 +447,11 @@ pf_status pf_render_stream_finish(pf_render_stream *rs, bool stream_ok, const ch
 int64_t pf_render_stream_written(const pf_render_stream *rs)
 {
     return rs->written;
+}
+
+int64_t pf_render_stream_to_draw(const pf_render_stream *rs)
+{
+    return rs->from_file ? rs->sv.to_draw : -1;
 }
 
 /* ---- life cycle ------------------------------------------------------------------------------ */

@@ -138,6 +138,10 @@ double pf_time_seconds(void);
  * the wall time). */
 double pf_cpu_seconds(void);
 
+/* Progress of a long computation: done out of total (any unit, 0 <= done <= total, total > 0),
+ * reported now and then from the thread that called the computation; ctx is the caller's. */
+typedef void (*pf_progress_fn)(void *ctx, double done, double total);
+
 /* OpenBLAS's thread count for a stretch of BLAS / LAPACK calls (base/blas_threads.c says why pf
  * runs its own calls on one: results independent of the core count, and small products).
  * pf_blas_threads_set sets it to threads (> 0) unless the user set OPENBLAS_NUM_THREADS,

@@ -327,6 +327,8 @@ typedef struct pf_slice_params {
      * such a surface is refused. */
     bool robust;
     int32_t contour_refine;  /* lattice edges per grid cell edge, 1 .. 8 (default 2) */
+    pf_progress_fn progress; /* NULL: none; else called with the grid slabs (along x) done */
+    void *progress_ctx;
 } pf_slice_params;
 
 pf_slice_params pf_slice_params_default(void);
@@ -392,6 +394,9 @@ typedef struct pf_octree_params {
     bool robust;       /* with slice: as pf_slice_params.robust, the lattice over the finest
                           cells (default true) */
     int32_t contour_refine; /* as pf_slice_params (default 2) */
+    pf_progress_fn progress; /* NULL: none; else called with the fraction of the root cube's
+                                volume whose leaves are built (total 1) */
+    void *progress_ctx;
 } pf_octree_params;
 
 pf_octree_params pf_octree_params_default(void);

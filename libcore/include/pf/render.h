@@ -253,6 +253,9 @@ pf_status pf_render_stream_finish(pf_render_stream *rs, bool stream_ok, const ch
                                   pf_error *err);
 /* Images written so far. */
 int64_t pf_render_stream_written(const pf_render_stream *rs);
+/* The images the survey counted (the frames in range of the file, or the rest shape), for a
+ * progress's total; -1 without a survey (a pipe: unknown). */
+int64_t pf_render_stream_to_draw(const pf_render_stream *rs);
 void pf_render_stream_destroy(pf_render_stream **rs);
 
 /* ==== MP4 through ffmpeg ======================================================================= */

@@ -1,0 +1,33 @@
+# Progress on stderr: plain lines with --progress[=S] (here every report: S = 0) giving the share
+# done, wall and CPU seconds and the ETA; nothing with -q / --quiet; summaries with CPU seconds.
+. "$(dirname "$0")/lib.sh"
+"$bin/pf-shape" torus --res 24 >"$tmp/torus.pfs"
+line='[0-9]+%, [0-9.e+-]+ s \(CPU [0-9.e+-]+ s\)'
+
+expect 0 "" "$bin/pf-slice" --res 16 --progress=0 "$tmp/torus.pfs"
+check "pf-slice: progress lines" grep -Eq "^pf-slice: $line, ETA [0-9]+ s$" "$tmp/err"
+check "pf-slice: the last one at 100 %" grep -Eq "^pf-slice: 100%, " "$tmp/err"
+check "pf-slice: the summary gives CPU seconds" grep -Eq "splits, [0-9.]+ s \(CPU [0-9.]+ s\)$" "$tmp/err"
+expect 0 "" "$bin/pf-slice" --res 16 -q "$tmp/torus.pfs"
+check "pf-slice -q: nothing on stderr" test ! -s "$tmp/err"
+expect 0 "" "$bin/pf-slice" --res 16 "$tmp/torus.pfs"
+check "pf-slice in a log, a short run: the summary only" test "$(wc -l <"$tmp/err")" = 1
+
+expect 0 "" "$bin/pf-octree" --depth 4 --slice --progress=0 "$tmp/torus.pfs"
+check "pf-octree: progress lines" grep -Eq "^pf-octree: $line" "$tmp/err"
+check "pf-octree: 100 % at the end" grep -Eq "^pf-octree: 100%, " "$tmp/err"
+check "pf-octree: the summary gives CPU seconds" grep -Eq ", [0-9.]+ s \(CPU [0-9.]+ s\)$" "$tmp/err"
+expect 0 "" "$bin/pf-octree" --depth 4 --quiet "$tmp/torus.pfs"
+check "pf-octree --quiet: nothing on stderr" test ! -s "$tmp/err"
+
+"$bin/pf-shape" box --cells 2,1,1 | "$bin/pf-sim" --frames 4 -q >"$tmp/sim.pfs"
+expect 0 "" "$bin/pf-render" --size 64x48 --out "$tmp/a" --progress=0 "$tmp/sim.pfs"
+check "pf-render of a file: frame, share and ETA" \
+  grep -Eq "^pf-render: frame 2, 3 written, 60%, [0-9.e+-]+ s \(CPU [0-9.e+-]+ s\), ETA [0-9]+ s$" "$tmp/err"
+expect 0 "" bash -c "cat '$tmp/sim.pfs' | '$bin/pf-render' --size 64x48 --out '$tmp/b' --progress=0"
+check "pf-render of a pipe: no share, no ETA" \
+  grep -Eq "^pf-render: frame 4, 5 written, [0-9.e+-]+ s \(CPU [0-9.e+-]+ s\)$" "$tmp/err"
+expect 0 "" "$bin/pf-render" --size 64x48 --out "$tmp/c" -q "$tmp/sim.pfs"
+check "pf-render -q: nothing on stderr" test ! -s "$tmp/err"
+expect 2 "--progress expects seconds >= 0" "$bin/pf-slice" --progress=-1 "$tmp/torus.pfs"
+finish

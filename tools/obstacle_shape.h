@@ -1,0 +1,14 @@
+/* The shapes pf-render draws for a scene's obstacles. */
+#ifndef PF_TOOLS_OBSTACLE_SHAPE_H
+#define PF_TOOLS_OBSTACLE_SHAPE_H
+
+#include <pf/mesh.h>
+#include <pf/sim.h>
+
+/* The triangles of obstacle o at rest (out released by the caller, also on failure): a sphere of
+ * 16 x 32 bands, a box, the mesh's file, a plane as a square of side 4 size centred under the
+ * body's centre c. The errors of pf_import_surface and the surface builders. */
+pf_status pf_obstacle_shape(const pf_obstacle *o, pf_vec3 c, double size, pf_surface *out,
+                            pf_error *err);
+
+#endif

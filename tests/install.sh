@@ -19,7 +19,7 @@ so=$(readlink "$p/lib/libpf.so") || fail "lib/libpf.so is not a symlink"
 soname=$(objdump -p "$p/lib/libpf.so" | awk '$1 == "SONAME" {print $2}')
 [ -n "$soname" ] && [ -e "$p/lib/$soname" ] || fail "soname '$soname' of $so not installed"
 
-"$p/bin/pf-shape" torus --res 12 | "$p/bin/pf-slice" --res 6 --quiet > "$tmp/box.pfs"
+"$p/bin/pf-shape" torus --segments 12 | "$p/bin/pf-slice" --res 6 --quiet > "$tmp/box.pfs"
 expect=$("$build/bin/pf-info" "$tmp/box.pfs" --json | python3 -c \
   'import json,sys; m=[json.loads(l) for l in sys.stdin if "\"MESH\"" in l][0]; print(m["elements"], repr(m["volume"]))')
 check() {  # program: its output must hold pf-info's element count and volume

@@ -6,19 +6,37 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-shape torus [--R R] [--r r] [--res N]\n"
-    "       pf-shape sphere [--radius R] [--res N]\n"
-    "       pf-shape box [--size X,Y,Z] [--origin X,Y,Z] [--cells NX,NY,NZ]\n"
+    "Usage: pf-shape torus [--R R] [--r r] [--segments N]\n"
+    "       pf-shape sphere [--radius R] [--segments N]\n"
+    "       pf-shape box [--extent X,Y,Z] [--origin X,Y,Z] [--cells NX,NY,NZ]\n"
     "\n"
     "Writes a pf stream (INFO + SURF for torus and sphere, INFO + MESH for box) to stdout.\n"
     "  torus   around the z axis, tube centre radius --R (default 1), tube radius --r (0.35),\n"
-    "          2N x N segments (--res N, default 32)\n"
-    "  sphere  radius --radius (default 1), N bands x 2N segments (--res N, default 32)\n"
-    "  box     a hex grid filling [origin, origin + size] (defaults: origin 0,0,0, size 4,1,1,\n"
-    "          cells 8,2,2)\n"
-    "  --help, --version\n";
+    "          2N x N segments (--segments N, default 32)\n"
+    "  sphere  radius --radius (default 1), N bands x 2N segments (--segments N, default 32)\n"
+    "  box     a hex grid filling [origin, origin + extent] (defaults: origin 0,0,0, extent\n"
+    "          4,1,1, cells 8,2,2)\n"
+    "  --help, --version\n"
+    "The former spellings --res N (a grid's cell count in pf-slice and pf-voxelize) and --size\n"
+    "X,Y,Z (the image size WxH in pf-render) still work, with a deprecation note on stderr.\n";
 
-enum { OPT_R = 1, OPT_SMALL_R, OPT_RES, OPT_RADIUS, OPT_SIZE, OPT_ORIGIN, OPT_CELLS };
+enum {
+    OPT_R = 1,
+    OPT_SMALL_R,
+    OPT_SEGMENTS,
+    OPT_RES, /* deprecated: --segments */
+    OPT_RADIUS,
+    OPT_EXTENT,
+    OPT_SIZE, /* deprecated: --extent */
+    OPT_ORIGIN,
+    OPT_CELLS
+};
+
+/* One meaning per flag name across the tools: the old spelling keeps working, with a note. */
+static void deprecated(const char *old, const char *now, const char *why)
+{
+    fprintf(stderr, "pf-shape: --%s is deprecated, use --%s (%s)\n", old, now, why);
+}
 
 static void parse_cells(const pf_cli *cli, const char *text, int32_t cells[3])
 {
@@ -34,9 +52,10 @@ static void parse_cells(const pf_cli *cli, const char *text, int32_t cells[3])
 int main(int argc, char **argv)
 {
     static const pf_cli_option options[] = {
-        {"R", true, OPT_R},           {"r", true, OPT_SMALL_R},       {"res", true, OPT_RES},
-        {"radius", true, OPT_RADIUS}, {"size", true, OPT_SIZE},       {"origin", true, OPT_ORIGIN},
-        {"cells", true, OPT_CELLS},   {NULL, false, 0}};
+        {"R", true, OPT_R},           {"r", true, OPT_SMALL_R},       {"segments", true, OPT_SEGMENTS},
+        {"res", true, OPT_RES},       {"radius", true, OPT_RADIUS},   {"extent", true, OPT_EXTENT},
+        {"size", true, OPT_SIZE},     {"origin", true, OPT_ORIGIN},   {"cells", true, OPT_CELLS},
+        {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-shape", USAGE, argc, argv);
     const char *shape = NULL, *value;
@@ -48,8 +67,14 @@ int main(int argc, char **argv)
         case OPT_R: R = pf_cli_parse_double(&cli, "R", value); break;
         case OPT_SMALL_R: r = pf_cli_parse_double(&cli, "r", value); break;
         case OPT_RADIUS: radius = pf_cli_parse_double(&cli, "radius", value); break;
-        case OPT_RES: res = pf_cli_parse_long(&cli, "res", value, 3, 4096); break;
-        case OPT_SIZE: pf_cli_parse_vec3(&cli, "size", value, size); break;
+        case OPT_RES:
+            deprecated("res", "segments", "--res counts grid cells in pf-slice and pf-voxelize");
+            /* fall through */
+        case OPT_SEGMENTS: res = pf_cli_parse_long(&cli, "segments", value, 3, 4096); break;
+        case OPT_SIZE:
+            deprecated("size", "extent", "--size is the image size WxH in pf-render");
+            /* fall through */
+        case OPT_EXTENT: pf_cli_parse_vec3(&cli, "extent", value, size); break;
         case OPT_ORIGIN: pf_cli_parse_vec3(&cli, "origin", value, origin); break;
         case OPT_CELLS: parse_cells(&cli, value, cells); break;
         default:

@@ -10,7 +10,7 @@ check "text summary" grep -q "^summary: 2 elements: 0 tets and 2 hexes" "$tmp/bo
 
 # A sliced sphere: harmonic cells; JSON lines, the summary last with the required keys, and
 # partition of unity / linear reproduction exact to 1e-12.
-"$bin/pf-shape" sphere --res 8 >"$tmp/sphere.pfs" || { echo "FAIL: pf-shape sphere"; exit 1; }
+"$bin/pf-shape" sphere --segments 8 >"$tmp/sphere.pfs" || { echo "FAIL: pf-shape sphere"; exit 1; }
 "$bin/pf-slice" --res 3 --quiet "$tmp/sphere.pfs" >"$tmp/sliced.pfs" || { echo "FAIL: pf-slice"; exit 1; }
 "$bin/pf-basis" --json --quiet - <"$tmp/sliced.pfs" >"$tmp/basis.json"
 check "one object per element" bash -c "[ \$(grep -c '\"element\":' '$tmp/basis.json') -ge 20 ]"

@@ -56,7 +56,7 @@ cat >"$tmp/obstacles.json" <<'JSON'
                {"plane": {"point": [0, 0, -0.6], "normal": [0, 0, 1]}}],
  "time": {"frames": 4}}
 JSON
-"$bin/pf-shape" box --size 1,1,1 --cells 2,2,2 >"$tmp/cube.pfs"
+"$bin/pf-shape" box --extent 1,1,1 --cells 2,2,2 >"$tmp/cube.pfs"
 expect 0 "contact at 26 nodes" "$bin/pf-sim" "$tmp/obstacles.json" --input "$tmp/cube.pfs"
 "$bin/pf-sim" "$tmp/obstacles.json" --quiet --input "$tmp/cube.pfs" >"$tmp/obst.pfs"
 "$bin/pf-render" --out "$tmp/r1" --frames 4 --size 160x120 --quiet "$tmp/obst.pfs"

@@ -1,7 +1,7 @@
 # pf-embed: WGHT through the pipe, every method, the outside warning, --surface, bad input.
 . "$(dirname "$0")/lib.sh"
 
-"$bin/pf-shape" sphere --res 16 >"$tmp/sphere.pfs" || { echo "FAIL: pf-shape sphere"; exit 1; }
+"$bin/pf-shape" sphere --segments 16 >"$tmp/sphere.pfs" || { echo "FAIL: pf-shape sphere"; exit 1; }
 "$bin/pf-voxelize" --res 8 --quiet "$tmp/sphere.pfs" >"$tmp/vox.pfs" || { echo "FAIL: pf-voxelize"; exit 1; }
 
 # The voxel mesh lies inside the sphere: the surface pokes out, which is a warning, not an error.
@@ -22,7 +22,7 @@ expect 0 "harmonic functions of" "$bin/pf-embed" --method harmonic "$tmp/slice.p
 check "harmonic: one WGHT" test "$("$bin/pf-info" --json "$tmp/out" | grep -c '"chunk":"WGHT"')" = 1
 
 # --surface replaces the stream's surface; a mesh without a surface needs it.
-"$bin/pf-shape" box --size 1,1,1 --cells 2,2,2 >"$tmp/box.pfs"
+"$bin/pf-shape" box --extent 1,1,1 --cells 2,2,2 >"$tmp/box.pfs"
 expect 1 "no SURF" "$bin/pf-embed" "$tmp/box.pfs"
 expect 0 "8 vertices" "$bin/pf-embed" --surface "$data/cube.obj" "$tmp/box.pfs"
 "$bin/pf-embed" --quiet --surface "$data/cube.obj" "$tmp/box.pfs" | "$bin/pf-info" --json - >"$tmp/box.json"

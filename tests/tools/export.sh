@@ -57,7 +57,7 @@ check "tets: element ids" grep -q 'Name="element"' "$tmp/tets/mesh_00000.vtu"
 # VTK's own reader, where a python3 with vtk is installed (Debian: python3-vtk9)
 for py in python3 /usr/bin/python3; do
   if "$py" -c 'import vtk' >/dev/null 2>&1; then
-    "$bin/pf-shape" torus --res 16 | "$bin/pf-slice" --res 8 --quiet >"$tmp/torus.pfs"
+    "$bin/pf-shape" torus --segments 16 | "$bin/pf-slice" --res 8 --quiet >"$tmp/torus.pfs"
     for o in "" --ascii --tets; do "$bin/pf-export" --quiet --vtu "$tmp/vtk$o" $o "$tmp/torus.pfs"; done
     check "VTK reads binary = ASCII, tets' volume = pf's" "$py" "$(dirname "$0")/vtk_read.py" \
       "$tmp/vtk/mesh_00000.vtu" "$tmp/vtk--ascii/mesh_00000.vtu" "$tmp/vtk--tets/mesh_00000.vtu"

@@ -1,7 +1,7 @@
 # Progress on stderr: plain lines with --progress[=S] (here every report: S = 0) giving the share
 # done, wall and CPU seconds and the ETA; nothing with -q / --quiet; summaries with CPU seconds.
 . "$(dirname "$0")/lib.sh"
-"$bin/pf-shape" torus --res 24 >"$tmp/torus.pfs"
+"$bin/pf-shape" torus --segments 24 >"$tmp/torus.pfs"
 line='[0-9]+%, [0-9.e+-]+ s \(CPU [0-9.e+-]+ s\)'
 
 expect 0 "" "$bin/pf-slice" --res 16 --progress=0 "$tmp/torus.pfs"

@@ -12,7 +12,7 @@ gen="$bin/../tests/test_render"
 [ -x "$gen" ] || { echo "FAIL: $gen (writes the test streams) is not built"; exit 1; }
 
 "$bin/pf-shape" box --cells 4,2,2 >"$tmp/box.pfs" || { echo "FAIL: pf-shape box"; exit 1; }
-"$bin/pf-shape" torus --res 12 >"$tmp/torus.pfs" || { echo "FAIL: pf-shape torus"; exit 1; }
+"$bin/pf-shape" torus --segments 12 >"$tmp/torus.pfs" || { echo "FAIL: pf-shape torus"; exit 1; }
 "$gen" --write-beam "$tmp/beam.pfs" || { echo "FAIL: test_render --write-beam"; exit 1; }
 "$gen" --write-mixed "$tmp/mixed.pfs" || { echo "FAIL: test_render --write-mixed"; exit 1; }
 

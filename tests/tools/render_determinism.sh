@@ -4,7 +4,7 @@
 gen="$bin/../tests/test_render"
 [ -x "$gen" ] || { echo "FAIL: $gen (writes the test streams) is not built"; exit 1; }
 "$gen" --write-beam "$tmp/beam.pfs" || { echo "FAIL: test_render --write-beam"; exit 1; }
-"$bin/pf-shape" torus --res 24 >"$tmp/torus.pfs" || { echo "FAIL: pf-shape torus"; exit 1; }
+"$bin/pf-shape" torus --segments 24 >"$tmp/torus.pfs" || { echo "FAIL: pf-shape torus"; exit 1; }
 
 for mode in surface mesh stress; do
   for threads in 1 2; do

@@ -5,8 +5,8 @@
 . "$(dirname "$0")/lib.sh"
 root=$(cd "$data/../.." && pwd)
 scenes=$root/data/scenes
-"$bin/pf-shape" box --size 4,1,1 --cells 8,2,2 >"$tmp/beam.pfs"
-"$bin/pf-shape" torus --res 12 | "$bin/pf-slice" --res 6 --quiet >"$tmp/torus.pfs"
+"$bin/pf-shape" box --extent 4,1,1 --cells 8,2,2 >"$tmp/beam.pfs"
+"$bin/pf-shape" torus --segments 12 | "$bin/pf-slice" --res 6 --quiet >"$tmp/torus.pfs"
 
 # every example scene, on the beam (cantilevers) or the sliced torus, 2 frames
 for f in "$scenes"/*.json; do

@@ -5,7 +5,7 @@ scenes=$data/scenes
 # The static cantilever (4 x 1 x 1, clamped at x = 0, traction (0, 0, -1) on x = 4), DG degree 2
 # IP on 16 x 4 x 4 hexes: the tip deflection is Timoshenko's 2.685e-3 within 3 % (the 3-D
 # clamp and load spread are not in beam theory; test_sim checks the convergence).
-"$bin/pf-shape" box --size 4,1,1 --cells 16,4,4 >"$tmp/beam.pfs" || { echo "FAIL: pf-shape"; exit 1; }
+"$bin/pf-shape" box --extent 4,1,1 --cells 16,4,4 >"$tmp/beam.pfs" || { echo "FAIL: pf-shape"; exit 1; }
 expect 0 "" "$bin/pf-sim" "$scenes/cantilever.json" --input "$tmp/beam.pfs"
 "$bin/pf-sim" "$scenes/cantilever.json" --quiet <"$tmp/beam.pfs" >"$tmp/out.pfs"
 "$bin/pf-info" --json --probe 4,0.5,0.5 "$tmp/out.pfs" >"$tmp/info.json"
@@ -16,7 +16,7 @@ check "the output keeps the MESH and adds SCEN, FRAM, STRS" \
   bash -c "grep -q '\"chunk\":\"MESH\"' '$tmp/info.json' && grep -q '\"chunk\":\"SCEN\"' '$tmp/info.json' && grep -q '\"chunk\":\"STRS\"' '$tmp/info.json'"
 
 # Without a scene: the default drop onto the ground, 5 frames plus the rest frame.
-"$bin/pf-shape" box --size 1,1,1 --cells 2,2,2 >"$tmp/cube.pfs"
+"$bin/pf-shape" box --extent 1,1,1 --cells 2,2,2 >"$tmp/cube.pfs"
 expect 0 "" "$bin/pf-sim" --frames 5 --input "$tmp/cube.pfs"
 "$bin/pf-sim" --frames 5 --quiet <"$tmp/cube.pfs" >"$tmp/drop.pfs"
 check "six frames" bash -c "'$bin/pf-info' '$tmp/drop.pfs' | grep -q '^FRAM .*: 6 frames'"
@@ -45,7 +45,7 @@ check "cg tip deflection $tip is -2.685e-3 within 6 % from below" \
 tip2=$(grep -o '"u":\[[^]]*\]' "$tmp/cginfo2.json" | head -1 | sed 's/.*,//; s/\]//')
 check "--method cg gives the same tip ($tip2 = $tip)" test "$tip2" = "$tip"
 # A sliced sphere (hexes and harmonic cut cells) dropped with cg and lumped mass: 3 frames.
-"$bin/pf-shape" sphere --res 8 | "$bin/pf-slice" --res 4 --quiet >"$tmp/ball.pfs"
+"$bin/pf-shape" sphere --segments 8 | "$bin/pf-slice" --res 4 --quiet >"$tmp/ball.pfs"
 expect 0 "harmonic" "$bin/pf-sim" --method cg --mass lumped --frames 3 --input "$tmp/ball.pfs"
 "$bin/pf-sim" --method cg --frames 3 --quiet <"$tmp/ball.pfs" >"$tmp/ball_out.pfs"
 check "four cg frames of the ball" bash -c "'$bin/pf-info' '$tmp/ball_out.pfs' | grep -q '^FRAM .*: 4 frames'"

@@ -7,6 +7,7 @@
 #include <sys/types.h>
 #include <unistd.h>
 
+#include <pf/fem.h>
 #include <pf/io.h>
 
 #include "cli.h"
@@ -28,7 +29,8 @@ static const char USAGE[] =
     "  --obj DIR     DIR/frame_NNNNN.obj per frame: the displaced surface (doubles, exact)\n"
     "  --ply DIR     DIR/frame_NNNNN.ply: the same as binary PLY (float32, compact)\n"
     "  --usd FILE    one text USD stage (.usda) of the same surface: points and normals as time\n"
-    "                samples (time code = frame index), topology again where it changes\n"
+    "                samples (time code = frame index), topology again where it changes, and\n"
+    "                on the mesh boundary the von Mises stress per triangle (primvar 'stress')\n"
     "                The surface is the SURF chunk moved by its WGHT embedding when the stream\n"
     "                has both, else the boundary of the MESH (its referenced nodes only) moved by\n"
     "                the frame's displacements.\n"
@@ -112,6 +114,8 @@ typedef struct exporter {
     pf_surface boundary;
     int32_t *boundary_node;  /* [boundary.n_verts] the mesh node of each boundary vertex */
     double *boundary_x;      /* [3 boundary.n_verts] displaced */
+    int32_t *boundary_elem;  /* [boundary.n_tris] the element each boundary triangle bounds */
+    double *tri_stress;      /* --usd: [boundary.n_tris] the frame's (von Mises) stress */
     uint64_t boundary_serial; /* the MESH the boundary is of (0: none) */
     /* VTU: a frame waiting for the STRS chunk that may follow it */
     pf_frame_data pending;
@@ -135,6 +139,8 @@ static void exporter_release(exporter *x)
     pf_free(x->surface_x);
     pf_free(x->boundary_node);
     pf_free(x->boundary_x);
+    pf_free(x->boundary_elem);
+    pf_free(x->tri_stress);
     pf_frame_data_release(&x->pending);
     pf_free(x->series_index);
     pf_free(x->series_time);
@@ -199,14 +205,20 @@ static pf_status write_vtu(exporter *x, uint32_t index, double time, const doubl
     return PF_OK;
 }
 
+static pf_status write_surface(exporter *x, uint32_t index, const double *u,
+                               const pf_stress_data *stress, pf_error *err);
+
 static pf_status flush_pending(exporter *x, pf_error *err)
 {
     if (!x->have_pending)
         return PF_OK;
     x->have_pending = false;
-    bool stress = x->st.have_stress && x->st.stress.frame == x->pending.index;
-    pf_status s = write_vtu(x, x->pending.index, x->pending.time, x->pending.u,
-                            stress ? &x->st.stress : NULL, err);
+    x->time = x->pending.time;
+    bool has_stress = x->st.have_stress && x->st.stress.frame == x->pending.index;
+    const pf_stress_data *stress = has_stress ? &x->st.stress : NULL;
+    pf_status s = x->usd ? write_surface(x, x->pending.index, x->pending.u, stress, err)
+                         : write_vtu(x, x->pending.index, x->pending.time, x->pending.u, stress,
+                                     err);
     pf_frame_data_release(&x->pending);
     return s;
 }
@@ -246,6 +258,8 @@ static pf_status ensure_boundary(exporter *x, pf_error *err)
     pf_surface_release(&x->boundary);
     PF_FREE(x->boundary_node);
     PF_FREE(x->boundary_x);
+    PF_FREE(x->boundary_elem);
+    PF_FREE(x->tri_stress);
     pf_boundary b = {0};
     PF_TRY(named(x, pf_boundary_extract(m, &b, err), err));
     int32_t n_tris = (int32_t)b.tri_offsets[b.n_faces];
@@ -267,7 +281,9 @@ static pf_status ensure_boundary(exporter *x, pf_error *err)
     x->boundary.id = m->id;
     x->boundary_node = pf_alloc_array((size_t)n_verts + 1, sizeof *x->boundary_node);
     x->boundary_x = pf_alloc_array(3 * (size_t)n_verts + 1, sizeof *x->boundary_x);
-    if (!x->boundary_node || !x->boundary_x) {
+    x->boundary_elem = pf_alloc_array((size_t)n_tris + 1, sizeof *x->boundary_elem);
+    x->tri_stress = pf_alloc_array((size_t)n_tris + 1, sizeof *x->tri_stress);
+    if (!x->boundary_node || !x->boundary_x || !x->boundary_elem || !x->tri_stress) {
         s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
         goto done;
     }
@@ -279,6 +295,9 @@ static pf_status ensure_boundary(exporter *x, pf_error *err)
         }
     for (int64_t k = 0; k < 3 * (int64_t)n_tris; ++k)
         x->boundary.tri[k] = (uint32_t)vert[b.tri[k]];
+    for (int32_t f = 0; f < b.n_faces; ++f)
+        for (int64_t t = b.tri_offsets[f]; t < b.tri_offsets[f + 1]; ++t)
+            x->boundary_elem[t] = b.elem[f];
     x->boundary_serial = x->st.mesh_serial;
 done:
     pf_free(vert);
@@ -321,13 +340,29 @@ static pf_status frame_surface(exporter *x, const double *u, const pf_surface **
     return PF_OK;
 }
 
-static pf_status write_surface(exporter *x, uint32_t index, const double *u, pf_error *err)
+/* --usd: the frame's stress on the triangles of the mesh boundary (von Mises of the element each
+ * bounds), or NULL: no STRS, or the surface is the embedded one (no triangle -> element map). */
+static const double *triangle_stress(exporter *x, const pf_surface *s,
+                                     const pf_stress_data *stress)
+{
+    if (!stress || s != &x->boundary)
+        return NULL;
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        const double *v = stress->values + (size_t)x->boundary_elem[t] * stress->components;
+        x->tri_stress[t] = stress->components == 6 ? pf_von_mises(v) : v[0];
+    }
+    return x->tri_stress;
+}
+
+static pf_status write_surface(exporter *x, uint32_t index, const double *u,
+                               const pf_stress_data *stress, pf_error *err)
 {
     const pf_surface *s;
     const double *pos;
     PF_TRY(frame_surface(x, u, &s, &pos, err));
     if (x->usd) {
-        PF_TRY(pf_usd_writer_add(x->usd, index, x->time, s, pos, NULL, err));
+        PF_TRY(pf_usd_writer_add(x->usd, index, x->time, s, pos, triangle_stress(x, s, stress),
+                                 err));
         report(x, index);
         return PF_OK;
     }
@@ -349,13 +384,13 @@ static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
         return pf_stream_state_skip_frame(&x->st, c, &index, err);
     pf_frame_data f = {0};
     PF_TRY(pf_stream_state_frame(&x->st, c, &f, err));
-    if (x->o->format == FORMAT_VTU) {
+    if (x->o->format == FORMAT_VTU || x->usd) {
         x->pending = f; /* its STRS may follow */
         x->have_pending = true;
         return PF_OK;
     }
     x->time = f.time;
-    pf_status s = write_surface(x, f.index, f.u, err);
+    pf_status s = write_surface(x, f.index, f.u, NULL, err);
     pf_frame_data_release(&f);
     return s;
 }
@@ -384,7 +419,7 @@ static pf_status write_rest(exporter *x, pf_error *err)
     }
     PF_CHECK(x->st.have_mesh || x->st.have_surface, err, PF_ERR_FORMAT,
              "%s: nothing to export: no MESH and no SURF chunk", x->name);
-    return write_surface(x, 0, NULL, err);
+    return write_surface(x, 0, NULL, NULL, err);
 }
 
 static pf_status export_stream(exporter *x, FILE *f, pf_error *err)

@@ -89,6 +89,11 @@ check "USD: three points samples of 3 points" test "$(sed -n '/points.timeSample
 check "USD: three normals samples" test "$(sed -n '/normals.timeSamples/,/^        }/p' "$tmp/anim.usda" | grep -c '^ *[0-9]*: \[')" = 3
 check "USD: one topology sample" test "$(sed -n '/faceVertexIndices.timeSamples/,/^        }/p' "$tmp/anim.usda" | grep -c '^ *0: \[0, 1, 2\],$')" = 1
 check "USD: frame 2 sagged" grep -q '^ *2: \[(0, 0, 0), (2, 0, -0.0399999991), (2, 1, 0.959999979)\],$' "$tmp/anim.usda"
+# of a simulated mesh without SURF: the boundary, with the stress (STRS) per triangle
+"$bin/pf-sim" --frames 2 --quiet <"$tmp/box.pfs" >"$tmp/boxsim.pfs"
+expect 0 "" "$bin/pf-export" --quiet --usd "$tmp/box.usda" "$tmp/boxsim.pfs"
+check "USD: three stress samples of 20 triangles" test "$(sed -n '/primvars:stress.timeSamples/,/^        }/p' "$tmp/box.usda" | grep -E '^ *[0-9]+: \[' | awk -F'[][]' '{print split($2, v, ",")}' | tr '\n' ' ')" = "20 20 20 "
+check "USD: stress interpolation uniform" grep -q 'interpolation = "uniform"' "$tmp/box.usda"
 expect 2 "one of --vtu" "$bin/pf-export" --usd a.usda --obj b "$tmp/box.pfs"
 
 # damaged streams: the frames before the damage stay (and are listed), exit 1 naming the chunk

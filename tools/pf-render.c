@@ -339,8 +339,10 @@ static pf_status run(options *o, stage *g, FILE *in, const char *name, pf_error 
     pf_status s = o->mp4 ? pf_video_create(&g->video, o->mp4, o->p.width, o->p.height, o->fps, err)
                          : PF_OK;
     if (s == PF_OK && o->mp4 && !o->quiet && (o->p.width % 2 || o->p.height % 2))
-        fprintf(stderr, "%s: --mp4: %dx%d frames padded to even sizes in %s (H.264 yuv420p); the "
-                "PNGs keep theirs\n", g->cli->tool, (int)o->p.width, (int)o->p.height, o->mp4);
+        fprintf(stderr, "%s: --mp4: %dx%d frames padded to %dx%d in %s (H.264 yuv420p needs even "
+                "sizes); the PNGs keep %dx%d\n", g->cli->tool, (int)o->p.width, (int)o->p.height,
+                (int)(o->p.width + o->p.width % 2), (int)(o->p.height + o->p.height % 2), o->mp4,
+                (int)o->p.width, (int)o->p.height);
     if (s == PF_OK)
         s = render_input(rs, in, name, err);
     pf_cli_progress_done(&g->progress);

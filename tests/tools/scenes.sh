@@ -49,14 +49,15 @@ check "every documented key is used by an example scene (missing: ${missing:-non
 # every override in the table: --key=value is accepted and lands in the stream's scene
 declare -A sample=([method]=cg [mass]=lumped [degree]=2 [flux]=bz [frames]=1 [substeps]=3
                    [dt]=0.02 [E]=12345 [nu]=0.25 [density]=7 [penalty]=3 [edge_samples]=4
-                   [corotation]=false [static]=true)
+                   [corotation]=false [static]=true [solver]=pcg [tolerance]=1e-08)
 declare -A json=([method]='["method"]["name"]' [mass]='["method"]["mass"]'
                  [degree]='["method"]["degree"]' [flux]='["method"]["flux"]'
                  [frames]='["time"]["frames"]' [substeps]='["time"]["substeps"]'
                  [dt]='["time"]["dt"]' [E]='["material"]["E"]' [nu]='["material"]["nu"]'
                  [density]='["material"]["density"]' [penalty]='["method"]["penalty"]'
                  [edge_samples]='["method"]["edge_samples"]'
-                 [corotation]='["method"]["corotation"]' [static]='["static"]')
+                 [corotation]='["method"]["corotation"]' [static]='["static"]'
+                 [solver]='["solver"]["method"]' [tolerance]='["solver"]["tolerance"]')
 overrides=$(sed -n '/^## Command-line overrides/,/^## /p' "$root/docs/scene.md" |
             sed -n 's/^| `\([A-Za-z_]*\)` |.*/\1/p')
 check "the override table lists keys" test -n "$overrides"
@@ -76,7 +77,7 @@ for key in $overrides; do
   check "$option=$value is recorded in the scene" python3 -c "
 import json, sys
 got = json.load(open('$tmp/o.json'))${json[$key]}
-want = json.loads('$value') if '$value' not in ('cg', 'lumped', 'bz') else '$value'
+want = json.loads('$value') if '$value' not in ('cg', 'lumped', 'bz', 'pcg') else '$value'
 sys.exit(0 if got == want else 1)"
 done
 # the flag spellings docs/scene.md gives

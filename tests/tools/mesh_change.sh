@@ -18,8 +18,8 @@ check "info: mesh 2, frames 2 .. 3" grep -q 'mesh 2 (MESH at byte [0-9]*): 16 no
 "$bin/pf-info" --json "$tmp/two.pfs" >"$tmp/info.json" 2>&1
 check "info --json: both meshes with their frames" grep -q '^{"meshes":\[{"id":1,"offset":[0-9]*,"nodes":12,"faces":11,"elements":2,"frames":2,"first_frame":0,"last_frame":1},{"id":2,"offset":[0-9]*,"nodes":16,"faces":16,"elements":3,"frames":2,"first_frame":2,"last_frame":3}\]}$' "$tmp/info.json"
 
-# pf-export --vtu: the cells change with the mesh, every frame keeps its stress
-expect 0 "4 VTU files written" "$bin/pf-export" --vtu "$tmp/vtu" "$tmp/two.pfs"
+# pf-export --vtu (ASCII, to read the values here): the cells change with the mesh, every frame keeps its stress
+expect 0 "4 VTU files written" "$bin/pf-export" --ascii --vtu "$tmp/vtu" "$tmp/two.pfs"
 for k in 0 1; do
   check "VTU frame $k: mesh 1" grep -q 'NumberOfPoints="12" NumberOfCells="2"' "$tmp/vtu/mesh_0000$k.vtu"
 done
@@ -30,6 +30,10 @@ for k in 0 1 2 3; do
   check "VTU frame $k: stress" grep -q 'Name="stress"' "$tmp/vtu/mesh_0000$k.vtu"
 done
 check "VTU frame 3: the stress of its 3 elements" test "$(sed -n '/Name="stress"/,/<\/DataArray>/p' "$tmp/vtu/mesh_00003.vtu" | sed -n '2,4p' | tr -d ' ' | tr '\n' ' ')" = "300 301 302 "
+# the default binary VTU follows the mesh change too
+expect 0 "4 VTU files written" "$bin/pf-export" --vtu "$tmp/vtub" "$tmp/two.pfs"
+check "binary VTU frame 1: mesh 1" grep -aq 'NumberOfPoints="12" NumberOfCells="2"' "$tmp/vtub/mesh_00001.vtu"
+check "binary VTU frame 3: mesh 2" grep -aq 'NumberOfPoints="16" NumberOfCells="3"' "$tmp/vtub/mesh_00003.vtu"
 check "PVD lists four files" test "$(grep -c '<DataSet' "$tmp/vtu/mesh.pvd")" = 4
 expect 0 "" "$bin/pf-export" --quiet --vtu "$tmp/vsel" --frames 2 "$tmp/two.pfs"
 check "VTU --frames 2: mesh 2" grep -q 'NumberOfPoints="16" NumberOfCells="3"' "$tmp/vsel/mesh_00002.vtu"

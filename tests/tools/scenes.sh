@@ -20,14 +20,19 @@ for f in "$scenes"/*.json; do
 done
 check "at least the six example scenes" test "$(ls "$tmp"/scene_*.json | wc -l)" -ge 6
 
-# every key in the first column of docs/scene.md's key tables appears in some example's scene
+# every key in the first column of docs/scene.md's key tables (header 'key ...') appears in some example's scene
 python3 - "$root/docs/scene.md" "$tmp"/scene_*.json >"$tmp/keys.txt" <<'PY'
 import json, re, sys
 doc = open(sys.argv[1]).read().split("## Command-line overrides")[0]
 keys = set()
+in_key_table = False  # tables whose first column is "key" (others list methods, degrees, ...)
 for line in doc.splitlines():
+    if not line.startswith("|"):
+        in_key_table = False
+    elif not in_key_table and re.match(r"\| key\b", line):
+        in_key_table = True
     m = re.match(r"\| (`[^|]*`) \|", line)
-    if m:
+    if m and in_key_table:
         keys.update(re.findall(r"`([A-Za-z_]+)`", m.group(1)))
 seen = set()
 def walk(v):

@@ -148,16 +148,16 @@ static int dg_row(const char *name, cholmod_sparse *a, int ordering, const Suite
     for (int k = 0; k < repeat; ++k) {
         double c0 = cpu_seconds();
         t0 = pf_time_seconds();
-        solve_threads_saved threads = solve_threads_enter(NULL);
+        solve_threads_saved threads = pf_solve_threads_enter(NULL);
         cholmod_l_factorize(a, l, &cc);
-        solve_threads_leave(threads);
+        pf_solve_threads_leave(threads);
         double t = pf_time_seconds() - t0;
         if (t < factor)
             factor = t, factor_cpu = cpu_seconds() - c0;
         t0 = pf_time_seconds();
-        threads = solve_threads_enter(NULL);
+        threads = pf_solve_threads_enter(NULL);
         cholmod_dense *x = cholmod_l_solve(CHOLMOD_A, l, b, &cc);
-        solve_threads_leave(threads);
+        pf_solve_threads_leave(threads);
         t = pf_time_seconds() - t0;
         solve = t < solve ? t : solve;
         cholmod_l_free_dense(&x, &cc);
@@ -277,12 +277,12 @@ int main(int argc, char **argv)
         double t0 = pf_time_seconds();
         cholmod_factor *l = cholmod_analyze(a, &cc);
         double t1 = pf_time_seconds();
-        solve_threads_saved threads = solve_threads_enter(NULL);
+        solve_threads_saved threads = pf_solve_threads_enter(NULL);
         cholmod_factorize(a, l, &cc);
         double t2 = pf_time_seconds();
         cholmod_dense *b = cholmod_ones(a->nrow, 1, CHOLMOD_REAL, &cc);
         cholmod_dense *x = cholmod_solve(CHOLMOD_A, l, b, &cc);
-        solve_threads_leave(threads);
+        pf_solve_threads_leave(threads);
         /* residual |b - A x|_inf with A symmetric (lower stored) */
         double one[2] = {1, 0}, minus_one[2] = {-1, 0};
         cholmod_dense *r = cholmod_copy_dense(b, &cc);

@@ -41,8 +41,8 @@ static double face_trace_error(const pf_mesh *m, int32_t f, basis_ws *w, double 
     pf_basis_params p = pf_basis_params_default();
     face_fn fn;
     memset(&fn, 0, sizeof fn);
-    assert_int_equal(face_init(&fn, m, f, &err), PF_OK);
-    assert_int_equal(face_solve(&fn, m, f, &p, w, &err), PF_OK);
+    assert_int_equal(pf_face_init(&fn, m, f, &err), PF_OK);
+    assert_int_equal(pf_face_solve(&fn, m, f, &p, w, &err), PF_OK);
     double worst = -1; /* -1: a closed form, not counted */
     if (fn.kind == FACE_MFS) {
         worst = 0;
@@ -52,7 +52,7 @@ static double face_trace_error(const pf_mesh *m, int32_t f, basis_ws *w, double 
             pf_vec3 xb = pf_v3_load(m->x + 3 * (size_t)fn.nodes[b]);
             for (int j = 0; j < 21; ++j) {
                 double t = (j + 0.5) / 21, v[PF_BASIS_MAX_NODES];
-                face_eval(&fn, pf_v3_add(xa, pf_v3_scale(pf_v3_sub(xb, xa), t)), v);
+                pf_face_eval(&fn, pf_v3_add(xa, pf_v3_scale(pf_v3_sub(xb, xa), t)), v);
                 for (int32_t c = 0; c < fn.n; ++c) {
                     double want = (c == a ? 1 - t : 0) + (c == b ? t : 0);
                     worst = fmax(worst, fabs(v[c] - want));
@@ -62,7 +62,7 @@ static double face_trace_error(const pf_mesh *m, int32_t f, basis_ws *w, double 
             }
         }
     }
-    face_release(&fn);
+    pf_face_release(&fn);
     return worst;
 }
 
@@ -102,7 +102,7 @@ static void test_face_traces_match_edge_data(void **state)
     printf("  face traces, trapezoids: largest %.2e\n", tw);
     assert_true(tw > 0 && tw < FACE_TRACE_TRAPEZOID);
     pf_mesh_release(&m);
-    ws_release(&w);
+    pf_ws_release(&w);
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 

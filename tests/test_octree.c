@@ -154,7 +154,7 @@ static void oracle_cell(oracle * or, const int32_t c[3], int level)
     bool near = false;
     for (int32_t t = 0; t < or->s->n_tris && !near; ++t) {
         const uint32_t *v = or->s->tri + 3 * (size_t)t;
-        near = triangle_overlaps_box(
+        near = pf_triangle_overlaps_box(
             pf_v3_load(or->s->x + 3 * (size_t)v[0]), pf_v3_load(or->s->x + 3 * (size_t)v[1]),
             pf_v3_load(or->s->x + 3 * (size_t)v[2]), centre, 0.5 * sz * or->h + or->margin);
     }

@@ -349,7 +349,7 @@ static void cholesky_is_independent_of_threads(void **state)
 {
     (void)state;
     size_t live = pf_alloc_live_bytes();
-    assert_true(solve_threads_blas_settable()); /* OpenBLAS: the BLAS the project builds on */
+    assert_true(pf_solve_threads_blas_settable()); /* OpenBLAS: the BLAS the project builds on */
     rng r = {0x5eed5eedu};
     pf_block_matrix a;
     make_grid_matrix(&a, 12, &r);

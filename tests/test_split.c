@@ -324,7 +324,7 @@ typedef struct outcome {
     int32_t cap_faces[2];
 } outcome;
 
-static pf_polyhedron piece_view(const pf_split *s, int32_t k)
+static pf_polyhedron pf_piece_view(const pf_split *s, int32_t k)
 {
     return (pf_polyhedron){.x = s->x,
                            .n_faces = (int32_t)(s->piece_faces[k + 1] - s->piece_faces[k]),
@@ -379,7 +379,7 @@ static outcome check_split(const shape *c, pf_plane pl, const pf_split_params *p
         int side = s.piece_side[k];
         assert_true(side == -1 || side == 1);
         int si = side > 0;
-        pf_polyhedron pv = piece_view(&s, k);
+        pf_polyhedron pv = pf_piece_view(&s, k);
         double v = pf_polyhedron_volume(&pv);
         CHECKF(v > 0, "%s: piece %d has volume %g", what, (int)k, v);
         o.pieces[si]++;

@@ -115,7 +115,7 @@ static bool elem_contains(const elem_ctx *c, pf_vec3 q)
             continue;
         double pu, pv;
         face_coords(f, pf_v3_add(q, pf_v3_scale(dir, t)), &pu, &pv);
-        cross += polygon_contains(f->p2, f->n, pu, pv);
+        cross += pf_polygon_contains(f->p2, f->n, pu, pv);
     }
     return cross & 1;
 }
@@ -131,9 +131,9 @@ static bool elem_boundary_within(const elem_ctx *c, pf_vec3 q, double dist)
             continue;
         double pu, pv;
         face_coords(f, q, &pu, &pv);
-        double din = polygon_contains(f->p2, f->n, pu, pv)
+        double din = pf_polygon_contains(f->p2, f->n, pu, pv)
                          ? 0
-                         : polygon_boundary_distance(f->p2, f->n, pu, pv) * f->s;
+                         : pf_polygon_boundary_distance(f->p2, f->n, pu, pv) * f->s;
         if (dp * dp + din * din < dist * dist)
             return true;
     }
@@ -163,11 +163,11 @@ static pf_status elem_setup(elem_ctx *c, const pf_basis_params *p, basis_ws *w, 
                  (int)e, (int)f);
         nfn += m->face_offsets[f + 1] - m->face_offsets[f];
     }
-    c->face_id = ws_get(w, WS_EFACE, (size_t)c->nf, sizeof *c->face_id);
-    c->floc_off = ws_get(w, WS_EFOFF, (size_t)c->nf + 1, sizeof *c->floc_off);
-    c->face_rev = ws_get(w, WS_EREV, (size_t)c->nf, sizeof *c->face_rev);
-    c->floc = ws_get(w, WS_ELOCAL, (size_t)nfn + 1, sizeof *c->floc);
-    c->edges = ws_get(w, WS_EDGES, (size_t)nfn + 1, sizeof *c->edges);
+    c->face_id = pf_ws_get(w, WS_EFACE, (size_t)c->nf, sizeof *c->face_id);
+    c->floc_off = pf_ws_get(w, WS_EFOFF, (size_t)c->nf + 1, sizeof *c->floc_off);
+    c->face_rev = pf_ws_get(w, WS_EREV, (size_t)c->nf, sizeof *c->face_rev);
+    c->floc = pf_ws_get(w, WS_ELOCAL, (size_t)nfn + 1, sizeof *c->floc);
+    c->edges = pf_ws_get(w, WS_EDGES, (size_t)nfn + 1, sizeof *c->edges);
     PF_CHECK(c->face_id && c->floc_off && c->face_rev && c->floc && c->edges, err, PF_ERR_NOMEM,
              "element %d: no memory", (int)e);
     c->k = 0;
@@ -178,7 +178,7 @@ static pf_status elem_setup(elem_ctx *c, const pf_basis_params *p, basis_ws *w, 
         c->face_id[lf] = f;
         c->face_rev[lf] = (entry & PF_FACE_REVERSED) != 0;
         if (c->faces[f].n == 0)
-            PF_TRY(face_init(&c->faces[f], m, f, err));
+            PF_TRY(pf_face_init(&c->faces[f], m, f, err));
         int64_t a = m->face_offsets[f], b = m->face_offsets[f + 1];
         for (int64_t q = a; q < b; ++q) {
             int32_t node = (int32_t)m->face_nodes[q];
@@ -406,8 +406,8 @@ static pf_status elem_samples(const elem_ctx *c, double edge_spacing, int32_t ed
         pf_vec3 nn = face_out_normal(c, lf);
         for (double pu = lo[0] + grid_phase * sp; pu < hi[0]; pu += sp)
             for (double pv = lo[1] + grid_phase * sp; pv < hi[1]; pv += sp) {
-                if (!polygon_contains(f->p2, f->n, pu, pv) ||
-                    polygon_boundary_distance(f->p2, f->n, pu, pv) < mg)
+                if (!pf_polygon_contains(f->p2, f->n, pu, pv) ||
+                    pf_polygon_boundary_distance(f->p2, f->n, pu, pv) < mg)
                     continue;
                 pf_vec3 x = pf_v3_add(
                     f->o, pf_v3_add(pf_v3_scale(f->u, pu * f->s), pf_v3_scale(f->v, pv * f->s)));
@@ -431,7 +431,7 @@ static void boundary_values(const elem_ctx *c, const pt3 *pt, double *faceval, d
         return;
     }
     const face_fn *f = &c->faces[c->face_id[pt->face]];
-    face_eval(f, pt->x, faceval);
+    pf_face_eval(f, pt->x, faceval);
     const int32_t *loc = c->floc + c->floc_off[pt->face];
     for (int32_t a = 0; a < f->n; ++a)
         B[(size_t)c->slot[loc[a]] * ldb] += faceval[a];
@@ -467,7 +467,7 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
     for (int32_t lf = 0; lf < c->nf; ++lf) {
         face_fn *f = &c->faces[c->face_id[lf]];
         if (f->kind == FACE_NONE)
-            PF_TRY(face_solve(f, c->m, c->face_id[lf], p, w, err));
+            PF_TRY(pf_face_solve(f, c->m, c->face_id[lf], p, w, err));
     }
     double rho = p->collocation_density;
     double spacing = c->max_edge / (p->edge_samples + 1), fsp = spacing * p->face_spacing;
@@ -506,11 +506,11 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
     int32_t m = pts->n, cols = nk + N_POLY;
     size_t ldb = (size_t)(m > cols ? m : cols);
     st->m = m;
-    double *A = ws_get(w, WS_A, (size_t)m * cols, sizeof *A);
-    double *A0 = ws_get(w, WS_A0, (size_t)m * cols, sizeof *A0);
-    double *B = ws_get(w, WS_B, ldb * ng, sizeof *B);
-    double *B0 = ws_get(w, WS_B0, ldb * ng, sizeof *B0);
-    double *fv = ws_get(w, WS_FACEVAL, PF_BASIS_MAX_NODES, sizeof *fv);
+    double *A = pf_ws_get(w, WS_A, (size_t)m * cols, sizeof *A);
+    double *A0 = pf_ws_get(w, WS_A0, (size_t)m * cols, sizeof *A0);
+    double *B = pf_ws_get(w, WS_B, ldb * ng, sizeof *B);
+    double *B0 = pf_ws_get(w, WS_B0, ldb * ng, sizeof *B0);
+    double *fv = pf_ws_get(w, WS_FACEVAL, PF_BASIS_MAX_NODES, sizeof *fv);
     PF_CHECK(A && A0 && B && B0 && fv, err, PF_ERR_NOMEM,
              "element %d: no memory for a %d x %d "
              "system",
@@ -534,7 +534,7 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
         boundary_values(c, &pts->p[r], fv, B + r, ldb);
     memcpy(A0, A, (size_t)m * cols * sizeof *A);
     memcpy(B0, B, ldb * ng * sizeof *B);
-    pf_status s = lsq_solve(w, m, cols, ng, p->rank_rcond, &st->svd, err);
+    pf_status s = pf_lsq_solve(w, m, cols, ng, p->rank_rcond, &st->svd, err);
     if (s < 0) {
         pf_error_prefix(err, "element %d", (int)e);
         return s;
@@ -561,7 +561,7 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
         pf_v3_store(pf_v3_scale(pf_v3_sub(c->pos[c->grep[g]], c->c), 1 / c->h), gpos + 3 * g);
         gc[g] = c->gcount[g];
     }
-    PF_CHECK(exactness_projection(3, ng, gpos, q) == PF_OK, err, PF_ERR_INVALID,
+    PF_CHECK(pf_exactness_projection(3, ng, gpos, q) == PF_OK, err, PF_ERR_INVALID,
              "element %d: nodes are coplanar", (int)e);
     return PF_OK;
 }
@@ -783,11 +783,11 @@ pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *
 done:
     if (cs.faces)
         for (int32_t f = 0; f < m->n_faces; ++f)
-            face_release(&cs.faces[f]);
+            pf_face_release(&cs.faces[f]);
     pf_free(cs.faces);
     pf_free(cs.ctx);
     pf_free(cs.pts.p);
-    ws_release(&cs.ws);
+    pf_ws_release(&cs.ws);
     if (s < 0) {
         pf_basis_release(b);
         return s;

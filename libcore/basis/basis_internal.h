@@ -64,7 +64,7 @@ static inline void face_high(double u, double v, double *h)
     h[0] = u2 - v2, h[1] = u * v, h[2] = u * (u2 - 3 * v2), h[3] = v * (3 * u2 - v2);
 }
 
-/* Least-squares QR (lsq_solve): column block, and the smallest system blocked. */
+/* Least-squares QR (pf_lsq_solve): column block, and the smallest system blocked. */
 enum { QR_BLOCK = 32, QR_BLOCKED_MIN = 64 };
 
 /* Growable scratch reused from element to element (setup allocates only when an element is
@@ -94,8 +94,8 @@ typedef struct basis_ws {
 } basis_ws;
 
 /* count * size bytes of buffer `which`, its earlier contents lost; NULL on overflow / no memory. */
-void *ws_get(basis_ws *w, int which, size_t count, size_t size);
-void ws_release(basis_ws *w);
+void *pf_ws_get(basis_ws *w, int which, size_t count, size_t size);
+void pf_ws_release(basis_ws *w);
 
 typedef enum face_kind { FACE_NONE = 0, FACE_LINEAR, FACE_BILINEAR, FACE_MFS } face_kind;
 
@@ -126,11 +126,11 @@ typedef struct face_fn {
 } face_fn;
 
 /* Frame and 2D coordinates of face f of m (no solve). PF_ERR_INVALID for a degenerate face. */
-pf_status face_init(face_fn *f, const pf_mesh *m, int32_t face, pf_error *err);
+pf_status pf_face_init(face_fn *f, const pf_mesh *m, int32_t face, pf_error *err);
 /* Solves the face's functions (closed form or 2D MFS). */
-pf_status face_solve(face_fn *f, const pf_mesh *m, int32_t face, const pf_basis_params *p,
+pf_status pf_face_solve(face_fn *f, const pf_mesh *m, int32_t face, const pf_basis_params *p,
                      basis_ws *w, pf_error *err);
-void face_release(face_fn *f);
+void pf_face_release(face_fn *f);
 
 /* Scaled 2D coordinates of a model point on (or projected onto) the face. */
 static inline void face_coords(const face_fn *f, pf_vec3 x, double *pu, double *pv)
@@ -141,23 +141,23 @@ static inline void face_coords(const face_fn *f, pf_vec3 x, double *pu, double *
 }
 
 /* vals[a] = value of the face function of node a (face order) at the model point x. */
-void face_eval(const face_fn *f, pf_vec3 x, double *vals);
+void pf_face_eval(const face_fn *f, pf_vec3 x, double *vals);
 
 /* Crossing-number point-in-polygon test, polygon p[2 n]. */
-bool polygon_contains(const double *p, int32_t n, double x, double y);
+bool pf_polygon_contains(const double *p, int32_t n, double x, double y);
 /* Distance from (x, y) to the polygon's boundary. */
-double polygon_boundary_distance(const double *p, int32_t n, double x, double y);
+double pf_polygon_boundary_distance(const double *p, int32_t n, double x, double y);
 
 /* Least squares min |A X - B| for g right-hand sides: A m x cols, B m x g (column-major, leading
  * dimension ldb >= max(m, cols)), both overwritten; X in B's first cols rows. Blocked QR (dgeqrt),
  * SVD (dgelsd) when the QR factor's reciprocal condition is below rcond. A0 / B0 are untouched
  * copies used for the SVD retry. */
-pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond, bool *used_svd,
+pf_status pf_lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond, bool *used_svd,
                     pf_error *err);
 
 /* q[(dim+1) g + c] = ((P^T P)^-1 P^T)[c][g] for P with rows (1, pos_g), g < ng. PF_ERR_NUMERIC
  * when the positions do not span dim dimensions. */
-pf_status exactness_projection(int dim, int32_t ng, const double *pos, double *q);
+pf_status pf_exactness_projection(int dim, int32_t ng, const double *pos, double *q);
 
 /* G (ng values) <- G + (t - G P) Q: the smallest change making sum_g G_g (1, pos_g) = t. Inline
  * and written out per dimension: it runs for every row of every evaluation (4 per point with

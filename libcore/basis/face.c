@@ -10,7 +10,7 @@
 
 /* ---- scratch ------------------------------------------------------------------------------ */
 
-void *ws_get(basis_ws *w, int which, size_t count, size_t size)
+void *pf_ws_get(basis_ws *w, int which, size_t count, size_t size)
 {
     size_t bytes;
     if (pf_mul_overflows(count, size, &bytes))
@@ -26,7 +26,7 @@ void *ws_get(basis_ws *w, int which, size_t count, size_t size)
     return w->buf[which];
 }
 
-void ws_release(basis_ws *w)
+void pf_ws_release(basis_ws *w)
 {
     for (int k = 0; k < WS_COUNT; ++k)
         pf_free(w->buf[k]);
@@ -35,7 +35,7 @@ void ws_release(basis_ws *w)
 
 /* ---- least squares (paper eq. 14) --------------------------------------------------------- */
 
-pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond, bool *used_svd,
+pf_status pf_lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond, bool *used_svd,
                     pf_error *err)
 {
     double *a = w->buf[WS_A], *b = w->buf[WS_B];
@@ -49,9 +49,9 @@ pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcon
         bool blocked = cols >= QR_BLOCKED_MIN;
         lapack_int nb = blocked ? QR_BLOCK : 1;
         size_t lwork = (size_t)QR_BLOCK * (size_t)(cols > g ? cols : g) + 3 * (size_t)cols;
-        double *t = ws_get(w, WS_TFACTOR, (size_t)nb * (size_t)cols, sizeof *t);
-        double *work = ws_get(w, WS_WORK, lwork, sizeof *work);
-        lapack_int *iwork = ws_get(w, WS_IWORK, (size_t)cols + 1, sizeof *iwork);
+        double *t = pf_ws_get(w, WS_TFACTOR, (size_t)nb * (size_t)cols, sizeof *t);
+        double *work = pf_ws_get(w, WS_WORK, lwork, sizeof *work);
+        lapack_int *iwork = pf_ws_get(w, WS_IWORK, (size_t)cols + 1, sizeof *iwork);
         PF_CHECK(t && work && iwork, err, PF_ERR_NOMEM, "least squares: no memory for %zu doubles",
                  lwork);
         info = blocked ? LAPACKE_dgeqrt_work(LAPACK_COL_MAJOR, m, cols, nb, a, m, t, nb, work)
@@ -77,7 +77,7 @@ pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcon
     memcpy(a, w->buf[WS_A0], (size_t)m * (size_t)cols * sizeof *a);
     memcpy(b, w->buf[WS_B0], (size_t)ldb * (size_t)g * sizeof *b);
     int32_t mn = m < cols ? m : cols;
-    double *sing = ws_get(w, WS_SING, (size_t)mn, sizeof *sing);
+    double *sing = pf_ws_get(w, WS_SING, (size_t)mn, sizeof *sing);
     PF_CHECK(sing, err, PF_ERR_NOMEM, "least squares: no memory");
     lapack_int rank, iq = 0;
     double q;
@@ -85,8 +85,8 @@ pf_status lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcon
                                -1, &iq);
     PF_CHECK(info == 0, err, PF_ERR_NUMERIC, "least squares: dgelsd workspace query failed");
     size_t lwork = (size_t)q;
-    double *work = ws_get(w, WS_WORK, lwork, sizeof *work);
-    lapack_int *iwork = ws_get(w, WS_IWORK, (size_t)(iq > 1 ? iq : 1), sizeof *iwork);
+    double *work = pf_ws_get(w, WS_WORK, lwork, sizeof *work);
+    lapack_int *iwork = pf_ws_get(w, WS_IWORK, (size_t)(iq > 1 ? iq : 1), sizeof *iwork);
     PF_CHECK(work && iwork, err, PF_ERR_NOMEM, "least squares: no memory for %zu doubles", lwork);
     info = LAPACKE_dgelsd_work(LAPACK_COL_MAJOR, m, cols, g, a, m, b, ldb, sing, rcond, &rank, work,
                                (lapack_int)lwork, iwork);
@@ -137,7 +137,7 @@ static bool invert_small(int n, const double *s, double *inv)
     return true;
 }
 
-pf_status exactness_projection(int dim, int32_t ng, const double *pos, double *q)
+pf_status pf_exactness_projection(int dim, int32_t ng, const double *pos, double *q)
 {
     int c = dim + 1;
     double ptp[16] = {0}, inv[16];
@@ -163,7 +163,7 @@ pf_status exactness_projection(int dim, int32_t ng, const double *pos, double *q
 
 /* ---- polygons in the plane ---------------------------------------------------------------- */
 
-bool polygon_contains(const double *p, int32_t n, double x, double y)
+bool pf_polygon_contains(const double *p, int32_t n, double x, double y)
 {
     bool in = false;
     for (int32_t i = 0, j = n - 1; i < n; j = i++) {
@@ -177,7 +177,7 @@ bool polygon_contains(const double *p, int32_t n, double x, double y)
     return in;
 }
 
-double polygon_boundary_distance(const double *p, int32_t n, double x, double y)
+double pf_polygon_boundary_distance(const double *p, int32_t n, double x, double y)
 {
     double best2 = INFINITY; /* squared: one square root at the end (scaled, O(1) coordinates) */
     for (int32_t i = 0; i < n; ++i) {
@@ -195,7 +195,7 @@ double polygon_boundary_distance(const double *p, int32_t n, double x, double y)
 
 /* ---- face frame ------------------------------------------------------------------------------ */
 
-pf_status face_init(face_fn *f, const pf_mesh *m, int32_t face, pf_error *err)
+pf_status pf_face_init(face_fn *f, const pf_mesh *m, int32_t face, pf_error *err)
 {
     memset(f, 0, sizeof *f);
     int64_t a = m->face_offsets[face], b = m->face_offsets[face + 1];
@@ -237,7 +237,7 @@ pf_status face_init(face_fn *f, const pf_mesh *m, int32_t face, pf_error *err)
     return PF_OK;
 }
 
-void face_release(face_fn *f)
+void pf_face_release(face_fn *f)
 {
     pf_free(f->p2);
     pf_free(f->slot);
@@ -372,7 +372,7 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
         f->gcount[g] += 1;
     }
     int32_t ng = f->n_groups;
-    PF_CHECK(exactness_projection(2, ng, f->gpos, f->q) == PF_OK, err, PF_ERR_INVALID,
+    PF_CHECK(pf_exactness_projection(2, ng, f->gpos, f->q) == PF_OK, err, PF_ERR_INVALID,
              "face %d: nodes are collinear", (int)face);
 
     /* Kernels: samples moved outward by xi * diameter (eq. 12); at a node along the mean of its
@@ -389,13 +389,13 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
         ncol += edge_count(hypot(f->p2[2 * b] - f->p2[2 * a], f->p2[2 * b + 1] - f->p2[2 * a + 1]),
                            spc, per_edge_c);
     }
-    pt2 *pts = ws_get(w, WS_KERN, (size_t)ncol, sizeof *pts);
+    pt2 *pts = pf_ws_get(w, WS_KERN, (size_t)ncol, sizeof *pts);
     PF_CHECK(pts, err, PF_ERR_NOMEM, "face %d: no memory", (int)face);
     int32_t ns = face_samples(f, sp, per_edge, pts);
     PF_CHECK(PF_ALLOC_N(f->kern, 2 * ns), err, PF_ERR_NOMEM, "face %d: no memory", (int)face);
     /* Offsets scaled down near short edges: a kernel resolves data on the scale of its
      * distance from the boundary. */
-    double *nlen = ws_get(w, WS_SING, (size_t)n, sizeof *nlen);
+    double *nlen = pf_ws_get(w, WS_SING, (size_t)n, sizeof *nlen);
     PF_CHECK(nlen, err, PF_ERR_NOMEM, "face %d: no memory", (int)face);
     for (int32_t a = 0; a < n; ++a) {
         int32_t b = (a + 1) % n, z = (a + n - 1) % n;
@@ -426,8 +426,8 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
         }
         for (double shrink = 1; shrink > 0.2; shrink *= 0.5) {
             double kx = pts[k].x + shrink * off * nx, ky = pts[k].y + shrink * off * ny;
-            if (!polygon_contains(f->p2, n, kx, ky) &&
-                polygon_boundary_distance(f->p2, n, kx, ky) > 0.2 * shrink * off) {
+            if (!pf_polygon_contains(f->p2, n, kx, ky) &&
+                pf_polygon_boundary_distance(f->p2, n, kx, ky) > 0.2 * shrink * off) {
                 f->kern[2 * nk] = kx, f->kern[2 * nk + 1] = ky;
                 ++nk;
                 break;
@@ -439,10 +439,10 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
     /* Collocation points (m ~ density * n) and the system of eq. 14. */
     int32_t m = face_samples(f, spc, per_edge_c, pts);
     int32_t cols = nk + N_POLY2, ldb = m > cols ? m : cols;
-    double *A = ws_get(w, WS_A, (size_t)m * cols, sizeof *A);
-    double *A0 = ws_get(w, WS_A0, (size_t)m * cols, sizeof *A0);
-    double *B = ws_get(w, WS_B, (size_t)ldb * ng, sizeof *B);
-    double *B0 = ws_get(w, WS_B0, (size_t)ldb * ng, sizeof *B0);
+    double *A = pf_ws_get(w, WS_A, (size_t)m * cols, sizeof *A);
+    double *A0 = pf_ws_get(w, WS_A0, (size_t)m * cols, sizeof *A0);
+    double *B = pf_ws_get(w, WS_B, (size_t)ldb * ng, sizeof *B);
+    double *B0 = pf_ws_get(w, WS_B0, (size_t)ldb * ng, sizeof *B0);
     PF_CHECK(A && A0 && B && B0, err, PF_ERR_NOMEM, "face %d: no memory", (int)face);
     for (int32_t r = 0; r < m; ++r) {
         for (int32_t j = 0; j < nk; ++j)
@@ -466,7 +466,7 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
     memcpy(A0, A, (size_t)m * cols * sizeof *A);
     memcpy(B0, B, (size_t)ldb * ng * sizeof *B);
     bool svd;
-    PF_TRY(lsq_solve(w, m, cols, ng, p->rank_rcond, &svd, err));
+    PF_TRY(pf_lsq_solve(w, m, cols, ng, p->rank_rcond, &svd, err));
     PF_CHECK(PF_ALLOC_N(f->coef, (size_t)cols * ng), err, PF_ERR_NOMEM, "face %d: no memory",
              (int)face);
     for (int32_t j = 0; j < cols; ++j)
@@ -480,7 +480,7 @@ static pf_status face_mfs(face_fn *f, int32_t face, const pf_basis_params *p, ba
     return PF_OK;
 }
 
-pf_status face_solve(face_fn *f, const pf_mesh *m, int32_t face, const pf_basis_params *p,
+pf_status pf_face_solve(face_fn *f, const pf_mesh *m, int32_t face, const pf_basis_params *p,
                      basis_ws *w, pf_error *err)
 {
     (void)m;
@@ -491,7 +491,7 @@ pf_status face_solve(face_fn *f, const pf_mesh *m, int32_t face, const pf_basis_
     return PF_OK;
 }
 
-void face_eval(const face_fn *f, pf_vec3 x, double *vals)
+void pf_face_eval(const face_fn *f, pf_vec3 x, double *vals)
 {
     double pu, pv;
     face_coords(f, x, &pu, &pv);

@@ -117,7 +117,7 @@ pf_status pf_embed_mean_value(const double *x, const uint32_t *tri, int32_t nt,
                      (int)n);
             c[i] = pf_v3_load(x + 3 * (size_t)tri[3 * t + i]);
         }
-        if (point_triangle_distance(p, c[0], c[1], c[2]) <= NEAR_TOL * size) {
+        if (pf_point_triangle_distance(p, c[0], c[1], c[2]) <= NEAR_TOL * size) {
             for (int32_t k = 0; k < n; ++k)
                 w[k] = 0;
             triangle_weights(p, c, wt);
@@ -302,7 +302,7 @@ static int affine_fallback(const double *x, const uint32_t *nodes, int32_t n, pf
         pf_v3_store(e, d + 3 * (size_t)k);
         ones[k] = 1;
     }
-    return affine_fit_weights(d, ones, n, 1e-12, w);
+    return pf_affine_fit_weights(d, ones, n, 1e-12, w);
 }
 
 /* Which shape functions weight a vertex in element e: the closed forms where the element is a tet
@@ -405,10 +405,10 @@ static int harmonic_weights(const harmonic_set *h, const locator *L, int32_t e, 
 static void locate_all(locator *L, const pf_surface *s, int32_t *elem_of, double *dist)
 {
     for (int32_t v = 0; v < s->n_verts; ++v)
-        elem_of[v] = locator_find(L, pf_v3_load(s->x + 3 * (size_t)v), &dist[v]);
+        elem_of[v] = pf_locator_find(L, pf_v3_load(s->x + 3 * (size_t)v), &dist[v]);
 }
 
-pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
+pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
                      row_builder *b, pf_embed_stats *stats, pf_error *err)
 {
     int32_t cap = L->geo.max_nodes > 8 ? L->geo.max_nodes : 8;
@@ -467,7 +467,7 @@ pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool har
             st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
                               "surface vertex %d: no usable weights in element %d", (int)v, (int)e);
         else
-            st = row_builder_add(b, v, col, val, n, err);
+            st = pf_row_builder_add(b, v, col, val, n, err);
     }
     harmonic_release(&h);
     pf_free(col);

@@ -20,7 +20,7 @@ pf_embed_params pf_embed_params_default(void)
                              .max_growth = 20};
 }
 
-pf_status embed_resolve_params(const pf_embed_params *in, pf_embed_params *out, pf_error *err)
+pf_status pf_embed_resolve_params(const pf_embed_params *in, pf_embed_params *out, pf_error *err)
 {
     pf_embed_params d = pf_embed_params_default();
     *out = in ? *in : d;
@@ -56,7 +56,7 @@ pf_status embed_resolve_params(const pf_embed_params *in, pf_embed_params *out, 
  *     W_i = theta_i (1 / Theta - (C^-1 m) . (d_i - m)),
  * the DG paper's A(x)^-1 b(x) (eq. 31) solved in centred coordinates: sum W_i = 1 and
  * sum W_i d_i = m - C^-1 m . C = 0 hold for any C, so affine fields are reproduced to round-off. */
-int affine_fit_weights(const double *d, const double *theta, int32_t n, double min_spread,
+int pf_affine_fit_weights(const double *d, const double *theta, int32_t n, double min_spread,
                        double *out)
 {
     if (n < 4)
@@ -97,7 +97,7 @@ int affine_fit_weights(const double *d, const double *theta, int32_t n, double m
 
 /* ---- row builder ----------------------------------------------------------------------------- */
 
-pf_status row_builder_init(row_builder *b, pf_weights *w, int32_t rows, int32_t cols,
+pf_status pf_row_builder_init(row_builder *b, pf_weights *w, int32_t rows, int32_t cols,
                            int64_t cap_hint, pf_error *err)
 {
     b->w = w;
@@ -118,7 +118,7 @@ static int compare_entries(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-pf_status row_builder_add(row_builder *b, int32_t i, uint32_t *col, double *val, int32_t n,
+pf_status pf_row_builder_add(row_builder *b, int32_t i, uint32_t *col, double *val, int32_t n,
                           pf_error *err)
 {
     pf_weights *w = b->w;
@@ -155,7 +155,7 @@ pf_status row_builder_add(row_builder *b, int32_t i, uint32_t *col, double *val,
     return PF_OK;
 }
 
-void row_builder_finish(row_builder *b)
+void pf_row_builder_finish(row_builder *b)
 {
     if (b->nnz == b->cap || b->nnz == 0)
         return;
@@ -192,25 +192,25 @@ pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed
     pf_embed_stats local;
     pf_embed_stats *st_out = stats ? stats : &local;
     memset(st_out, 0, sizeof *st_out);
-    PF_TRY(embed_resolve_params(params, &p, err));
+    PF_TRY(pf_embed_resolve_params(params, &p, err));
     PF_TRY(check_inputs(m, s, err));
     locator L;
-    PF_TRY(locator_build(&L, m, err));
+    PF_TRY(pf_locator_build(&L, m, err));
     row_builder b;
     int64_t hint = (int64_t)s->n_verts * (p.method == PF_EMBED_MLS ? 32 : 8);
-    pf_status st = row_builder_init(&b, w, s->n_verts, m->n_nodes, hint, err);
+    pf_status st = pf_row_builder_init(&b, w, s->n_verts, m->n_nodes, hint, err);
     if (st >= 0) {
         st_out->n_verts = s->n_verts;
-        st = p.method == PF_EMBED_MLS ? embed_mls(m, s, &p, &L, &b, st_out, err)
-                                      : embed_bary(m, s, &L, p.method == PF_EMBED_HARMONIC, &b,
+        st = p.method == PF_EMBED_MLS ? pf_embed_mls(m, s, &p, &L, &b, st_out, err)
+                                      : pf_embed_bary(m, s, &L, p.method == PF_EMBED_HARMONIC, &b,
                                                    st_out, err);
     }
-    locator_release(&L);
+    pf_locator_release(&L);
     if (st < 0) {
         pf_weights_release(w);
         return st;
     }
-    row_builder_finish(&b);
+    pf_row_builder_finish(&b);
     w->surface_id = s->id;
     w->mesh_id = m->id;
     st_out->nnz = b.nnz;

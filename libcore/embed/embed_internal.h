@@ -5,7 +5,7 @@
 #include <pf/embed.h>
 
 /* The parameters with zero fields replaced by the defaults, checked. */
-pf_status embed_resolve_params(const pf_embed_params *in, pf_embed_params *out, pf_error *err);
+pf_status pf_embed_resolve_params(const pf_embed_params *in, pf_embed_params *out, pf_error *err);
 
 /* Every element's boundary as outward triangles on mesh nodes, and its distinct nodes. Each mesh
  * face is triangulated once, in its stored orientation, and flipped for the element using it
@@ -21,8 +21,8 @@ typedef struct elem_geometry {
     int32_t max_nodes;     /* largest distinct node count of an element */
 } elem_geometry;
 
-pf_status elem_geometry_build(const pf_mesh *m, elem_geometry *g, pf_error *err);
-void elem_geometry_release(elem_geometry *g);
+pf_status pf_elem_geometry_build(const pf_mesh *m, elem_geometry *g, pf_error *err);
+void pf_elem_geometry_release(elem_geometry *g);
 
 /* Items (boxes) registered in every cell of a uniform grid their box overlaps. */
 typedef struct bucket_grid {
@@ -35,11 +35,11 @@ typedef struct bucket_grid {
 
 /* box[6 i] = lo xyz, hi xyz of item i. Cells of about h (enlarged so that the grid has at most
  * about 8 cells per item) over the union of the boxes. */
-pf_status bucket_grid_build(bucket_grid *g, const double *box, int32_t n_items, double h,
+pf_status pf_bucket_grid_build(bucket_grid *g, const double *box, int32_t n_items, double h,
                             pf_error *err);
-void bucket_grid_release(bucket_grid *g);
+void pf_bucket_grid_release(bucket_grid *g);
 /* Cell coordinates of p, clamped to the grid. */
-void bucket_grid_cell(const bucket_grid *g, pf_vec3 p, int32_t c[3]);
+void pf_bucket_grid_cell(const bucket_grid *g, pf_vec3 p, int32_t c[3]);
 static inline int64_t bucket_grid_index(const bucket_grid *g, int32_t i, int32_t j, int32_t k)
 {
     return ((int64_t)k * g->n[1] + j) * g->n[0] + i;
@@ -55,20 +55,20 @@ typedef struct locator {
     uint32_t now;
 } locator;
 
-pf_status locator_build(locator *L, const pf_mesh *m, pf_error *err);
-void locator_release(locator *L);
+pf_status pf_locator_build(locator *L, const pf_mesh *m, pf_error *err);
+void pf_locator_release(locator *L);
 /* The element containing p (winding number >= 1/2 over its boundary), else the nearest one;
  * *dist: 0 inside, else the distance to that element's boundary. */
-int32_t locator_find(locator *L, pf_vec3 p, double *dist);
+int32_t pf_locator_find(locator *L, pf_vec3 p, double *dist);
 
 /* Distance from p to the triangle (a, b, c). */
-double point_triangle_distance(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c);
+double pf_point_triangle_distance(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c);
 
 /* Weighted affine least squares at the origin: points d[3 n] (offsets from the evaluation point,
  * scaled to about unit size), weights theta[n] > 0. On success out[n] holds the W_i with
  * sum W_i = 1 and sum W_i d_i = 0 (affine reproduction) and the function returns true; it returns
  * false when the weighted covariance has smallest/largest eigenvalue below min_spread or n < 4. */
-int affine_fit_weights(const double *d, const double *theta, int32_t n, double min_spread,
+int pf_affine_fit_weights(const double *d, const double *theta, int32_t n, double min_spread,
                        double *out);
 
 /* A weight matrix built row by row. */
@@ -78,20 +78,20 @@ typedef struct row_builder {
     int64_t cap;
 } row_builder;
 
-pf_status row_builder_init(row_builder *b, pf_weights *w, int32_t rows, int32_t cols,
+pf_status pf_row_builder_init(row_builder *b, pf_weights *w, int32_t rows, int32_t cols,
                            int64_t cap_hint, pf_error *err);
 /* Appends row i (rows in order) with n entries, sorted by column here. */
-pf_status row_builder_add(row_builder *b, int32_t i, uint32_t *col, double *val, int32_t n,
+pf_status pf_row_builder_add(row_builder *b, int32_t i, uint32_t *col, double *val, int32_t n,
                           pf_error *err);
 /* Shrinks the arrays to the entries written. */
-void row_builder_finish(row_builder *b);
+void pf_row_builder_finish(row_builder *b);
 
 /* The two methods, filling b for every vertex and the method's statistics. */
-pf_status embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
+pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
                     locator *L, row_builder *b, pf_embed_stats *stats, pf_error *err);
 /* harmonic: general polyhedra weighted by their harmonic (CG) functions, not mean value
  * coordinates. */
-pf_status embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
+pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
                      row_builder *b, pf_embed_stats *stats, pf_error *err);
 
 #endif

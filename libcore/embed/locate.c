@@ -6,7 +6,7 @@
 
 /* ---- element boundaries -------------------------------------------------------------------- */
 
-void elem_geometry_release(elem_geometry *g)
+void pf_elem_geometry_release(elem_geometry *g)
 {
     pf_free(g->tri_offsets);
     pf_free(g->tri);
@@ -87,7 +87,7 @@ static void fill_elem(const pf_mesh *m, const uint32_t *face_tri, int32_t e, ele
     g->max_nodes = n_nodes > g->max_nodes ? n_nodes : g->max_nodes;
 }
 
-pf_status elem_geometry_build(const pf_mesh *m, elem_geometry *g, pf_error *err)
+pf_status pf_elem_geometry_build(const pf_mesh *m, elem_geometry *g, pf_error *err)
 {
     memset(g, 0, sizeof *g);
     uint32_t *face_tri = NULL;
@@ -113,7 +113,7 @@ pf_status elem_geometry_build(const pf_mesh *m, elem_geometry *g, pf_error *err)
     }
     if (!ok) {
         pf_free(face_tri);
-        elem_geometry_release(g);
+        pf_elem_geometry_release(g);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "out of memory for the boundaries of %d elements", (int)ne);
     }
@@ -125,14 +125,14 @@ pf_status elem_geometry_build(const pf_mesh *m, elem_geometry *g, pf_error *err)
 
 /* ---- bucket grid ----------------------------------------------------------------------------- */
 
-void bucket_grid_release(bucket_grid *g)
+void pf_bucket_grid_release(bucket_grid *g)
 {
     pf_free(g->offsets);
     pf_free(g->items);
     memset(g, 0, sizeof *g);
 }
 
-void bucket_grid_cell(const bucket_grid *g, pf_vec3 p, int32_t c[3])
+void pf_bucket_grid_cell(const bucket_grid *g, pf_vec3 p, int32_t c[3])
 {
     for (int a = 0; a < 3; ++a) {
         double t = floor((pf_v3_get(p, a) - pf_v3_get(g->origin, a)) / g->h);
@@ -143,11 +143,11 @@ void bucket_grid_cell(const bucket_grid *g, pf_vec3 p, int32_t c[3])
 /* Cell range [c0, c1] of a box, clamped. */
 static void box_cells(const bucket_grid *g, const double *box, int32_t c0[3], int32_t c1[3])
 {
-    bucket_grid_cell(g, pf_v3_load(box), c0);
-    bucket_grid_cell(g, pf_v3_load(box + 3), c1);
+    pf_bucket_grid_cell(g, pf_v3_load(box), c0);
+    pf_bucket_grid_cell(g, pf_v3_load(box + 3), c1);
 }
 
-pf_status bucket_grid_build(bucket_grid *g, const double *box, int32_t n_items, double h,
+pf_status pf_bucket_grid_build(bucket_grid *g, const double *box, int32_t n_items, double h,
                             pf_error *err)
 {
     memset(g, 0, sizeof *g);
@@ -189,7 +189,7 @@ pf_status bucket_grid_build(bucket_grid *g, const double *box, int32_t n_items, 
     for (int64_t c = 0; c < n_cells; ++c)
         g->offsets[c + 1] += g->offsets[c];
     if (!PF_ALLOC_N(g->items, (size_t)g->offsets[n_cells])) {
-        bucket_grid_release(g);
+        pf_bucket_grid_release(g);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for a grid");
     }
     for (int32_t i = 0; i < n_items; ++i) { /* fill, using offsets[c] as the cursor */
@@ -208,7 +208,7 @@ pf_status bucket_grid_build(bucket_grid *g, const double *box, int32_t n_items, 
 /* ---- distances --------------------------------------------------------------------------------- */
 
 /* Closest point on a triangle by its Voronoi regions (vertex, edge, face). */
-double point_triangle_distance(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c)
+double pf_point_triangle_distance(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c)
 {
     pf_vec3 ab = pf_v3_sub(b, a), ac = pf_v3_sub(c, a), ap = pf_v3_sub(p, a);
     double d1 = pf_v3_dot(ab, ap), d2 = pf_v3_dot(ac, ap);
@@ -255,7 +255,7 @@ static double elem_distance(const locator *L, int32_t e, pf_vec3 p)
     double best = INFINITY;
     for (int64_t t = L->geo.tri_offsets[e]; t < L->geo.tri_offsets[e + 1]; ++t) {
         const uint32_t *v = L->geo.tri + 3 * t;
-        best = fmin(best, point_triangle_distance(p, pf_v3_load(x + 3 * (size_t)v[0]),
+        best = fmin(best, pf_point_triangle_distance(p, pf_v3_load(x + 3 * (size_t)v[0]),
                                                   pf_v3_load(x + 3 * (size_t)v[1]),
                                                   pf_v3_load(x + 3 * (size_t)v[2])));
     }
@@ -273,19 +273,19 @@ static int elem_contains(const locator *L, int32_t e, pf_vec3 p)
 
 /* ---- locator --------------------------------------------------------------------------------- */
 
-void locator_release(locator *L)
+void pf_locator_release(locator *L)
 {
-    elem_geometry_release(&L->geo);
-    bucket_grid_release(&L->grid);
+    pf_elem_geometry_release(&L->geo);
+    pf_bucket_grid_release(&L->grid);
     pf_free(L->stamp);
     memset(L, 0, sizeof *L);
 }
 
-pf_status locator_build(locator *L, const pf_mesh *m, pf_error *err)
+pf_status pf_locator_build(locator *L, const pf_mesh *m, pf_error *err)
 {
     memset(L, 0, sizeof *L);
     L->mesh = m;
-    PF_TRY(elem_geometry_build(m, &L->geo, err));
+    PF_TRY(pf_elem_geometry_build(m, &L->geo, err));
     pf_vec3 lo, hi;
     pf_mesh_bounds(m, &lo, &hi);
     L->tol = 1e-9 * pf_v3_dist(lo, hi);
@@ -296,11 +296,11 @@ pf_status locator_build(locator *L, const pf_mesh *m, pf_error *err)
         mean += fmax(b[3] - b[0], fmax(b[4] - b[1], b[5] - b[2]));
     }
     mean /= m->n_elems;
-    pf_status st = bucket_grid_build(&L->grid, L->geo.box, m->n_elems, mean, err);
+    pf_status st = pf_bucket_grid_build(&L->grid, L->geo.box, m->n_elems, mean, err);
     if (st >= 0 && !PF_ALLOC_N(L->stamp, (size_t)m->n_elems))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for a locator");
     if (st < 0) {
-        locator_release(L);
+        pf_locator_release(L);
         return st;
     }
     memset(L->stamp, 0, (size_t)m->n_elems * sizeof *L->stamp);
@@ -319,7 +319,7 @@ static int32_t nearest_elem(locator *L, pf_vec3 p, double *dist)
         L->now = 1;
     }
     int32_t c[3];
-    bucket_grid_cell(g, p, c);
+    pf_bucket_grid_cell(g, p, c);
     int32_t best_e = -1;
     double best = INFINITY;
     int32_t max_ring = g->n[0] > g->n[1] ? g->n[0] : g->n[1];
@@ -359,11 +359,11 @@ static int32_t nearest_elem(locator *L, pf_vec3 p, double *dist)
     return best_e;
 }
 
-int32_t locator_find(locator *L, pf_vec3 p, double *dist)
+int32_t pf_locator_find(locator *L, pf_vec3 p, double *dist)
 {
     const bucket_grid *g = &L->grid;
     int32_t c[3];
-    bucket_grid_cell(g, p, c);
+    pf_bucket_grid_cell(g, p, c);
     int64_t cell = bucket_grid_index(g, c[0], c[1], c[2]);
     for (int64_t q = g->offsets[cell]; q < g->offsets[cell + 1]; ++q)
         if (elem_contains(L, g->items[q], p)) {

@@ -8,7 +8,7 @@ pf_status pf_embed_mls_radii(const pf_mesh *m, const pf_embed_params *params, do
                              pf_error *err)
 {
     pf_embed_params p;
-    PF_TRY(embed_resolve_params(params, &p, err));
+    PF_TRY(pf_embed_resolve_params(params, &p, err));
     for (int32_t i = 0; i < m->n_nodes; ++i)
         radius[i] = 0;
     double longest = 0;
@@ -114,7 +114,7 @@ static pf_status gather(mls_context *c, pf_vec3 x, double scale, pf_error *err)
     int32_t cell[3];
     if (scale == 1) {
         const bucket_grid *g = &c->supports;
-        bucket_grid_cell(g, x, cell);
+        pf_bucket_grid_cell(g, x, cell);
         int64_t k = bucket_grid_index(g, cell[0], cell[1], cell[2]);
         for (int64_t q = g->offsets[k]; q < g->offsets[k + 1]; ++q)
             PF_TRY(consider(c, g->items[q], x, scale, rho, err));
@@ -122,8 +122,8 @@ static pf_status gather(mls_context *c, pf_vec3 x, double scale, pf_error *err)
     }
     const bucket_grid *g = &c->points;
     int32_t lo[3], hi[3];
-    bucket_grid_cell(g, pf_v3_sub(x, pf_v3(rho, rho, rho)), lo);
-    bucket_grid_cell(g, pf_v3_add(x, pf_v3(rho, rho, rho)), hi);
+    pf_bucket_grid_cell(g, pf_v3_sub(x, pf_v3(rho, rho, rho)), lo);
+    pf_bucket_grid_cell(g, pf_v3_add(x, pf_v3(rho, rho, rho)), hi);
     for (int32_t k = lo[2]; k <= hi[2]; ++k)
         for (int32_t j = lo[1]; j <= hi[1]; ++j)
             for (int32_t i = lo[0]; i <= hi[0]; ++i) {
@@ -151,12 +151,12 @@ static pf_status build_grids(mls_context *c, pf_error *err)
         }
     }
     mean /= m->n_nodes;
-    pf_status st = bucket_grid_build(&c->supports, box, m->n_nodes, mean, err);
+    pf_status st = pf_bucket_grid_build(&c->supports, box, m->n_nodes, mean, err);
     for (int32_t i = 0; i < m->n_nodes && st >= 0; ++i)
         for (int a = 0; a < 3; ++a)
             box[6 * (size_t)i + a] = box[6 * (size_t)i + 3 + a] = m->x[3 * (size_t)i + a];
     if (st >= 0)
-        st = bucket_grid_build(&c->points, box, m->n_nodes, mean, err);
+        st = pf_bucket_grid_build(&c->points, box, m->n_nodes, mean, err);
     pf_free(box);
     return st;
 }
@@ -168,7 +168,7 @@ static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b
     double scale = 1;
     for (int32_t step = 0;; ++step) {
         PF_TRY(gather(c, x, scale, err));
-        if (affine_fit_weights(c->s.d, c->s.theta, c->s.n, c->p->min_spread, c->s.val))
+        if (pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, c->p->min_spread, c->s.val))
             break;
         PF_CHECK(step < c->p->max_growth, err, PF_ERR_NUMERIC,
                  "surface vertex %d: the MLS support holds %d nodes, too few or too flat for an "
@@ -178,10 +178,10 @@ static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b
     }
     if (scale > 1)
         stats->n_grown++;
-    return row_builder_add(b, v, c->s.col, c->s.val, c->s.n, err);
+    return pf_row_builder_add(b, v, c->s.col, c->s.val, c->s.n, err);
 }
 
-pf_status embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
+pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
                     locator *L, row_builder *b, pf_embed_stats *stats, pf_error *err)
 {
     mls_context c;
@@ -198,7 +198,7 @@ pf_status embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params
     for (int32_t v = 0; v < s->n_verts && st >= 0; ++v) {
         pf_vec3 x = pf_v3_load(s->x + 3 * (size_t)v);
         double dist;
-        int32_t e = locator_find(L, x, &dist);
+        int32_t e = pf_locator_find(L, x, &dist);
         stats->n_by_kind[L->geo.kind[e]]++;
         if (dist > L->tol) {
             stats->n_outside++;
@@ -207,8 +207,8 @@ pf_status embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params
         st = vertex_row(&c, v, x, b, stats, err);
     }
     support_release(&c.s);
-    bucket_grid_release(&c.supports);
-    bucket_grid_release(&c.points);
+    pf_bucket_grid_release(&c.supports);
+    pf_bucket_grid_release(&c.points);
     pf_free(radius);
     return st;
 }

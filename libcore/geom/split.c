@@ -444,7 +444,7 @@ static int compare_pedge_key(const void *a, const void *b)
     return (x->poly > y->poly) - (x->poly < y->poly);
 }
 
-pf_status split_collect_edges(const work *w, int zero_only, pedge **out, int64_t *n_out,
+pf_status pf_split_collect_edges(const work *w, int zero_only, pedge **out, int64_t *n_out,
                               pf_error *err)
 {
     const uint32_t *nodes = BUF(w->out.nodes, uint32_t);
@@ -499,7 +499,7 @@ static pf_status make_caps(work *w, pf_error *err)
 {
     pedge *e = NULL;
     int64_t n = 0;
-    PF_TRY(split_collect_edges(w, 1, &e, &n, err));
+    PF_TRY(pf_split_collect_edges(w, 1, &e, &n, err));
     qsort(e, (size_t)n, sizeof *e, compare_pedge_key);
     const uint8_t *flat = BUF(w->out.flat, uint8_t);
     const int32_t *source = BUF(w->out.source, int32_t);
@@ -658,7 +658,7 @@ static pf_status run(work *w, bool assume_closed, pf_split *out, pf_error *err)
     int32_t *piece_of = pf_alloc_array((size_t)w->out.n + 1, sizeof *piece_of);
     PF_CHECK(piece_of, err, PF_ERR_NOMEM, "split: out of memory");
     int32_t n_pieces = 0;
-    pf_status s = split_find_pieces(w, piece_of, &n_pieces, err);
+    pf_status s = pf_split_find_pieces(w, piece_of, &n_pieces, err);
     if (s == PF_OK)
         s = fill_result(w, piece_of, n_pieces, out, err);
     pf_free(piece_of);

@@ -64,11 +64,11 @@ static inline int compare_pedge(const void *a, const void *b)
 
 /* Edges of the produced polygons (only on-plane ones when zero_only), sorted by side, key and
  * polygon (compare_pedge). */
-pf_status split_collect_edges(const work *w, int zero_only, pedge **out, int64_t *n_out,
+pf_status pf_split_collect_edges(const work *w, int zero_only, pedge **out, int64_t *n_out,
                               pf_error *err);
 
 /* piece_of[i] (i < w->out.n): the piece of polygon i, numbered 0 .. *n_pieces - 1, the pieces
  * below the plane first, each side's in the order of their first polygons. */
-pf_status split_find_pieces(const work *w, int32_t *piece_of, int32_t *n_pieces, pf_error *err);
+pf_status pf_split_find_pieces(const work *w, int32_t *piece_of, int32_t *n_pieces, pf_error *err);
 
 #endif

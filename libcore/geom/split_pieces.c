@@ -105,12 +105,12 @@ static pf_status group_edges(pedge **edges, int64_t n, int32_t n_nodes, pf_error
     return PF_OK;
 }
 
-pf_status split_find_pieces(const work *w, int32_t *piece_of, int32_t *n_pieces, pf_error *err)
+pf_status pf_split_find_pieces(const work *w, int32_t *piece_of, int32_t *n_pieces, pf_error *err)
 {
     int32_t np = w->out.n;
     pedge *e = NULL;
     int64_t n = 0;
-    PF_TRY(split_collect_edges(w, 0, &e, &n, err));
+    PF_TRY(pf_split_collect_edges(w, 0, &e, &n, err));
     pf_status s = group_edges(&e, n, w->n_total, err);
     int32_t *parent = s == PF_OK ? pf_alloc_array((size_t)np, sizeof *parent) : NULL;
     if (s == PF_OK && !parent)

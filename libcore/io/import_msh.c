@@ -81,11 +81,11 @@ typedef struct msh_file {
 
 static void msh_release(msh_file *f)
 {
-    text_reader_close(&f->r);
+    pf_text_reader_close(&f->r);
     pf_free(f->tag);
     pf_free(f->x);
     pf_free(f->by_tag);
-    cell_list_release(&f->cells);
+    pf_cell_list_release(&f->cells);
 }
 
 /* ---- lines and sections ---------------------------------------------------------------------- */
@@ -99,7 +99,7 @@ static bool line_starts_section(const text_reader *r)
 static pf_status header_line(msh_file *f, const char *section, pf_error *err)
 {
     text_reader *r = &f->r;
-    TEXT_CHECK(text_reader_next_line(r), r, err, PF_ERR_FORMAT, "file ends after %s", section);
+    TEXT_CHECK(pf_text_reader_next_line(r), r, err, PF_ERR_FORMAT, "file ends after %s", section);
     TEXT_CHECK(!line_starts_section(r), r, err, PF_ERR_FORMAT, "%s has no header line", section);
     return PF_OK;
 }
@@ -110,7 +110,7 @@ static pf_status entry_line(msh_file *f, const char *section, const char *entrie
                             int64_t count, pf_error *err)
 {
     text_reader *r = &f->r;
-    TEXT_CHECK(text_reader_next_line(r), r, err, PF_ERR_FORMAT,
+    TEXT_CHECK(pf_text_reader_next_line(r), r, err, PF_ERR_FORMAT,
                "file ends inside %s after %lld of %lld %s", section, (long long)i, (long long)count,
                entries);
     TEXT_CHECK(!line_starts_section(r), r, err, PF_ERR_FORMAT,
@@ -123,11 +123,11 @@ static pf_status end_line(msh_file *f, const char *section, const char *end, con
                           pf_error *err)
 {
     text_reader *r = &f->r;
-    TEXT_CHECK(text_reader_next_line(r), r, err, PF_ERR_FORMAT, "missing %s (the file ends)", end);
-    if (text_reader_line_is(r, end))
+    TEXT_CHECK(pf_text_reader_next_line(r), r, err, PF_ERR_FORMAT, "missing %s (the file ends)", end);
+    if (pf_text_reader_line_is(r, end))
         return PF_OK;
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     TEXT_CHECK(tok[0] != '$', r, err, PF_ERR_FORMAT, "missing %s before %.*s", end,
                (int)(len < SECTION_NAME_MAX ? len : SECTION_NAME_MAX), tok);
     return TEXT_FAIL(r, err, PF_ERR_FORMAT, "%s holds more %s than it announces (expected %s)",
@@ -140,7 +140,7 @@ static pf_status check_count(msh_file *f, int64_t count, int tokens, const char 
 {
     char what[64];
     snprintf(what, sizeof what, "%s in %s", entries, section);
-    return text_reader_check_count(&f->r, count, tokens, what, err);
+    return pf_text_reader_check_count(&f->r, count, tokens, what, err);
 }
 
 /* Skips an unknown section "$Name" up to its "$EndName". */
@@ -148,14 +148,14 @@ static pf_status skip_section(msh_file *f, pf_error *err)
 {
     text_reader *r = &f->r;
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     char end[SECTION_NAME_MAX + 8];
     TEXT_CHECK(len >= 2 && len < SECTION_NAME_MAX && !memchr(tok, '\0', len), r, err, PF_ERR_FORMAT,
                "malformed section name");
     snprintf(end, sizeof end, "$End%.*s", (int)(len - 1), tok + 1);
     int64_t start = r->line_no;
-    while (text_reader_next_line(r))
-        if (text_reader_line_is(r, end))
+    while (pf_text_reader_next_line(r))
+        if (pf_text_reader_line_is(r, end))
             return PF_OK;
     return TEXT_FAIL(r, err, PF_ERR_FORMAT, "the section opened on line %lld has no %s",
                      (long long)start, end);
@@ -175,7 +175,7 @@ static pf_status alloc_nodes(msh_file *f, int64_t count, pf_error *err)
 
 static pf_status read_node_tag(msh_file *f, int64_t i, pf_error *err)
 {
-    PF_TRY(text_reader_int(&f->r, &f->tag[i], "a node tag", err));
+    PF_TRY(pf_text_reader_int(&f->r, &f->tag[i], "a node tag", err));
     TEXT_CHECK(f->tag[i] > 0, &f->r, err, PF_ERR_FORMAT, "node tag %lld is not positive",
                (long long)f->tag[i]);
     return PF_OK;
@@ -188,7 +188,7 @@ static pf_status read_coordinates(msh_file *f, int64_t i, pf_error *err)
         char what[64];
         snprintf(what, sizeof what, "the %s coordinate of node %lld", AXES[c],
                  (long long)f->tag[i]);
-        PF_TRY(text_reader_double(&f->r, &f->x[3 * i + c], what, err));
+        PF_TRY(pf_text_reader_double(&f->r, &f->x[3 * i + c], what, err));
     }
     return PF_OK;
 }
@@ -252,15 +252,15 @@ static pf_status read_nodes_v2(msh_file *f, pf_error *err)
     text_reader *r = &f->r;
     int64_t count;
     PF_TRY(header_line(f, "$Nodes", err));
-    PF_TRY(text_reader_int(r, &count, "the number of nodes", err));
-    PF_TRY(text_reader_expect_line_end(r, "the number of nodes", err));
+    PF_TRY(pf_text_reader_int(r, &count, "the number of nodes", err));
+    PF_TRY(pf_text_reader_expect_line_end(r, "the number of nodes", err));
     PF_TRY(check_count(f, count, 4, "nodes", "$Nodes", err));
     PF_TRY(alloc_nodes(f, count, err));
     for (int64_t i = 0; i < count; ++i) {
         PF_TRY(entry_line(f, "$Nodes", "nodes", i, count, err));
         PF_TRY(read_node_tag(f, i, err));
         PF_TRY(read_coordinates(f, i, err));
-        PF_TRY(text_reader_expect_line_end(r, "the coordinates", err));
+        PF_TRY(pf_text_reader_expect_line_end(r, "the coordinates", err));
         f->n_nodes = i + 1;
     }
     PF_TRY(end_line(f, "$Nodes", "$EndNodes", "nodes", err));
@@ -274,22 +274,22 @@ static pf_status read_nodes_v4(msh_file *f, pf_error *err)
     text_reader *r = &f->r;
     int64_t blocks, count, min_tag, max_tag;
     PF_TRY(header_line(f, "$Nodes", err));
-    PF_TRY(text_reader_int(r, &blocks, "the number of node blocks", err));
-    PF_TRY(text_reader_int(r, &count, "the number of nodes", err));
-    PF_TRY(text_reader_int(r, &min_tag, "the smallest node tag", err));
-    PF_TRY(text_reader_int(r, &max_tag, "the largest node tag", err));
-    PF_TRY(text_reader_expect_line_end(r, "the node counts", err));
+    PF_TRY(pf_text_reader_int(r, &blocks, "the number of node blocks", err));
+    PF_TRY(pf_text_reader_int(r, &count, "the number of nodes", err));
+    PF_TRY(pf_text_reader_int(r, &min_tag, "the smallest node tag", err));
+    PF_TRY(pf_text_reader_int(r, &max_tag, "the largest node tag", err));
+    PF_TRY(pf_text_reader_expect_line_end(r, "the node counts", err));
     PF_TRY(check_count(f, blocks, 4, "node blocks", "$Nodes", err));
     PF_TRY(check_count(f, count, 4, "nodes", "$Nodes", err));
     PF_TRY(alloc_nodes(f, count, err));
     for (int64_t b = 0; b < blocks; ++b) {
         int64_t dim, entity, parametric, n;
         PF_TRY(entry_line(f, "$Nodes", "node blocks", b, blocks, err));
-        PF_TRY(text_reader_int(r, &dim, "the entity dimension", err));
-        PF_TRY(text_reader_int(r, &entity, "the entity tag", err));
-        PF_TRY(text_reader_int(r, &parametric, "the parametric flag", err));
-        PF_TRY(text_reader_int(r, &n, "the number of nodes in the block", err));
-        PF_TRY(text_reader_expect_line_end(r, "the node block header", err));
+        PF_TRY(pf_text_reader_int(r, &dim, "the entity dimension", err));
+        PF_TRY(pf_text_reader_int(r, &entity, "the entity tag", err));
+        PF_TRY(pf_text_reader_int(r, &parametric, "the parametric flag", err));
+        PF_TRY(pf_text_reader_int(r, &n, "the number of nodes in the block", err));
+        PF_TRY(pf_text_reader_expect_line_end(r, "the node block header", err));
         TEXT_CHECK(dim >= 0 && dim <= 3, r, err, PF_ERR_FORMAT, "entity dimension %lld",
                    (long long)dim);
         TEXT_CHECK(parametric == 0 || parametric == 1, r, err, PF_ERR_FORMAT,
@@ -301,13 +301,13 @@ static pf_status read_nodes_v4(msh_file *f, pf_error *err)
         for (int64_t k = 0; k < n; ++k) {
             PF_TRY(entry_line(f, "$Nodes", "node tags of the block", k, n, err));
             PF_TRY(read_node_tag(f, first + k, err));
-            PF_TRY(text_reader_expect_line_end(r, "the node tag", err));
+            PF_TRY(pf_text_reader_expect_line_end(r, "the node tag", err));
         }
         for (int64_t k = 0; k < n; ++k) {
             PF_TRY(entry_line(f, "$Nodes", "node coordinates of the block", k, n, err));
             PF_TRY(read_coordinates(f, first + k, err));
             if (!parametric)
-                PF_TRY(text_reader_expect_line_end(r, "the coordinates", err));
+                PF_TRY(pf_text_reader_expect_line_end(r, "the coordinates", err));
             f->n_nodes = first + k + 1;
         }
         f->n_nodes = first + n;
@@ -336,15 +336,15 @@ static pf_status read_cell(msh_file *f, int64_t elem, const elem_type *t, pf_err
         char what[80];
         snprintf(what, sizeof what, "node %d of element %lld (a %s)", k + 1, (long long)elem,
                  t->name);
-        PF_TRY(text_reader_int(r, &tag, what, err));
+        PF_TRY(pf_text_reader_int(r, &tag, what, err));
         TEXT_CHECK((index = find_node(f, tag)) >= 0, r, err, PF_ERR_FORMAT,
                    "element %lld refers to node %lld, which the file does not define",
                    (long long)elem, (long long)tag);
         if (k < t->corners)
             corners[k] = (uint32_t)index;
     }
-    PF_TRY(text_reader_expect_line_end(r, "the element's nodes", err));
-    pf_status s = cell_list_add(&f->cells, corners, t->corners, err);
+    PF_TRY(pf_text_reader_expect_line_end(r, "the element's nodes", err));
+    pf_status s = pf_cell_list_add(&f->cells, corners, t->corners, err);
     if (s < 0)
         pf_error_prefix(err, "%s:%lld", r->path, (long long)r->line_no);
     return s;
@@ -356,19 +356,19 @@ static pf_status read_elements_v2(msh_file *f, pf_error *err)
     text_reader *r = &f->r;
     int64_t count;
     PF_TRY(header_line(f, "$Elements", err));
-    PF_TRY(text_reader_int(r, &count, "the number of elements", err));
-    PF_TRY(text_reader_expect_line_end(r, "the number of elements", err));
+    PF_TRY(pf_text_reader_int(r, &count, "the number of elements", err));
+    PF_TRY(pf_text_reader_expect_line_end(r, "the number of elements", err));
     PF_TRY(check_count(f, count, 4, "elements", "$Elements", err));
     for (int64_t i = 0; i < count; ++i) {
         int64_t elem, type, n_tags, tag;
         PF_TRY(entry_line(f, "$Elements", "elements", i, count, err));
-        PF_TRY(text_reader_int(r, &elem, "an element tag", err));
-        PF_TRY(text_reader_int(r, &type, "the element type", err));
-        PF_TRY(text_reader_int(r, &n_tags, "the number of element tags", err));
+        PF_TRY(pf_text_reader_int(r, &elem, "an element tag", err));
+        PF_TRY(pf_text_reader_int(r, &type, "the element type", err));
+        PF_TRY(pf_text_reader_int(r, &n_tags, "the number of element tags", err));
         TEXT_CHECK(n_tags >= 0 && (uint64_t)n_tags <= r->line_len, r, err, PF_ERR_FORMAT,
                    "element %lld has %lld tags", (long long)elem, (long long)n_tags);
         for (int64_t k = 0; k < n_tags; ++k)
-            PF_TRY(text_reader_int(r, &tag, "an element tag (physical, entity, ...)", err));
+            PF_TRY(pf_text_reader_int(r, &tag, "an element tag (physical, entity, ...)", err));
         const elem_type *t = find_type(type);
         TEXT_CHECK(t, r, err, PF_ERR_UNSUPPORTED,
                    "element %lld has type %lld, which pf does not read", (long long)elem,
@@ -386,21 +386,21 @@ static pf_status read_elements_v4(msh_file *f, pf_error *err)
     text_reader *r = &f->r;
     int64_t blocks, count, min_tag, max_tag, read = 0;
     PF_TRY(header_line(f, "$Elements", err));
-    PF_TRY(text_reader_int(r, &blocks, "the number of element blocks", err));
-    PF_TRY(text_reader_int(r, &count, "the number of elements", err));
-    PF_TRY(text_reader_int(r, &min_tag, "the smallest element tag", err));
-    PF_TRY(text_reader_int(r, &max_tag, "the largest element tag", err));
-    PF_TRY(text_reader_expect_line_end(r, "the element counts", err));
+    PF_TRY(pf_text_reader_int(r, &blocks, "the number of element blocks", err));
+    PF_TRY(pf_text_reader_int(r, &count, "the number of elements", err));
+    PF_TRY(pf_text_reader_int(r, &min_tag, "the smallest element tag", err));
+    PF_TRY(pf_text_reader_int(r, &max_tag, "the largest element tag", err));
+    PF_TRY(pf_text_reader_expect_line_end(r, "the element counts", err));
     PF_TRY(check_count(f, blocks, 4, "element blocks", "$Elements", err));
     PF_TRY(check_count(f, count, 2, "elements", "$Elements", err));
     for (int64_t b = 0; b < blocks; ++b) {
         int64_t dim, entity, type, n;
         PF_TRY(entry_line(f, "$Elements", "element blocks", b, blocks, err));
-        PF_TRY(text_reader_int(r, &dim, "the entity dimension", err));
-        PF_TRY(text_reader_int(r, &entity, "the entity tag", err));
-        PF_TRY(text_reader_int(r, &type, "the element type", err));
-        PF_TRY(text_reader_int(r, &n, "the number of elements in the block", err));
-        PF_TRY(text_reader_expect_line_end(r, "the element block header", err));
+        PF_TRY(pf_text_reader_int(r, &dim, "the entity dimension", err));
+        PF_TRY(pf_text_reader_int(r, &entity, "the entity tag", err));
+        PF_TRY(pf_text_reader_int(r, &type, "the element type", err));
+        PF_TRY(pf_text_reader_int(r, &n, "the number of elements in the block", err));
+        PF_TRY(pf_text_reader_expect_line_end(r, "the element block header", err));
         TEXT_CHECK(dim >= 0 && dim <= 3, r, err, PF_ERR_FORMAT, "entity dimension %lld",
                    (long long)dim);
         TEXT_CHECK(n >= 0 && n <= count - read, r, err, PF_ERR_FORMAT,
@@ -419,7 +419,7 @@ static pf_status read_elements_v4(msh_file *f, pf_error *err)
             PF_TRY(entry_line(f, "$Elements", "elements of the block", k, n, err));
             if (dim < 3)
                 continue;
-            PF_TRY(text_reader_int(r, &elem, "an element tag", err));
+            PF_TRY(pf_text_reader_int(r, &elem, "an element tag", err));
             PF_TRY(read_cell(f, elem, t, err));
         }
         read += n;
@@ -439,25 +439,25 @@ static pf_status read_elements_v4(msh_file *f, pf_error *err)
 static pf_status read_format(msh_file *f, pf_error *err)
 {
     text_reader *r = &f->r;
-    TEXT_CHECK(text_reader_next_line(r), r, err, PF_ERR_FORMAT, "blank file");
+    TEXT_CHECK(pf_text_reader_next_line(r), r, err, PF_ERR_FORMAT, "blank file");
     /* Format 1 has no $MeshFormat and starts with its node section. */
-    TEXT_CHECK(!text_reader_line_is(r, "$NOD"), r, err, PF_ERR_UNSUPPORTED,
+    TEXT_CHECK(!pf_text_reader_line_is(r, "$NOD"), r, err, PF_ERR_UNSUPPORTED,
                "format version 1 is not supported (ASCII 2.x or 4.1; re-save from Gmsh with "
                "-format msh41 or msh22)");
-    TEXT_CHECK(text_reader_line_is(r, "$MeshFormat"), r, err, PF_ERR_FORMAT,
+    TEXT_CHECK(pf_text_reader_line_is(r, "$MeshFormat"), r, err, PF_ERR_FORMAT,
                "not a Gmsh .msh file (it does not start with $MeshFormat)");
     PF_TRY(header_line(f, "$MeshFormat", err));
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     char version[16] = "";
     if (len < sizeof version && !memchr(tok, '\0', len))
         memcpy(version, tok, len);
     int64_t file_type, data_size;
-    PF_TRY(text_reader_int(r, &file_type, "the file type (0 for ASCII)", err));
+    PF_TRY(pf_text_reader_int(r, &file_type, "the file type (0 for ASCII)", err));
     TEXT_CHECK(file_type == 0, r, err, PF_ERR_UNSUPPORTED,
                "binary .msh is not supported; re-save as ASCII");
-    PF_TRY(text_reader_int(r, &data_size, "the data size", err));
-    PF_TRY(text_reader_expect_line_end(r, "the format", err));
+    PF_TRY(pf_text_reader_int(r, &data_size, "the data size", err));
+    PF_TRY(pf_text_reader_expect_line_end(r, "the format", err));
     if (strncmp(version, "2.", 2) == 0 && version[2] >= '0' && version[2] <= '9' &&
         version[3] == '\0')
         f->version = 2;
@@ -467,8 +467,8 @@ static pf_status read_format(msh_file *f, pf_error *err)
                "format version '%.15s' is not supported (ASCII 2.x or 4.1; re-save from Gmsh "
                "with -format msh41 or msh22)",
                version);
-    TEXT_CHECK(text_reader_next_line(r), r, err, PF_ERR_FORMAT, "missing $EndMeshFormat");
-    TEXT_CHECK(text_reader_line_is(r, "$EndMeshFormat"), r, err, PF_ERR_FORMAT,
+    TEXT_CHECK(pf_text_reader_next_line(r), r, err, PF_ERR_FORMAT, "missing $EndMeshFormat");
+    TEXT_CHECK(pf_text_reader_line_is(r, "$EndMeshFormat"), r, err, PF_ERR_FORMAT,
                "expected $EndMeshFormat");
     return PF_OK;
 }
@@ -476,11 +476,11 @@ static pf_status read_format(msh_file *f, pf_error *err)
 static pf_status read_sections(msh_file *f, pf_error *err)
 {
     text_reader *r = &f->r;
-    while (text_reader_next_line(r)) {
-        if (text_reader_line_is(r, "$Nodes")) {
+    while (pf_text_reader_next_line(r)) {
+        if (pf_text_reader_line_is(r, "$Nodes")) {
             TEXT_CHECK(!f->has_nodes, r, err, PF_ERR_FORMAT, "a second $Nodes section");
             PF_TRY(f->version == 2 ? read_nodes_v2(f, err) : read_nodes_v4(f, err));
-        } else if (text_reader_line_is(r, "$Elements")) {
+        } else if (pf_text_reader_line_is(r, "$Elements")) {
             TEXT_CHECK(f->has_nodes, r, err, PF_ERR_FORMAT, "$Elements before $Nodes");
             TEXT_CHECK(!f->has_elements, r, err, PF_ERR_FORMAT, "a second $Elements section");
             PF_TRY(f->version == 2 ? read_elements_v2(f, err) : read_elements_v4(f, err));
@@ -489,7 +489,7 @@ static pf_status read_sections(msh_file *f, pf_error *err)
             PF_TRY(skip_section(f, err));
         } else {
             size_t len;
-            const char *tok = text_reader_token(r, &len);
+            const char *tok = pf_text_reader_token(r, &len);
             return TEXT_FAIL(r, err, PF_ERR_FORMAT, "expected a section ($Name), found '%.*s'",
                              (int)(len < 24 ? len : 24), tok);
         }
@@ -506,13 +506,13 @@ pf_status pf_import_msh(const char *path, pf_mesh *m, pf_error *err)
     memset(m, 0, sizeof *m);
     msh_file f;
     memset(&f, 0, sizeof f);
-    pf_status s = text_reader_open(&f.r, path, '\0', err);
+    pf_status s = pf_text_reader_open(&f.r, path, '\0', err);
     if (s == PF_OK)
         s = read_format(&f, err);
     if (s == PF_OK)
         s = read_sections(&f, err);
     if (s == PF_OK) {
-        s = cell_list_build_mesh(&f.cells, f.x, f.n_nodes, m, err);
+        s = pf_cell_list_build_mesh(&f.cells, f.x, f.n_nodes, m, err);
         if (s < 0)
             pf_error_prefix(err, "%s", path);
     }

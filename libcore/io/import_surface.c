@@ -65,7 +65,7 @@ static pf_status scene_to_soup(const char *path, const struct aiScene *scene, su
             PF_CHECK(isfinite(p.x) && isfinite(p.y) && isfinite(p.z), err, PF_ERR_FORMAT,
                      "%s: mesh %u, vertex %u has a non-finite coordinate", path, m, v);
             const double x[3] = {p.x, p.y, p.z};
-            PF_TRY(surface_soup_vertex(soup, x, err));
+            PF_TRY(pf_surface_soup_vertex(soup, x, err));
         }
         for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
             const struct aiFace *face = &mesh->mFaces[f];
@@ -78,7 +78,7 @@ static pf_status scene_to_soup(const char *path, const struct aiScene *scene, su
                          face->mIndices[i], mesh->mNumVertices);
                 c[i] = (uint32_t)(base + face->mIndices[i]);
             }
-            PF_TRY(surface_soup_polygon(soup, c, 3, err));
+            PF_TRY(pf_surface_soup_polygon(soup, c, 3, err));
         }
     }
     PF_CHECK(soup->n_polys > 0, err, PF_ERR_FORMAT, "%s: no triangles (%u meshes read by assimp)",
@@ -117,10 +117,10 @@ typedef pf_status (*surface_reader)(const char *path, surface_soup *soup, pf_err
 static const struct {
     const char *ext;
     surface_reader read;
-} OWN_READERS[] = {{"obj", surface_read_obj},
-                   {"off", surface_read_off},
-                   {"ply", surface_read_ply},
-                   {"stl", surface_read_stl}};
+} OWN_READERS[] = {{"obj", pf_surface_read_obj},
+                   {"off", pf_surface_read_off},
+                   {"ply", pf_surface_read_ply},
+                   {"stl", pf_surface_read_stl}};
 
 pf_status pf_import_surface_ex(const char *path, pf_surface *s, pf_surface_import_info *info,
                                pf_error *err)
@@ -142,8 +142,8 @@ pf_status pf_import_surface_ex(const char *path, pf_surface *s, pf_surface_impor
     surface_soup soup = {0};
     pf_status st = read(path, &soup, err);
     if (st == PF_OK)
-        st = surface_soup_finish(&soup, path, s, err);
-    surface_soup_release(&soup);
+        st = pf_surface_soup_finish(&soup, path, s, err);
+    pf_surface_soup_release(&soup);
     if (st < 0)
         pf_surface_release(s);
     return st;

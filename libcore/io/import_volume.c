@@ -8,7 +8,7 @@
 
 #include "import_volume.h"
 
-pf_status cell_list_add(cell_list *c, const uint32_t *nodes, int n, pf_error *err)
+pf_status pf_cell_list_add(cell_list *c, const uint32_t *nodes, int n, pf_error *err)
 {
     PF_CHECK(c->n_cells < INT32_MAX, err, PF_ERR_TOO_LARGE, "more than %d cells", INT32_MAX);
     int64_t end = (int64_t)(c->nodes.size / sizeof *nodes) + n;
@@ -22,14 +22,14 @@ pf_status cell_list_add(cell_list *c, const uint32_t *nodes, int n, pf_error *er
     return PF_OK;
 }
 
-void cell_list_release(cell_list *c)
+void pf_cell_list_release(cell_list *c)
 {
     pf_buffer_release(&c->offsets);
     pf_buffer_release(&c->nodes);
     c->n_cells = 0;
 }
 
-pf_status cell_list_build_mesh(const cell_list *c, const double *x, int64_t n_nodes, pf_mesh *m,
+pf_status pf_cell_list_build_mesh(const cell_list *c, const double *x, int64_t n_nodes, pf_mesh *m,
                                pf_error *err)
 {
     memset(m, 0, sizeof *m);

@@ -12,14 +12,14 @@ typedef struct cell_list {
 } cell_list;
 
 /* Appends a cell of n = 4 or 8 node indices. PF_ERR_TOO_LARGE beyond INT32_MAX cells. */
-pf_status cell_list_add(cell_list *c, const uint32_t *nodes, int n, pf_error *err);
+pf_status pf_cell_list_add(cell_list *c, const uint32_t *nodes, int n, pf_error *err);
 
 /* The mesh of the cells over nodes x [3 n_nodes] (every index < n_nodes), nodes no cell uses
  * dropped and the others kept in their order; built by pf_mesh_from_cells (shared faces once,
  * inside-out cells reoriented). m is overwritten. */
-pf_status cell_list_build_mesh(const cell_list *c, const double *x, int64_t n_nodes, pf_mesh *m,
+pf_status pf_cell_list_build_mesh(const cell_list *c, const double *x, int64_t n_nodes, pf_mesh *m,
                                pf_error *err);
 
-void cell_list_release(cell_list *c);
+void pf_cell_list_release(cell_list *c);
 
 #endif

@@ -24,8 +24,8 @@ static pf_status read_position(text_reader *r, surface_soup *soup, pf_error *err
 {
     double p[3];
     for (int c = 0; c < 3; ++c)
-        PF_TRY(text_reader_double(r, &p[c], "a vertex coordinate", err));
-    return surface_soup_vertex(soup, p, err);
+        PF_TRY(pf_text_reader_double(r, &p[c], "a vertex coordinate", err));
+    return pf_surface_soup_vertex(soup, p, err);
 }
 
 /* The vertex of an OBJ face reference "v[/t[/n]]" as a 0-based index. */
@@ -58,32 +58,32 @@ static pf_status obj_face(text_reader *r, surface_soup *soup, uint32_t *poly, pf
 {
     int64_t n = 0;
     size_t len;
-    for (const char *tok; (tok = text_reader_token(r, &len)) != NULL; ++n) {
+    for (const char *tok; (tok = pf_text_reader_token(r, &len)) != NULL; ++n) {
         TEXT_CHECK(n < SURFACE_POLYGON_MAX, r, err, PF_ERR_TOO_LARGE,
                    "face of more than %d vertices: more than pf triangulates",
                    (int)SURFACE_POLYGON_MAX);
         PF_TRY(obj_reference(r, tok, len, soup->n_verts, &poly[n], err));
     }
-    return surface_soup_polygon(soup, poly, n, err);
+    return pf_surface_soup_polygon(soup, poly, n, err);
 }
 
-pf_status surface_read_obj(const char *path, surface_soup *soup, pf_error *err)
+pf_status pf_surface_read_obj(const char *path, surface_soup *soup, pf_error *err)
 {
     text_reader r;
-    PF_TRY(text_reader_open(&r, path, '#', err));
+    PF_TRY(pf_text_reader_open(&r, path, '#', err));
     uint32_t *poly = pf_alloc_array(SURFACE_POLYGON_MAX, sizeof *poly);
     pf_status st = poly ? PF_OK
                         : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
-    while (st == PF_OK && text_reader_next_line(&r)) {
+    while (st == PF_OK && pf_text_reader_next_line(&r)) {
         size_t len;
-        const char *key = text_reader_token(&r, &len);
+        const char *key = pf_text_reader_token(&r, &len);
         if (keyword_is(key, len, "v"))
             st = read_position(&r, soup, err);
         else if (keyword_is(key, len, "f"))
             st = obj_face(&r, soup, poly, err);
     }
     pf_free(poly);
-    text_reader_close(&r);
+    pf_text_reader_close(&r);
     return st;
 }
 
@@ -105,53 +105,53 @@ static size_t off_keyword(const char *tok, size_t len)
 static pf_status off_counts(text_reader *r, int64_t *nv, int64_t *nf, pf_error *err)
 {
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     TEXT_CHECK(tok && off_keyword(tok, len), r, err, PF_ERR_FORMAT,
                "not an OFF file: expected OFF (or COFF, NOFF, STOFF, ...) first");
-    if (text_reader_at_line_end(r))
-        TEXT_CHECK(text_reader_next_line(r), r, err, PF_ERR_FORMAT,
+    if (pf_text_reader_at_line_end(r))
+        TEXT_CHECK(pf_text_reader_next_line(r), r, err, PF_ERR_FORMAT,
                    "file ends before the vertex and face counts");
     int64_t ne;
-    PF_TRY(text_reader_int(r, nv, "the vertex count", err));
-    PF_TRY(text_reader_int(r, nf, "the face count", err));
-    PF_TRY(text_reader_int(r, &ne, "the edge count", err));
+    PF_TRY(pf_text_reader_int(r, nv, "the vertex count", err));
+    PF_TRY(pf_text_reader_int(r, nf, "the face count", err));
+    PF_TRY(pf_text_reader_int(r, &ne, "the edge count", err));
     /* A vertex line holds at least 3 tokens, a face line at least 4. */
-    PF_TRY(text_reader_check_count(r, *nv, 3, "vertices", err));
-    PF_TRY(text_reader_check_count(r, *nf, 4, "faces", err));
+    PF_TRY(pf_text_reader_check_count(r, *nv, 3, "vertices", err));
+    PF_TRY(pf_text_reader_check_count(r, *nf, 4, "faces", err));
     return PF_OK;
 }
 
 static pf_status off_face(text_reader *r, surface_soup *soup, uint32_t *poly, pf_error *err)
 {
     int64_t n;
-    PF_TRY(text_reader_int(r, &n, "the face's vertex count", err));
+    PF_TRY(pf_text_reader_int(r, &n, "the face's vertex count", err));
     TEXT_CHECK(n >= 0 && n <= SURFACE_POLYGON_MAX, r, err, n < 0 ? PF_ERR_FORMAT : PF_ERR_TOO_LARGE,
                "face of %lld vertices (0 .. %d)", (long long)n, (int)SURFACE_POLYGON_MAX);
     for (int64_t i = 0; i < n; ++i) {
         int64_t v;
-        PF_TRY(text_reader_int(r, &v, "a vertex index", err));
+        PF_TRY(pf_text_reader_int(r, &v, "a vertex index", err));
         TEXT_CHECK(v >= 0 && v < soup->n_verts, r, err, PF_ERR_FORMAT,
                    "face refers to vertex %lld, but the file defines %lld (0-based)",
                    (long long)v, (long long)soup->n_verts);
         poly[i] = (uint32_t)v;
     }
-    return surface_soup_polygon(soup, poly, n, err);
+    return pf_surface_soup_polygon(soup, poly, n, err);
 }
 
-pf_status surface_read_off(const char *path, surface_soup *soup, pf_error *err)
+pf_status pf_surface_read_off(const char *path, surface_soup *soup, pf_error *err)
 {
     text_reader r;
-    PF_TRY(text_reader_open(&r, path, '#', err));
+    PF_TRY(pf_text_reader_open(&r, path, '#', err));
     uint32_t *poly = pf_alloc_array(SURFACE_POLYGON_MAX, sizeof *poly);
     pf_status st = poly ? PF_OK
                         : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
     int64_t nv = 0, nf = 0;
-    if (st == PF_OK && !text_reader_next_line(&r))
+    if (st == PF_OK && !pf_text_reader_next_line(&r))
         st = TEXT_FAIL(&r, err, PF_ERR_FORMAT, "no OFF header (only comments and blanks)");
     if (st == PF_OK)
         st = off_counts(&r, &nv, &nf, err);
     for (int64_t i = 0; st == PF_OK && i < nv + nf; ++i) {
-        if (!text_reader_next_line(&r))
+        if (!pf_text_reader_next_line(&r))
             st = TEXT_FAIL(&r, err, PF_ERR_FORMAT, "file ends after %lld of %lld %s",
                            (long long)(i < nv ? i : i - nv), (long long)(i < nv ? nv : nf),
                            i < nv ? "vertices" : "faces");
@@ -159,6 +159,6 @@ pf_status surface_read_off(const char *path, surface_soup *soup, pf_error *err)
             st = i < nv ? read_position(&r, soup, err) : off_face(&r, soup, poly, err);
     }
     pf_free(poly);
-    text_reader_close(&r);
+    pf_text_reader_close(&r);
     return st;
 }

@@ -65,7 +65,7 @@ static bool token_is(const char *tok, size_t len, const char *word)
 static pf_status read_type(text_reader *r, ply_type *t, pf_error *err)
 {
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     for (size_t i = 0; tok && i < sizeof TYPE_NAMES / sizeof TYPE_NAMES[0]; ++i)
         if (token_is(tok, len, TYPE_NAMES[i].name)) {
             *t = TYPE_NAMES[i].type;
@@ -85,7 +85,7 @@ static pf_status read_property(text_reader *r, ply_element *e, pf_error *err)
     ply_property *p = &e->props[e->n_props++];
     p->count_type = T_NONE;
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     if (token_is(tok, len, "list")) {
         PF_TRY(read_type(r, &p->count_type, err));
         TEXT_CHECK(p->count_type != T_F32 && p->count_type != T_F64, r, err, PF_ERR_FORMAT,
@@ -95,7 +95,7 @@ static pf_status read_property(text_reader *r, ply_element *e, pf_error *err)
         r->cursor -= tok ? len : 0; /* the token was the type: read it again */
         PF_TRY(read_type(r, &p->type, err));
     }
-    const char *name = text_reader_token(r, &len);
+    const char *name = pf_text_reader_token(r, &len);
     TEXT_CHECK(name, r, err, PF_ERR_FORMAT, "property without a name");
     p->role = ROLE_OTHER;
     if (e->kind == KIND_VERTEX && p->count_type == T_NONE && len == 1 && name[0] >= 'x' &&
@@ -107,7 +107,7 @@ static pf_status read_property(text_reader *r, ply_element *e, pf_error *err)
                    "vertex indices must have an integer type");
         p->role = ROLE_INDICES;
     }
-    return text_reader_expect_line_end(r, "the property's name", err);
+    return pf_text_reader_expect_line_end(r, "the property's name", err);
 }
 
 static pf_status read_element(text_reader *r, ply_header *h, pf_error *err)
@@ -117,24 +117,24 @@ static pf_status read_element(text_reader *r, ply_header *h, pf_error *err)
     ply_element *e = &h->elements[h->n_elements++];
     memset(e, 0, sizeof *e);
     size_t len;
-    const char *name = text_reader_token(r, &len);
+    const char *name = pf_text_reader_token(r, &len);
     TEXT_CHECK(name && len < PLY_NAME_MAX, r, err, PF_ERR_FORMAT, "element without a usable name");
     memcpy(e->name, name, len);
     e->line = r->line_no;
     e->kind = token_is(name, len, "vertex") ? KIND_VERTEX
               : token_is(name, len, "face") ? KIND_FACE
                                             : KIND_OTHER;
-    PF_TRY(text_reader_int(r, &e->count, "the element count", err));
+    PF_TRY(pf_text_reader_int(r, &e->count, "the element count", err));
     TEXT_CHECK(e->count >= 0, r, err, PF_ERR_FORMAT, "negative count of '%s'", e->name);
     TEXT_CHECK(e->count <= INT32_MAX, r, err, PF_ERR_TOO_LARGE, "%lld '%s': more than pf handles",
                (long long)e->count, e->name);
-    return text_reader_expect_line_end(r, "the element count", err);
+    return pf_text_reader_expect_line_end(r, "the element count", err);
 }
 
 static pf_status read_format(text_reader *r, ply_header *h, pf_error *err)
 {
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     if (token_is(tok, len, "ascii"))
         h->format = PLY_ASCII;
     else if (token_is(tok, len, "binary_little_endian"))
@@ -144,7 +144,7 @@ static pf_status read_format(text_reader *r, ply_header *h, pf_error *err)
     else
         return TEXT_FAIL(r, err, PF_ERR_FORMAT,
                          "unknown format (ascii, binary_little_endian or binary_big_endian)");
-    tok = text_reader_token(r, &len);
+    tok = pf_text_reader_token(r, &len);
     TEXT_CHECK(token_is(tok, len, "1.0"), r, err, PF_ERR_UNSUPPORTED,
                "PLY version other than 1.0");
     return PF_OK;
@@ -173,13 +173,13 @@ static pf_status check_counts(const text_reader *r, const ply_header *h, pf_erro
 
 static pf_status read_header(text_reader *r, ply_header *h, pf_error *err)
 {
-    TEXT_CHECK(text_reader_next_line(r) && text_reader_line_is(r, "ply"), r, err, PF_ERR_FORMAT,
+    TEXT_CHECK(pf_text_reader_next_line(r) && pf_text_reader_line_is(r, "ply"), r, err, PF_ERR_FORMAT,
                "not a PLY file: the first line is not 'ply'");
     bool have_format = false;
     for (;;) {
-        TEXT_CHECK(text_reader_next_line(r), r, err, PF_ERR_FORMAT, "file ends inside the header");
+        TEXT_CHECK(pf_text_reader_next_line(r), r, err, PF_ERR_FORMAT, "file ends inside the header");
         size_t len;
-        const char *key = text_reader_token(r, &len);
+        const char *key = pf_text_reader_token(r, &len);
         if (token_is(key, len, "end_header"))
             break;
         if (token_is(key, len, "format")) {
@@ -267,7 +267,7 @@ static pf_status value(ply_reader *pr, ply_type t, double *v, const char *what, 
 {
     if (pr->h->format != PLY_ASCII)
         return bin_value(&pr->bin, t, v, err);
-    PF_TRY(text_reader_double(pr->text, v, what, err));
+    PF_TRY(pf_text_reader_double(pr->text, v, what, err));
     TEXT_CHECK(t == T_F32 || t == T_F64 || *v == floor(*v), pr->text, err, PF_ERR_FORMAT,
                "%s %.17g is not an integer", what, *v);
     return PF_OK;
@@ -296,7 +296,7 @@ static pf_status fail_at(const ply_reader *pr, pf_error *err, const char *fmt, .
 static pf_status read_record(ply_reader *pr, const ply_element *e, int64_t index,
                              surface_soup *soup, uint32_t *poly, pf_error *err)
 {
-    if (pr->h->format == PLY_ASCII && !text_reader_next_line(pr->text))
+    if (pr->h->format == PLY_ASCII && !pf_text_reader_next_line(pr->text))
         return TEXT_FAIL(pr->text, err, PF_ERR_FORMAT, "file ends after %lld of %lld '%s'",
                          (long long)index, (long long)e->count, e->name);
     double p[3] = {0, 0, 0};
@@ -334,19 +334,19 @@ static pf_status read_record(ply_reader *pr, const ply_element *e, int64_t index
             n_poly = (int64_t)count;
     }
     if (pr->h->format == PLY_ASCII)
-        PF_TRY(text_reader_expect_line_end(pr->text, "the record", err));
+        PF_TRY(pf_text_reader_expect_line_end(pr->text, "the record", err));
     if (e->kind == KIND_VERTEX) {
         if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
             return fail_at(pr, err, "vertex %lld has a non-finite coordinate", (long long)index);
-        return surface_soup_vertex(soup, p, err);
+        return pf_surface_soup_vertex(soup, p, err);
     }
-    return n_poly >= 0 ? surface_soup_polygon(soup, poly, n_poly, err) : PF_OK;
+    return n_poly >= 0 ? pf_surface_soup_polygon(soup, poly, n_poly, err) : PF_OK;
 }
 
-pf_status surface_read_ply(const char *path, surface_soup *soup, pf_error *err)
+pf_status pf_surface_read_ply(const char *path, surface_soup *soup, pf_error *err)
 {
     text_reader r;
-    PF_TRY(text_reader_open(&r, path, '\0', err));
+    PF_TRY(pf_text_reader_open(&r, path, '\0', err));
     ply_header *h = pf_alloc_array(1, sizeof *h);
     uint32_t *poly = pf_alloc_array(SURFACE_POLYGON_MAX, sizeof *poly);
     pf_status st = h && poly ? PF_OK
@@ -363,6 +363,6 @@ pf_status surface_read_ply(const char *path, surface_soup *soup, pf_error *err)
             st = read_record(&pr, &h->elements[i], k, soup, poly, err);
     pf_free(poly);
     pf_free(h);
-    text_reader_close(&r);
+    pf_text_reader_close(&r);
     return st;
 }

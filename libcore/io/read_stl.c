@@ -53,9 +53,9 @@ static pf_status read_binary(const text_reader *r, surface_soup *soup, pf_error 
                      "%s: byte %llu: triangle %llu has a non-finite corner", r->path,
                      (unsigned long long)(rec - d), (unsigned long long)t);
             tri[c] = (uint32_t)soup->n_verts;
-            PF_TRY(surface_soup_vertex(soup, p, err));
+            PF_TRY(pf_surface_soup_vertex(soup, p, err));
         }
-        PF_TRY(surface_soup_polygon(soup, tri, 3, err));
+        PF_TRY(pf_surface_soup_polygon(soup, tri, 3, err));
     }
     return PF_OK;
 }
@@ -70,7 +70,7 @@ static pf_status ascii_line(text_reader *r, surface_soup *soup, uint32_t *poly, 
                             pf_error *err)
 {
     size_t len;
-    const char *key = text_reader_token(r, &len);
+    const char *key = pf_text_reader_token(r, &len);
     const bool in_facet = *corners >= 0;
     if (is_keyword(key, len, "solid") || is_keyword(key, len, "endsolid")) {
         TEXT_CHECK(!in_facet, r, err, PF_ERR_FORMAT, "'%.*s' inside a facet", (int)len, key);
@@ -88,16 +88,16 @@ static pf_status ascii_line(text_reader *r, surface_soup *soup, uint32_t *poly, 
                    (int)SURFACE_POLYGON_MAX);
         double p[3];
         for (int c = 0; c < 3; ++c)
-            PF_TRY(text_reader_double(r, &p[c], "a vertex coordinate", err));
-        PF_TRY(text_reader_expect_line_end(r, "the vertex", err));
+            PF_TRY(pf_text_reader_double(r, &p[c], "a vertex coordinate", err));
+        PF_TRY(pf_text_reader_expect_line_end(r, "the vertex", err));
         poly[(*corners)++] = (uint32_t)soup->n_verts;
-        return surface_soup_vertex(soup, p, err);
+        return pf_surface_soup_vertex(soup, p, err);
     }
     if (is_keyword(key, len, "endfacet")) {
         TEXT_CHECK(in_facet, r, err, PF_ERR_FORMAT, "'endfacet' outside a facet");
         int64_t n = *corners;
         *corners = -1;
-        return surface_soup_polygon(soup, poly, n, err);
+        return pf_surface_soup_polygon(soup, poly, n, err);
     }
     if (is_keyword(key, len, "outer") || is_keyword(key, len, "endloop")) {
         TEXT_CHECK(in_facet, r, err, PF_ERR_FORMAT, "'%.*s' outside a facet", (int)len, key);
@@ -113,7 +113,7 @@ static pf_status read_ascii(text_reader *r, surface_soup *soup, pf_error *err)
     PF_CHECK(poly, err, PF_ERR_NOMEM, "out of memory");
     int64_t corners = -1;
     pf_status st = PF_OK;
-    while (st == PF_OK && text_reader_next_line(r))
+    while (st == PF_OK && pf_text_reader_next_line(r))
         st = ascii_line(r, soup, poly, &corners, err);
     if (st == PF_OK && corners >= 0)
         st = TEXT_FAIL(r, err, PF_ERR_FORMAT, "file ends inside a facet");
@@ -131,16 +131,16 @@ static bool starts_with_solid(const text_reader *r)
     return r->size - i >= 5 && memcmp(r->data + i, "solid", 5) == 0;
 }
 
-pf_status surface_read_stl(const char *path, surface_soup *soup, pf_error *err)
+pf_status pf_surface_read_stl(const char *path, surface_soup *soup, pf_error *err)
 {
     text_reader r;
-    PF_TRY(text_reader_open(&r, path, '\0', err));
+    PF_TRY(pf_text_reader_open(&r, path, '\0', err));
     bool binary = !starts_with_solid(&r);
     if (r.size >= STL_HEADER + 4 &&
         STL_HEADER + 4 + STL_RECORD * (uint64_t)le_u32((const unsigned char *)r.data + STL_HEADER) ==
             r.size)
         binary = true;
     pf_status st = binary ? read_binary(&r, soup, err) : read_ascii(&r, soup, err);
-    text_reader_close(&r);
+    pf_text_reader_close(&r);
     return st;
 }

@@ -12,7 +12,7 @@
 
 #include <pf/geom.h>
 
-void surface_soup_release(surface_soup *s)
+void pf_surface_soup_release(surface_soup *s)
 {
     pf_buffer_release(&s->x);
     pf_buffer_release(&s->offsets);
@@ -20,14 +20,14 @@ void surface_soup_release(surface_soup *s)
     memset(s, 0, sizeof *s);
 }
 
-pf_status surface_soup_vertex(surface_soup *s, const double p[3], pf_error *err)
+pf_status pf_surface_soup_vertex(surface_soup *s, const double p[3], pf_error *err)
 {
     PF_TRY(pf_buffer_append(&s->x, p, 3 * sizeof *p, err));
     s->n_verts++;
     return PF_OK;
 }
 
-pf_status surface_soup_polygon(surface_soup *s, const uint32_t *idx, int64_t n, pf_error *err)
+pf_status pf_surface_soup_polygon(surface_soup *s, const uint32_t *idx, int64_t n, pf_error *err)
 {
     if (n < 3)
         return PF_OK;
@@ -115,7 +115,7 @@ static pf_status triangulate(const surface_soup *s, const int32_t *group, uint32
     return st;
 }
 
-pf_status surface_soup_finish(const surface_soup *s, const char *path, pf_surface *out,
+pf_status pf_surface_soup_finish(const surface_soup *s, const char *path, pf_surface *out,
                               pf_error *err)
 {
     memset(out, 0, sizeof *out);

@@ -25,7 +25,7 @@ static pf_status read_all(FILE *f, const char *path, pf_buffer *b, pf_error *err
     return PF_OK;
 }
 
-pf_status text_reader_open(text_reader *r, const char *path, char comment, pf_error *err)
+pf_status pf_text_reader_open(text_reader *r, const char *path, char comment, pf_error *err)
 {
     memset(r, 0, sizeof *r);
     FILE *f = fopen(path, "rb");
@@ -46,13 +46,13 @@ pf_status text_reader_open(text_reader *r, const char *path, char comment, pf_er
     return PF_OK;
 }
 
-void text_reader_close(text_reader *r)
+void pf_text_reader_close(text_reader *r)
 {
     pf_free(r->data);
     memset(r, 0, sizeof *r);
 }
 
-bool text_reader_next_line(text_reader *r)
+bool pf_text_reader_next_line(text_reader *r)
 {
     size_t pos = r->next;
     int64_t no = r->line_no;
@@ -82,7 +82,7 @@ bool text_reader_next_line(text_reader *r)
     return false;
 }
 
-const char *text_reader_token(text_reader *r, size_t *len)
+const char *pf_text_reader_token(text_reader *r, size_t *len)
 {
     size_t i = r->cursor;
     while (i < r->line_len && is_blank(r->line[i]))
@@ -95,14 +95,14 @@ const char *text_reader_token(text_reader *r, size_t *len)
     return i > start ? r->line + start : NULL;
 }
 
-bool text_reader_at_line_end(text_reader *r)
+bool pf_text_reader_at_line_end(text_reader *r)
 {
     while (r->cursor < r->line_len && is_blank(r->line[r->cursor]))
         ++r->cursor;
     return r->cursor == r->line_len;
 }
 
-bool text_reader_line_is(const text_reader *r, const char *word)
+bool pf_text_reader_line_is(const text_reader *r, const char *word)
 {
     size_t a = 0, b = r->line_len, n = strlen(word);
     while (a < b && is_blank(r->line[a]))
@@ -112,7 +112,7 @@ bool text_reader_line_is(const text_reader *r, const char *word)
     return b - a == n && memcmp(r->line + a, word, n) == 0;
 }
 
-pf_status text_reader_fail(const text_reader *r, pf_error *err, pf_status code,
+pf_status pf_text_reader_fail(const text_reader *r, pf_error *err, pf_status code,
                            const char *src_file, int src_line, const char *fmt, ...)
 {
     if (!err)
@@ -144,7 +144,7 @@ static pf_status number_token(text_reader *r, char buf[NUMBER_MAX + 1], const ch
                               pf_error *err)
 {
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     TEXT_CHECK(tok, r, err, PF_ERR_FORMAT, "expected %s at the end of the line", what);
     char shown[32];
     quote_token(tok, len, shown);
@@ -155,7 +155,7 @@ static pf_status number_token(text_reader *r, char buf[NUMBER_MAX + 1], const ch
     return PF_OK;
 }
 
-pf_status text_reader_int(text_reader *r, int64_t *v, const char *what, pf_error *err)
+pf_status pf_text_reader_int(text_reader *r, int64_t *v, const char *what, pf_error *err)
 {
     char buf[NUMBER_MAX + 1], *end;
     PF_TRY(number_token(r, buf, what, err));
@@ -170,7 +170,7 @@ pf_status text_reader_int(text_reader *r, int64_t *v, const char *what, pf_error
     return PF_OK;
 }
 
-pf_status text_reader_double(text_reader *r, double *v, const char *what, pf_error *err)
+pf_status pf_text_reader_double(text_reader *r, double *v, const char *what, pf_error *err)
 {
     char buf[NUMBER_MAX + 1], *end;
     PF_TRY(number_token(r, buf, what, err));
@@ -186,10 +186,10 @@ pf_status text_reader_double(text_reader *r, double *v, const char *what, pf_err
     return PF_OK;
 }
 
-pf_status text_reader_expect_line_end(text_reader *r, const char *what, pf_error *err)
+pf_status pf_text_reader_expect_line_end(text_reader *r, const char *what, pf_error *err)
 {
     size_t len;
-    const char *tok = text_reader_token(r, &len);
+    const char *tok = pf_text_reader_token(r, &len);
     if (!tok)
         return PF_OK;
     char shown[32];
@@ -197,7 +197,7 @@ pf_status text_reader_expect_line_end(text_reader *r, const char *what, pf_error
     return TEXT_FAIL(r, err, PF_ERR_FORMAT, "unexpected '%s' after %s", shown, what);
 }
 
-pf_status text_reader_check_count(const text_reader *r, int64_t count, int64_t tokens,
+pf_status pf_text_reader_check_count(const text_reader *r, int64_t count, int64_t tokens,
                                   const char *what, pf_error *err)
 {
     TEXT_CHECK(count >= 0, r, err, PF_ERR_FORMAT, "negative number of %s (%lld)", what,

@@ -11,25 +11,25 @@
 typedef struct piece {
     int32_t n_nodes;
     double *x;           /* [3 n_nodes] */
-    double lo[3], hi[3]; /* bounding box of the nodes (update_bounds) */
+    double lo[3], hi[3]; /* bounding box of the nodes (pf_update_bounds) */
     int32_t n_faces;
     int64_t *face_offsets; /* [n_faces + 1] */
     uint32_t *face_nodes;  /* outward, counter-clockwise seen from outside */
 } piece;
 
-void piece_release(piece *p);
+void pf_piece_release(piece *p);
 /* A borrowed pf_polyhedron view of p. */
-pf_polyhedron piece_view(const piece *p);
-void update_bounds(piece *p);
+pf_polyhedron pf_piece_view(const piece *p);
+void pf_update_bounds(piece *p);
 /* Piece k of a split with only the nodes its faces use; remap [s->n_nodes] must be all -1 and is
  * left so. */
-pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out, pf_error *err);
+pf_status pf_extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out, pf_error *err);
 /* The closed surface s as one piece (its triangles the faces). */
-pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err);
+pf_status pf_surface_piece(const pf_surface *s, piece *p, pf_error *err);
 
 /* Builds a mesh from closed pieces: nodes merged by exact coordinates (-0 = +0), faces by their
  * node sets; a face met a second time is used reversed, a third time is an error. Zero-initialise
- * before the first glue_piece. */
+ * before the first pf_glue_piece. */
 typedef struct glue {
     /* nodes */
     int32_t n_nodes, cap_nodes;
@@ -52,29 +52,29 @@ typedef struct glue {
 } glue;
 
 /* Adds p (read only) as one element. PF_ERR_NUMERIC when a face would get a third user. */
-pf_status glue_piece(glue *g, const piece *p, pf_error *err);
-void glue_release(glue *g);
+pf_status pf_glue_piece(glue *g, const piece *p, pf_error *err);
+void pf_glue_release(glue *g);
 /* The glued mesh, derived. */
-pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err);
+pf_status pf_glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err);
 
 /* Sliver merging (DG paper sec. 9.4) on a derived mesh: parent[n_elems] receives a union-find
  * forest in which every group below min_volume (model units cubed) is joined to the neighbouring
  * group sharing the most face area with it, groups in index order (sweeps repeated until none
  * below min_volume has a neighbour left); *merged counts the joins, *isolated the groups left
  * below min_volume because they touch no other element. */
-pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent, int32_t *merged,
+pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent, int32_t *merged,
                         int32_t *isolated, pf_error *err);
 /* out: m with every group of parent one element (faces inside a group dropped, nodes compacted),
  * derived. parent is path-compressed in place. */
-pf_status rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err);
+pf_status pf_rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err);
 
 /* Separating-axis test of the triangle (t0, t1, t2) against the cube of the given centre and half
  * edge, strict: touching is not overlapping. 1 when they overlap. */
-int triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half);
+int pf_triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half);
 
 /* The ray-vote inside test (ray_vote.c), shared by the voxelizer and the octree: for each of the
- * three axes, cast one ray per row of points (ray_voter_cast), then ask at each point's parameter
- * along it, in ascending order (ray_voter_inside_at); a point is inside when RAY_VOTES_INSIDE of
+ * three axes, cast one ray per row of points (pf_ray_voter_cast), then ask at each point's parameter
+ * along it, in ascending order (pf_ray_voter_inside_at); a point is inside when RAY_VOTES_INSIDE of
  * its three rays say so. */
 typedef struct ray_voter {
     pf_rayscene *rs;
@@ -87,12 +87,12 @@ typedef struct ray_voter {
 enum { RAY_VOTES_INSIDE = 2 };
 
 /* Builds the ray scene over s (closed triangle surface). merge_eps: see pf_rayscene_crossings. */
-pf_status ray_voter_create(ray_voter *v, const pf_surface *s, double merge_eps, pf_error *err);
+pf_status pf_ray_voter_create(ray_voter *v, const pf_surface *s, double merge_eps, pf_error *err);
 /* The crossings of org + t dir, 0 <= t <= span, the scratch grown as needed. */
-pf_status ray_voter_cast(ray_voter *v, pf_vec3 org, pf_vec3 dir, double span, pf_error *err);
+pf_status pf_ray_voter_cast(ray_voter *v, pf_vec3 org, pf_vec3 dir, double span, pf_error *err);
 /* True when the latest ray's winding number at parameter t is non-zero; t must not decrease
  * between calls after a cast. */
-bool ray_voter_inside_at(ray_voter *v, double t);
-void ray_voter_release(ray_voter *v);
+bool pf_ray_voter_inside_at(ray_voter *v, double t);
+void pf_ray_voter_release(ray_voter *v);
 
 #endif

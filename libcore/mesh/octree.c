@@ -141,7 +141,7 @@ static pf_status filter_tris(octree *oc, const int32_t c[3], int level, int64_t 
         pf_vec3 p0 = pf_v3_load(s->x + 3 * (size_t)s->tri[3 * (size_t)t]);
         pf_vec3 p1 = pf_v3_load(s->x + 3 * (size_t)s->tri[3 * (size_t)t + 1]);
         pf_vec3 p2 = pf_v3_load(s->x + 3 * (size_t)s->tri[3 * (size_t)t + 2]);
-        if (triangle_overlaps_box(p0, p1, p2, centre, half))
+        if (pf_triangle_overlaps_box(p0, p1, p2, centre, half))
             PF_TRY(push_tri(oc, t, err));
     }
     return PF_OK;
@@ -152,7 +152,7 @@ static pf_status filter_tris(octree *oc, const int32_t c[3], int level, int64_t 
 static void list_release(piece_list *l)
 {
     for (int32_t k = 0; k < l->n; ++k)
-        piece_release(&l->p[k]);
+        pf_piece_release(&l->p[k]);
     pf_free(l->p);
     memset(l, 0, sizeof *l);
 }
@@ -164,7 +164,7 @@ static pf_status list_push(piece_list *l, piece *p, pf_error *err)
         int32_t cap = l->cap ? 2 * l->cap : 4;
         piece *q = pf_realloc_array(l->p, (size_t)cap, sizeof *q);
         if (!q) {
-            piece_release(p);
+            pf_piece_release(p);
             return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory cutting");
         }
         l->p = q;
@@ -207,16 +207,16 @@ static pf_status cut_list(octree *oc, piece_list *in, int axis, double c, piece_
             continue;
         }
         pf_plane plane = {{axis == 0, axis == 1, axis == 2}, c};
-        pf_polyhedron view = piece_view(p);
+        pf_polyhedron view = pf_piece_view(p);
         pf_split split;
         st = pf_poly_split(&view, p->n_nodes, &plane, &oc->split, &split, err);
-        piece_release(p);
+        pf_piece_release(p);
         oc->splits++;
         if (st >= 0)
             st = ensure_remap(oc, split.n_nodes, err);
         for (int32_t q = 0; st >= 0 && q < split.n_pieces; ++q) {
             piece sub;
-            st = extract_piece(&split, q, oc->remap, &sub, err);
+            st = pf_extract_piece(&split, q, oc->remap, &sub, err);
             if (st >= 0)
                 st = list_push(split.piece_side[q] < 0 ? below : above, &sub, err);
         }
@@ -258,7 +258,7 @@ static void snap_piece(const octree *oc, piece *p)
             if (r >= 0 && r <= oc->n && fabs(*v - coord(oc, a, (int64_t)r)) <= oc->tol)
                 *v = coord(oc, a, (int64_t)r);
         }
-    update_bounds(p);
+    pf_update_bounds(p);
 }
 
 /* Keeps the pieces of a crossing leaf (moved out of l). */
@@ -288,7 +288,7 @@ static pf_status check_whole(const octree *oc, const piece_list *l, const int32_
 {
     double volume = 0, edge = cell_size(oc, level) * oc->h;
     for (int32_t k = 0; k < l->n; ++k) {
-        pf_polyhedron v = piece_view(&l->p[k]);
+        pf_polyhedron v = pf_piece_view(&l->p[k]);
         volume += pf_polyhedron_volume(&v);
     }
     /* the cube's volume to rounding of the cut nodes (a few ulp of the coordinates) */
@@ -631,7 +631,7 @@ static void octree_release(octree *oc)
     pf_free(oc->vals);
     pf_free(oc->tris);
     for (int32_t k = 0; k < oc->n_pieces; ++k)
-        piece_release(&oc->pieces[k]);
+        pf_piece_release(&oc->pieces[k]);
     pf_free(oc->pieces);
     pf_free(oc->remap);
     memset(oc, 0, sizeof *oc);
@@ -710,7 +710,7 @@ static pf_status emit(octree *oc, glue *g, pf_octree_stats *stats, pf_error *err
         const leaf *l = &oc->leaves[li];
         if (oc->p.slice && l->crossing) {
             for (int32_t k = l->first_piece; st >= 0 && k < l->first_piece + l->n_pieces; ++k)
-                st = glue_piece(g, &oc->pieces[k], err);
+                st = pf_glue_piece(g, &oc->pieces[k], err);
             continue;
         }
         if (!l->inside)
@@ -735,7 +735,7 @@ static pf_status emit(octree *oc, glue *g, pf_octree_stats *stats, pf_error *err
         }
         if (st >= 0) {
             piece view = builder_piece(&b);
-            st = glue_piece(g, &view, err);
+            st = pf_glue_piece(g, &view, err);
             stats->cells_by_depth[l->level]++;
         }
     }
@@ -751,7 +751,7 @@ static pf_status emit(octree *oc, glue *g, pf_octree_stats *stats, pf_error *err
 
 /* ---- entry point ----------------------------------------------------------------------------- */
 
-pf_status octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
+pf_status pf_octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
                              pf_vec3 lo, pf_vec3 hi, bool closed, pf_octree_stats *stats,
                              pf_error *err)
 {
@@ -782,7 +782,7 @@ pf_status octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *p
     piece_list root = {0};
     if (st >= 0 && p.slice) {
         piece whole;
-        st = surface_piece(s, &whole, err);
+        st = pf_surface_piece(s, &whole, err);
         if (st >= 0)
             st = list_push(&root, &whole, err);
     }
@@ -798,10 +798,10 @@ pf_status octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *p
     if (st >= 0 && !p.slice) {
         if (ss.closed) {
             stats->method = PF_INSIDE_RAYS;
-            st = octree_classify_by_rays(&oc, err);
+            st = pf_octree_classify_by_rays(&oc, err);
         } else {
             stats->method = PF_INSIDE_WINDING;
-            octree_classify_by_winding(&oc);
+            pf_octree_classify_by_winding(&oc);
         }
     }
     glue g = {0};
@@ -817,18 +817,18 @@ pf_status octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *p
                                           "a larger depth or check that the surface is closed",
                                           (int)p.depth);
     if (st >= 0)
-        st = glue_to_mesh(&g, p.slice ? &glued : m, err);
+        st = pf_glue_to_mesh(&g, p.slice ? &glued : m, err);
     stats->pieces = g.n_elems;
-    glue_release(&g);
+    pf_glue_release(&g);
     if (st >= 0 && p.slice) {
         int32_t *parent = pf_alloc_array((size_t)glued.n_elems, sizeof *parent);
         st = parent ? PF_OK
                     : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory merging");
         if (st >= 0)
-            st = merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, parent,
+            st = pf_merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, parent,
                                &stats->merged, &stats->isolated_slivers, err);
         if (st >= 0)
-            st = rebuild_merged(&glued, parent, m, err);
+            st = pf_rebuild_merged(&glued, parent, m, err);
         pf_free(parent);
     }
     pf_mesh_release(&glued);

@@ -29,11 +29,11 @@ static double centre_coord(const octree *oc, const leaf *l, int a)
 
 /* One ray per row of leaves along each axis (leaves sorted by their two other centre coordinates
  * and then along the axis), from a cell before the lattice. */
-pf_status octree_classify_by_rays(octree *oc, pf_error *err)
+pf_status pf_octree_classify_by_rays(octree *oc, pf_error *err)
 {
     int32_t nl = oc->n_leaves;
     ray_voter rv;
-    PF_TRY(ray_voter_create(&rv, oc->s, 1e-7 * oc->h, err));
+    PF_TRY(pf_ray_voter_create(&rv, oc->s, 1e-7 * oc->h, err));
     sort_key *keys = pf_alloc_array((size_t)nl, sizeof *keys);
     uint8_t *votes = pf_calloc((size_t)nl, 1);
     pf_status st = PF_OK;
@@ -59,21 +59,21 @@ pf_status octree_classify_by_rays(octree *oc, pf_error *err)
             org[a] = start;
             org[b] = centre_coord(oc, first, b);
             org[c] = centre_coord(oc, first, c);
-            st = ray_voter_cast(&rv, pf_v3_load(org), dir, span, err);
+            st = pf_ray_voter_cast(&rv, pf_v3_load(org), dir, span, err);
             for (int32_t q = r0; st >= 0 && q < r1; ++q) {
                 double t = centre_coord(oc, &oc->leaves[keys[q].leaf], a) - start;
-                votes[keys[q].leaf] += ray_voter_inside_at(&rv, t);
+                votes[keys[q].leaf] += pf_ray_voter_inside_at(&rv, t);
             }
         }
     }
     for (int32_t q = 0; st >= 0 && q < nl; ++q)
         oc->leaves[q].inside = votes[q] >= RAY_VOTES_INSIDE;
     pf_free(keys), pf_free(votes);
-    ray_voter_release(&rv);
+    pf_ray_voter_release(&rv);
     return st;
 }
 
-void octree_classify_by_winding(octree *oc)
+void pf_octree_classify_by_winding(octree *oc)
 {
     for (int32_t q = 0; q < oc->n_leaves; ++q) {
         leaf *l = &oc->leaves[q];

@@ -59,14 +59,14 @@ static inline int32_t cell_size(const octree *oc, int level)
 /* Sets leaves[].inside of every leaf by its centre: signed ray crossings along rows of leaf
  * centres in x, y and z, inside where at least two axes see a non-zero winding number (as
  * pf_surface_classify_cells). */
-pf_status octree_classify_by_rays(octree *oc, pf_error *err);
+pf_status pf_octree_classify_by_rays(octree *oc, pf_error *err);
 /* The same by the generalised winding number (open surfaces). */
-void octree_classify_by_winding(octree *oc);
+void pf_octree_classify_by_winding(octree *oc);
 
 /* The octree mesh of s over the bounding cube of the box [lo, hi] (the surface's own, or with a
  * replacement surface, the original's, so that the cells are the same). closed: s bounds a solid
  * that ray crossings can classify. */
-pf_status octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
+pf_status pf_octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params *params,
                       pf_vec3 lo, pf_vec3 hi, bool closed, pf_octree_stats *stats,
                       pf_error *err);
 

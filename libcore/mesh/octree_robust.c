@@ -40,7 +40,7 @@ pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params
                  (long long)ss.n_boundary_edges, (long long)ss.n_nonmanifold_edges,
                  (long long)ss.n_flipped_edges, ss.volume);
     if (!p.slice || clean)
-        return octree_mesh(m, s, &p, ss.lo, ss.hi, ss.closed, stats, err);
+        return pf_octree_mesh(m, s, &p, ss.lo, ss.hi, ss.closed, stats, err);
     /* robust: the winding-number solid's boundary on a lattice over the finest cells */
     double size = pf_v3_max_abs(pf_v3_sub(ss.hi, ss.lo));
     PF_CHECK(size > 0 && isfinite(size), err, PF_ERR_INVALID,
@@ -55,7 +55,7 @@ pf_status pf_mesh_octree(pf_mesh *m, const pf_surface *s, const pf_octree_params
     bool contoured;
     PF_TRY(pf_slice_winding_surface(s, &grid, p.contour_refine, &replaced, &orient, &contour,
                                     &contoured, err));
-    pf_status st = octree_mesh(m, &replaced, &p, ss.lo, ss.hi, true, stats, err);
+    pf_status st = pf_octree_mesh(m, &replaced, &p, ss.lo, ss.hi, true, stats, err);
     pf_surface_release(&replaced);
     stats->robust_used = true;
     stats->contoured = contoured;

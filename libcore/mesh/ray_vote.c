@@ -4,20 +4,20 @@
  * survives a ray grazing an edge or slipping through a crack of an almost closed surface. */
 #include "mesh_internal.h"
 
-pf_status ray_voter_create(ray_voter *v, const pf_surface *s, double merge_eps, pf_error *err)
+pf_status pf_ray_voter_create(ray_voter *v, const pf_surface *s, double merge_eps, pf_error *err)
 {
     *v = (ray_voter){.merge_eps = merge_eps, .cap = 256};
     PF_TRY(pf_rayscene_create(&v->rs, s->x, s->n_verts, s->tri, s->n_tris, err));
     v->buf = pf_alloc_array((size_t)v->cap, sizeof *v->buf);
     if (!v->buf) {
-        ray_voter_release(v);
+        pf_ray_voter_release(v);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "out of memory for ray crossings");
     }
     return PF_OK;
 }
 
-pf_status ray_voter_cast(ray_voter *v, pf_vec3 org, pf_vec3 dir, double span, pf_error *err)
+pf_status pf_ray_voter_cast(ray_voter *v, pf_vec3 org, pf_vec3 dir, double span, pf_error *err)
 {
     v->n = v->next = 0;
     v->winding = 0;
@@ -36,14 +36,14 @@ pf_status ray_voter_cast(ray_voter *v, pf_vec3 org, pf_vec3 dir, double span, pf
     }
 }
 
-bool ray_voter_inside_at(ray_voter *v, double t)
+bool pf_ray_voter_inside_at(ray_voter *v, double t)
 {
     while (v->next < v->n && v->buf[v->next].t < t)
         v->winding -= v->buf[v->next++].sign;
     return v->winding != 0;
 }
 
-void ray_voter_release(ray_voter *v)
+void pf_ray_voter_release(ray_voter *v)
 {
     pf_rayscene_destroy(&v->rs);
     pf_free(v->buf);

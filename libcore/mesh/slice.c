@@ -26,7 +26,7 @@
 /* ---- a piece: one closed polyhedron with its own nodes ------------------------------------ */
 
 
-void piece_release(piece *p)
+void pf_piece_release(piece *p)
 {
     pf_free(p->x);
     pf_free(p->face_offsets);
@@ -34,13 +34,13 @@ void piece_release(piece *p)
     memset(p, 0, sizeof *p);
 }
 
-pf_polyhedron piece_view(const piece *p)
+pf_polyhedron pf_piece_view(const piece *p)
 {
     return (pf_polyhedron){p->x, p->n_faces, p->face_offsets, p->face_nodes};
 }
 
 /* The bounding box, kept with the piece: every level of the cut asks for it. */
-void update_bounds(piece *p)
+void pf_update_bounds(piece *p)
 {
     for (int c = 0; c < 3; ++c)
         p->lo[c] = p->hi[c] = p->n_nodes ? p->x[c] : 0;
@@ -55,7 +55,7 @@ void update_bounds(piece *p)
 }
 
 /* Piece k of a split, with only the nodes its faces use. */
-pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out,
+pf_status pf_extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out,
                                pf_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -66,7 +66,7 @@ pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out
     out->face_nodes = pf_alloc_array((size_t)n_idx, sizeof *out->face_nodes);
     out->x = pf_alloc_array(3 * (size_t)n_idx, sizeof *out->x);
     if (!out->face_offsets || !out->face_nodes || !out->x) {
-        piece_release(out);
+        pf_piece_release(out);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory slicing");
     }
     out->face_offsets[0] = 0;
@@ -85,7 +85,7 @@ pf_status extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *out
     }
     for (int64_t q = s->face_offsets[f0]; q < s->face_offsets[f1]; ++q)
         remap[s->face_nodes[q]] = -1;
-    update_bounds(out);
+    pf_update_bounds(out);
     return PF_OK;
 }
 
@@ -281,7 +281,7 @@ static pf_status glue_face(glue *g, const uint32_t *nodes, int64_t n, uint32_t *
     return PF_OK;
 }
 
-void glue_release(glue *g)
+void pf_glue_release(glue *g)
 {
     pf_free(g->x);
     pf_free(g->node_table);
@@ -310,7 +310,7 @@ static pf_status ensure_scratch(glue *g, int64_t n, pf_error *err)
 }
 
 /* Adds a finished piece as one element. */
-pf_status glue_piece(glue *g, const piece *p, pf_error *err)
+pf_status pf_glue_piece(glue *g, const piece *p, pf_error *err)
 {
     int64_t longest = 0;
     for (int32_t f = 0; f < p->n_faces; ++f)
@@ -397,8 +397,8 @@ static pf_status finish_piece(slicer *sl, piece *p, int axis, pf_error *err)
 {
     if (axis < 2)
         return slice_range(sl, p, axis + 1, err);
-    pf_status st = glue_piece(&sl->glue, p, err);
-    piece_release(p);
+    pf_status st = pf_glue_piece(&sl->glue, p, err);
+    pf_piece_release(p);
     return st;
 }
 
@@ -418,16 +418,16 @@ static pf_status slice_axis(slicer *sl, piece *p, int axis, int32_t lo, int32_t 
         return slice_axis(sl, p, axis, mid, hi, err);
 
     pf_plane plane = {{axis == 0, axis == 1, axis == 2}, c};
-    pf_polyhedron view = piece_view(p);
+    pf_polyhedron view = pf_piece_view(p);
     pf_split split;
     pf_status st = pf_poly_split(&view, p->n_nodes, &plane, &sl->params, &split, err);
-    piece_release(p);
+    pf_piece_release(p);
     sl->splits++;
     if (st >= 0)
         st = ensure_remap(sl, split.n_nodes, err);
     for (int32_t k = 0; st >= 0 && k < split.n_pieces; ++k) {
         piece sub;
-        st = extract_piece(&split, k, sl->remap, &sub, err);
+        st = pf_extract_piece(&split, k, sl->remap, &sub, err);
         if (st >= 0)
             st = split.piece_side[k] < 0 ? slice_axis(sl, &sub, axis, lo, mid, err)
                                          : slice_axis(sl, &sub, axis, mid, hi, err);
@@ -452,7 +452,7 @@ static pf_status glue_copy(const glue *g, pf_mesh *m, pf_error *err)
     return PF_OK;
 }
 
-pf_status glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
+pf_status pf_glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err)
 {
     PF_TRY(glue_copy(g, m, err));
     return pf_mesh_derive(m, err);
@@ -526,7 +526,7 @@ static int32_t best_neighbour(const pf_mesh *m, int32_t *parent, const int32_t *
 /* Merges every group of volume below min_volume into its best neighbour (DG paper sec. 9.4, which
  * merges slivers into neighbours without prescribing an order): groups in index order, sweeps
  * repeated until no group below min_volume has a neighbour left, so the result is deterministic. */
-pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
+pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
                                int32_t *merged, int32_t *isolated, pf_error *err)
 {
     int32_t ne = m->n_elems;
@@ -569,7 +569,7 @@ pf_status merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
 }
 
 /* The mesh with every group one element: faces inside a group dropped, nodes compacted. */
-pf_status rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err)
+pf_status pf_rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err)
 {
     int32_t ne = m->n_elems, nf = m->n_faces;
     int32_t *elem_id = pf_alloc_array((size_t)ne, sizeof *elem_id);
@@ -655,7 +655,7 @@ pf_slice_params pf_slice_params_default(void)
         .grid = pf_voxelize_params_default(), .merge = 0.05, .robust = true, .contour_refine = 2};
 }
 
-pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
+pf_status pf_surface_piece(const pf_surface *s, piece *p, pf_error *err)
 {
     memset(p, 0, sizeof *p);
     p->n_nodes = s->n_verts;
@@ -664,14 +664,14 @@ pf_status surface_piece(const pf_surface *s, piece *p, pf_error *err)
     p->face_offsets = pf_alloc_array((size_t)s->n_tris + 1, sizeof *p->face_offsets);
     p->face_nodes = pf_alloc_array(3 * (size_t)s->n_tris, sizeof *p->face_nodes);
     if (!p->x || !p->face_offsets || !p->face_nodes) {
-        piece_release(p);
+        pf_piece_release(p);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory slicing");
     }
     memcpy(p->x, s->x, 3 * (size_t)s->n_verts * sizeof *p->x);
     memcpy(p->face_nodes, s->tri, 3 * (size_t)s->n_tris * sizeof *p->face_nodes);
     for (int32_t t = 0; t <= s->n_tris; ++t)
         p->face_offsets[t] = 3 * (int64_t)t;
-    update_bounds(p);
+    pf_update_bounds(p);
     return PF_OK;
 }
 
@@ -685,14 +685,14 @@ static pf_status slice_clean(pf_mesh *m, const pf_surface *s, const pf_slice_par
     piece whole;
     pf_mesh glued = {0};
     int32_t *parent = NULL;
-    pf_status st = surface_piece(s, &whole, err);
+    pf_status st = pf_surface_piece(s, &whole, err);
     if (st >= 0)
         st = slice_range(&sl, &whole, 0, err);
     if (st >= 0)
         st = glue_to_unmerged(&sl.glue, &glued, err);
     stats->splits = sl.splits;
     stats->pieces = sl.glue.n_elems;
-    glue_release(&sl.glue);
+    pf_glue_release(&sl.glue);
     pf_free(sl.remap);
     if (st >= 0) {
         parent = pf_alloc_array((size_t)glued.n_elems, sizeof *parent);
@@ -701,10 +701,10 @@ static pf_status slice_clean(pf_mesh *m, const pf_surface *s, const pf_slice_par
     }
     double h = stats->grid.h;
     if (st >= 0)
-        st = merge_slivers(&glued, p->merge * h * h * h, parent, &stats->merged,
+        st = pf_merge_slivers(&glued, p->merge * h * h * h, parent, &stats->merged,
                            &stats->isolated_slivers, err);
     if (st >= 0)
-        st = rebuild_merged(&glued, parent, m, err);
+        st = pf_rebuild_merged(&glued, parent, m, err);
     pf_free(parent);
     pf_mesh_release(&glued);
     return st;

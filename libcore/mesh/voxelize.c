@@ -68,11 +68,11 @@ static pf_status vote_along_axis(ray_voter *rv, const pf_grid *g, int a, uint8_t
         for (int32_t u = 0; u < g->n[b]; ++u) {
             int32_t idx[3];
             idx[a] = -1, idx[b] = u, idx[c] = v;
-            PF_TRY(ray_voter_cast(rv, cell_centre(g, idx[0], idx[1], idx[2]), dir, span, err));
+            PF_TRY(pf_ray_voter_cast(rv, cell_centre(g, idx[0], idx[1], idx[2]), dir, span, err));
             for (int32_t w = 0; w < len; ++w) {
                 idx[a] = w;
                 size_t cell = ((size_t)idx[2] * g->n[1] + idx[1]) * g->n[0] + idx[0];
-                votes[cell] += ray_voter_inside_at(rv, (w + 1) * g->h); /* cell w's centre */
+                votes[cell] += pf_ray_voter_inside_at(rv, (w + 1) * g->h); /* cell w's centre */
             }
         }
     return PF_OK;
@@ -82,7 +82,7 @@ static pf_status classify_by_rays(const pf_surface *s, const pf_grid *g, uint8_t
                                   pf_error *err)
 {
     ray_voter rv;
-    PF_TRY(ray_voter_create(&rv, s, 1e-7 * g->h, err));
+    PF_TRY(pf_ray_voter_create(&rv, s, 1e-7 * g->h, err));
     size_t cells = (size_t)g->n[0] * g->n[1] * g->n[2];
     memset(inside, 0, cells);
     pf_status st = PF_OK;
@@ -90,7 +90,7 @@ static pf_status classify_by_rays(const pf_surface *s, const pf_grid *g, uint8_t
         st = vote_along_axis(&rv, g, a, inside, err);
     for (size_t i = 0; i < cells; ++i)
         inside[i] = inside[i] >= RAY_VOTES_INSIDE;
-    ray_voter_release(&rv);
+    pf_ray_voter_release(&rv);
     return st;
 }
 
@@ -126,7 +126,7 @@ pf_status pf_surface_classify_cells_by(const pf_surface *s, const pf_grid *grid,
 /* Separating-axis test of a triangle against an axis-aligned box, strict: touching is not
  * overlapping (a triangle lying in a cell face plane overlaps neither cell by itself). Axes: the
  * three box normals, the triangle normal, and the nine cross products of edges. */
-int triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half)
+int pf_triangle_overlaps_box(pf_vec3 t0, pf_vec3 t1, pf_vec3 t2, pf_vec3 centre, double half)
 {
     pf_vec3 v[3] = {pf_v3_sub(t0, centre), pf_v3_sub(t1, centre), pf_v3_sub(t2, centre)};
     pf_vec3 e[3] = {pf_v3_sub(v[1], v[0]), pf_v3_sub(v[2], v[1]), pf_v3_sub(v[0], v[2])};
@@ -169,7 +169,7 @@ static void mark_overlapping_cells(const pf_surface *s, const pf_grid *g, uint8_
                 for (int32_t i = a[0]; i <= b[0]; ++i) {
                     size_t cell = ((size_t)k * g->n[1] + j) * g->n[0] + i;
                     if (!selected[cell] &&
-                        triangle_overlaps_box(p[0], p[1], p[2], cell_centre(g, i, j, k), half))
+                        pf_triangle_overlaps_box(p[0], p[1], p[2], cell_centre(g, i, j, k), half))
                         selected[cell] = 1;
                 }
     }

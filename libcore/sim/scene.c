@@ -187,14 +187,14 @@ static pf_status begin_object(reader *r, const cJSON *v, const char *const *keys
 static pf_status read_number(reader *r, const cJSON *v, scene_range rg, double *out)
 {
     if (!cJSON_IsNumber(v))
-        return fail_type(r, v, scene_range_is_integer(rg) ? "an integer" : "a number");
+        return fail_type(r, v, pf_scene_range_is_integer(rg) ? "an integer" : "a number");
     /* cJSON turns a literal beyond the double range (1e999) into an infinity. */
     if (!isfinite(v->valuedouble))
         return fail(r, "must be finite (the number overflows a double)");
-    if (!scene_in_range(rg, v->valuedouble)) {
+    if (!pf_scene_in_range(rg, v->valuedouble)) {
         char got[32];
         format_number(v->valuedouble, got);
-        return fail(r, "%s, got %s", scene_range_text(rg), got);
+        return fail(r, "%s, got %s", pf_scene_range_text(rg), got);
     }
     *out = v->valuedouble;
     return PF_OK;
@@ -268,21 +268,21 @@ static pf_status read_material(reader *r, const cJSON *v, pf_scene *s)
 
 static pf_status read_mass(reader *r, const cJSON *v, pf_mass *out)
 {
-    if (!cJSON_IsString(v) || !scene_parse_mass_name(v->valuestring, out))
+    if (!cJSON_IsString(v) || !pf_scene_parse_mass_name(v->valuestring, out))
         return fail_type(r, v, "\"consistent\" or \"lumped\"");
     return PF_OK;
 }
 
 static pf_status read_method_name(reader *r, const cJSON *v, pf_method *out)
 {
-    if (!cJSON_IsString(v) || !scene_parse_method_name(v->valuestring, out))
+    if (!cJSON_IsString(v) || !pf_scene_parse_method_name(v->valuestring, out))
         return fail_type(r, v, "\"dg\" or \"cg\"");
     return PF_OK;
 }
 
 static pf_status read_flux(reader *r, const cJSON *v, pf_flux *out)
 {
-    if (!cJSON_IsString(v) || !scene_parse_flux_name(v->valuestring, out))
+    if (!cJSON_IsString(v) || !pf_scene_parse_flux_name(v->valuestring, out))
         return fail_type(r, v, "\"ip\" or \"bz\"");
     return PF_OK;
 }
@@ -325,7 +325,7 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
 
 static pf_status read_solver_name(reader *r, const cJSON *v, pf_solver_method *out)
 {
-    if (!cJSON_IsString(v) || !scene_parse_solver_name(v->valuestring, out))
+    if (!cJSON_IsString(v) || !pf_scene_parse_solver_name(v->valuestring, out))
         return fail_type(r, v, "\"auto\", \"direct\" or \"pcg\"");
     return PF_OK;
 }
@@ -793,7 +793,7 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
         else
             READ_KEY(r, it, read_bool(r, it, &s->is_static));
     }
-    scene_apply_static_ground_rule(s);
+    pf_scene_apply_static_ground_rule(s);
     return PF_OK;
 }
 

@@ -31,16 +31,16 @@ override_fail(pf_error *err, const char *key, const char *value, const char *fmt
 static pf_status override_number(const char *key, const char *value, scene_range rg, double *out,
                                  pf_error *err)
 {
-    const char *what = scene_range_is_integer(rg) ? "an integer" : "a number";
+    const char *what = pf_scene_range_is_integer(rg) ? "an integer" : "a number";
     if (!value || !*value || strchr(" \t\r\n\f\v", value[0]))
         return override_fail(err, key, value, "must be %s", what);
-    /* Overflow gives an infinity and underflow a tiny or zero value: scene_in_range judges both. */
+    /* Overflow gives an infinity and underflow a tiny or zero value: pf_scene_in_range judges both. */
     char *end = NULL;
     double v = strtod(value, &end);
     if (*end != '\0')
         return override_fail(err, key, value, "must be %s", what);
-    if (!scene_in_range(rg, v))
-        return override_fail(err, key, value, "%s", scene_range_text(rg));
+    if (!pf_scene_in_range(rg, v))
+        return override_fail(err, key, value, "%s", pf_scene_range_text(rg));
     *out = v;
     return PF_OK;
 }
@@ -56,8 +56,8 @@ static pf_status override_int(const char *key, const char *value, scene_range rg
     long v = strtol(value, &end, 10);
     if (*end != '\0')
         return override_fail(err, key, value, "must be an integer");
-    if (errno == ERANGE || v < INT32_MIN || v > INT32_MAX || !scene_in_range(rg, (double)v))
-        return override_fail(err, key, value, "%s", scene_range_text(rg));
+    if (errno == ERANGE || v < INT32_MIN || v > INT32_MAX || !pf_scene_in_range(rg, (double)v))
+        return override_fail(err, key, value, "%s", pf_scene_range_text(rg));
     *out = (int32_t)v;
     return PF_OK;
 }
@@ -78,22 +78,22 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
 {
     PF_CHECK(key, err, PF_ERR_INVALID, "override without a key");
     if (!strcmp(key, "method")) {
-        if (!value || !scene_parse_method_name(value, &s->method))
+        if (!value || !pf_scene_parse_method_name(value, &s->method))
             return override_fail(err, key, value, "must be dg or cg");
         return PF_OK;
     }
     if (!strcmp(key, "flux")) {
-        if (!value || !scene_parse_flux_name(value, &s->flux))
+        if (!value || !pf_scene_parse_flux_name(value, &s->flux))
             return override_fail(err, key, value, "must be ip or bz");
         return PF_OK;
     }
     if (!strcmp(key, "mass")) {
-        if (!value || !scene_parse_mass_name(value, &s->mass))
+        if (!value || !pf_scene_parse_mass_name(value, &s->mass))
             return override_fail(err, key, value, "must be consistent or lumped");
         return PF_OK;
     }
     if (!strcmp(key, "solver")) {
-        if (!value || !scene_parse_solver_name(value, &s->solver.method))
+        if (!value || !pf_scene_parse_solver_name(value, &s->solver.method))
             return override_fail(err, key, value, "must be auto, direct or pcg");
         return PF_OK;
     }
@@ -121,7 +121,7 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
         return override_bool(key, value, &s->corotation, err);
     if (!strcmp(key, "static")) {
         PF_TRY(override_bool(key, value, &s->is_static, err));
-        scene_apply_static_ground_rule(s);
+        pf_scene_apply_static_ground_rule(s);
         return PF_OK;
     }
     return pf_error_set(

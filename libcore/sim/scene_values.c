@@ -7,23 +7,23 @@
 
 /* A static scene has no ground unless the file asks for one; override of "static" re-applies
  * this rule, hence ground_given. */
-void scene_apply_static_ground_rule(pf_scene *s)
+void pf_scene_apply_static_ground_rule(pf_scene *s)
 {
     if (!s->ground_given)
         s->ground = !s->is_static;
 }
 
-bool scene_range_is_integer(scene_range r)
+bool pf_scene_range_is_integer(scene_range r)
 {
     return r == RANGE_DEGREE || r == RANGE_EDGE_SAMPLES || r == RANGE_INT_NONNEG ||
            r == RANGE_INT_POS;
 }
 
-bool scene_in_range(scene_range r, double v)
+bool pf_scene_in_range(scene_range r, double v)
 {
     if (!isfinite(v))
         return false;
-    if (scene_range_is_integer(r) && (v != floor(v) || v > INT32_MAX))
+    if (pf_scene_range_is_integer(r) && (v != floor(v) || v > INT32_MAX))
         return false;
     switch (r) {
     case RANGE_FINITE:
@@ -48,7 +48,7 @@ bool scene_in_range(scene_range r, double v)
     return false;
 }
 
-const char *scene_range_text(scene_range r)
+const char *pf_scene_range_text(scene_range r)
 {
     switch (r) {
     case RANGE_FINITE:
@@ -73,7 +73,7 @@ const char *scene_range_text(scene_range r)
     return "out of range";
 }
 
-bool scene_parse_method_name(const char *text, pf_method *out)
+bool pf_scene_parse_method_name(const char *text, pf_method *out)
 {
     if (!strcmp(text, "dg"))
         *out = PF_METHOD_DG;
@@ -84,7 +84,7 @@ bool scene_parse_method_name(const char *text, pf_method *out)
     return true;
 }
 
-bool scene_parse_flux_name(const char *text, pf_flux *out)
+bool pf_scene_parse_flux_name(const char *text, pf_flux *out)
 {
     if (!strcmp(text, "ip"))
         *out = PF_FLUX_IP;
@@ -95,7 +95,7 @@ bool scene_parse_flux_name(const char *text, pf_flux *out)
     return true;
 }
 
-bool scene_parse_mass_name(const char *text, pf_mass *out)
+bool pf_scene_parse_mass_name(const char *text, pf_mass *out)
 {
     if (!strcmp(text, "consistent"))
         *out = PF_MASS_CONSISTENT;
@@ -106,7 +106,7 @@ bool scene_parse_mass_name(const char *text, pf_mass *out)
     return true;
 }
 
-bool scene_parse_solver_name(const char *text, pf_solver_method *out)
+bool pf_scene_parse_solver_name(const char *text, pf_solver_method *out)
 {
     return pf_solver_method_parse(text, out);
 }

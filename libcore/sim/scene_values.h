@@ -20,20 +20,20 @@ typedef enum scene_range {
     RANGE_OPEN_UNIT,    /* (0, 1) */
 } scene_range;
 
-bool scene_range_is_integer(scene_range r);
+bool pf_scene_range_is_integer(scene_range r);
 /* Finite, integral for the integer ranges (and within int32), inside the range. */
-bool scene_in_range(scene_range r, double v);
+bool pf_scene_in_range(scene_range r, double v);
 /* "must be ...", for messages. */
-const char *scene_range_text(scene_range r);
+const char *pf_scene_range_text(scene_range r);
 
 /* Names of the scene's enumerations; false for an unknown name (out untouched). */
-bool scene_parse_method_name(const char *text, pf_method *out);
-bool scene_parse_flux_name(const char *text, pf_flux *out);
-bool scene_parse_mass_name(const char *text, pf_mass *out);
-bool scene_parse_solver_name(const char *text, pf_solver_method *out);
+bool pf_scene_parse_method_name(const char *text, pf_method *out);
+bool pf_scene_parse_flux_name(const char *text, pf_flux *out);
+bool pf_scene_parse_mass_name(const char *text, pf_mass *out);
+bool pf_scene_parse_solver_name(const char *text, pf_solver_method *out);
 
 /* A static scene has no ground unless the file asks for one; override of "static" re-applies
  * this rule, hence ground_given. */
-void scene_apply_static_ground_rule(pf_scene *s);
+void pf_scene_apply_static_ground_rule(pf_scene *s);
 
 #endif

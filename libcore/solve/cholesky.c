@@ -78,9 +78,9 @@ pf_status pf_cholesky_factor(pf_cholesky *c, const pf_block_matrix *a, int64_t *
              (long long)c->n);
     cholmod_sparse s = wrap_matrix(a);
     c->factored = false;
-    solve_threads_saved threads = solve_threads_enter(&c->forced);
+    solve_threads_saved threads = pf_solve_threads_enter(&c->forced);
     int ok = cholmod_l_factorize(&s, c->factor, &c->cc);
-    solve_threads_leave(threads);
+    pf_solve_threads_leave(threads);
     if (!ok || c->cc.status == CHOLMOD_OUT_OF_MEMORY)
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "out of memory factorising %lld unknowns", (long long)a->n);
@@ -109,9 +109,9 @@ pf_status pf_cholesky_solve(pf_cholesky *c, const double *b, double *x, pf_error
     rhs.x = (void *)b; /* read only: CHOLMOD takes the right-hand side as non-const */
     rhs.xtype = CHOLMOD_REAL;
     rhs.dtype = CHOLMOD_DOUBLE;
-    solve_threads_saved threads = solve_threads_enter(&c->forced);
+    solve_threads_saved threads = pf_solve_threads_enter(&c->forced);
     int ok = cholmod_l_solve2(CHOLMOD_A, c->factor, &rhs, NULL, &c->x, NULL, &c->y, &c->e, &c->cc);
-    solve_threads_leave(threads);
+    pf_solve_threads_leave(threads);
     PF_CHECK(ok && c->x, err, PF_ERR_NOMEM, "out of memory solving %lld unknowns", (long long)c->n);
     memcpy(x, c->x->x, (size_t)c->n * sizeof *x);
     return PF_OK;

@@ -16,7 +16,7 @@ typedef struct solve_threads_forced {
     int blas;
 } solve_threads_forced;
 
-/* What solve_threads_enter changed, for solve_threads_leave to restore. */
+/* What pf_solve_threads_enter changed, for pf_solve_threads_leave to restore. */
 typedef struct solve_threads_saved {
     int max_active_levels; /* the calling thread's OpenMP max-active-levels-var; -1: untouched */
     int dynamic;           /* its dyn-var; -1: untouched */
@@ -26,13 +26,13 @@ typedef struct solve_threads_saved {
 /* Configures the calling thread (OpenMP) and OpenBLAS for one CHOLMOD factorisation or solve,
  * by the policy of threads.c unless forced (NULL or inactive: the policy). Returns what it
  * changed. */
-solve_threads_saved solve_threads_enter(const solve_threads_forced *forced);
+solve_threads_saved pf_solve_threads_enter(const solve_threads_forced *forced);
 
-/* Restores what solve_threads_enter changed, in the same thread. */
-void solve_threads_leave(solve_threads_saved saved);
+/* Restores what pf_solve_threads_enter changed, in the same thread. */
+void pf_solve_threads_leave(solve_threads_saved saved);
 
-/* True when the process's BLAS is OpenBLAS, whose thread count solve_threads_enter can set. */
-bool solve_threads_blas_settable(void);
+/* True when the process's BLAS is OpenBLAS, whose thread count pf_solve_threads_enter can set. */
+bool pf_solve_threads_blas_settable(void);
 
 /* Makes every later factorisation and solve of c run with the given threads (tests: the same
  * bits with one thread and with several). Borrows nothing. */

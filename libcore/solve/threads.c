@@ -69,7 +69,7 @@ static const thread_environment *thread_env(void)
     return &environment;
 }
 
-bool solve_threads_blas_settable(void)
+bool pf_solve_threads_blas_settable(void)
 {
     return pf_blas_threads_settable();
 }
@@ -80,7 +80,7 @@ static void serial_openmp(solve_threads_saved *saved)
     omp_set_max_active_levels(0);
 }
 
-solve_threads_saved solve_threads_enter(const solve_threads_forced *forced)
+solve_threads_saved pf_solve_threads_enter(const solve_threads_forced *forced)
 {
     const thread_environment *e = thread_env();
     solve_threads_saved saved = {.max_active_levels = -1, .dynamic = -1, .blas = {0}};
@@ -100,7 +100,7 @@ solve_threads_saved solve_threads_enter(const solve_threads_forced *forced)
     return saved;
 }
 
-void solve_threads_leave(solve_threads_saved saved)
+void pf_solve_threads_leave(solve_threads_saved saved)
 {
     if (saved.max_active_levels >= 0)
         omp_set_max_active_levels(saved.max_active_levels);

@@ -439,15 +439,7 @@ static pf_status compact_rows(pf_contact *c, const pf_contact_setup *s, pf_error
         int32_t n = e >= 0 ? s->ops->point_row(s->method, e, pf_v3_load(c->x0 + 3 * (size_t)p),
                                                c->crow_triple + q, c->crow_w + q)
                            : 0;
-        for (int64_t x = q + 1; x < q + n; ++x) /* insertion sort: a few dozen entries */
-            for (int64_t y = x; y > q && c->crow_triple[y - 1] > c->crow_triple[y]; --y) {
-                int64_t t = c->crow_triple[y];
-                c->crow_triple[y] = c->crow_triple[y - 1];
-                c->crow_triple[y - 1] = t;
-                double w = c->crow_w[y];
-                c->crow_w[y] = c->crow_w[y - 1];
-                c->crow_w[y - 1] = w;
-            }
+        sort_row(c->crow_triple + q, c->crow_w + q, n);
         q += n;
         c->crow_offsets[p + 1] = q;
     }

@@ -65,6 +65,21 @@ typedef struct pf_method_ops {
     void (*destroy)(void *m);
 } pf_method_ops;
 
+/* Sorts a row of n triples ascending, their weights alongside (insertion sort: rows hold a few
+ * dozen entries). */
+static inline void sort_row(int64_t *triple, double *w, int64_t n)
+{
+    for (int64_t x = 1; x < n; ++x)
+        for (int64_t y = x; y > 0 && triple[y - 1] > triple[y]; --y) {
+            int64_t t = triple[y];
+            triple[y] = triple[y - 1];
+            triple[y - 1] = t;
+            double v = w[y];
+            w[y] = w[y - 1];
+            w[y - 1] = v;
+        }
+}
+
 /* Creates a method for the scene on the mesh: *ops and *ctx; fixed_faces and loaded_faces count
  * the boundary faces the scene's regions selected. */
 typedef pf_status (*pf_method_create_fn)(const pf_scene *scene, const pf_mesh *mesh,

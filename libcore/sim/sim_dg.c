@@ -142,15 +142,7 @@ static pf_status build_nodal_map(dg_method *d, pf_error *err)
                 d->map_w[q] = dg->node_phi[(size_t)k * nb + a] * share;
                 ++q;
             }
-        for (int64_t x = first + 1; x < q; ++x) /* insertion sort: a few dozen entries */
-            for (int64_t y = x; y > first && d->map_triple[y - 1] > d->map_triple[y]; --y) {
-                int64_t t = d->map_triple[y];
-                d->map_triple[y] = d->map_triple[y - 1];
-                d->map_triple[y - 1] = t;
-                double w = d->map_w[y];
-                d->map_w[y] = d->map_w[y - 1];
-                d->map_w[y - 1] = w;
-            }
+        sort_row(d->map_triple + first, d->map_w + first, q - first);
         d->map_offsets[i + 1] = q;
     }
     return PF_OK;

@@ -1,0 +1,104 @@
+/* pf/refine.h: splitting elements of a mesh into children while keeping it conforming (the mesh
+ * kernel of stress-based refinement: DG paper sec. 9.3, harmonic paper sec. 8).
+ *
+ * A request names an element and how to split it:
+ *   - PF_SPLIT_OCTS: the three planes through the element's volume centroid whose normals are the
+ *     principal axes of its second moments about the centroid, int (x - c)(x - c)^T dV, taken
+ *     from the largest moment to the smallest (for an axis-aligned box: the box axes, the longest
+ *     side cut first, giving the regular 1-to-8 subdivision of a hexahedron). Where moments are
+ *     equal (within 1e-10 of the largest) the axes of that eigenspace are chosen toward x, then y,
+ *     then z (a cube: x, y, z). Each plane splits every piece the earlier ones made
+ *     (pf_poly_split).
+ *   - PF_SPLIT_HALVES: one plane through the centroid with the request's normal (the direction of
+ *     the largest principal stress, for the simulator).
+ * Every connected piece is a child: a plane through a non-convex element may make more than two.
+ *
+ * Slivers are never made: a plane that would make a piece smaller than PF_REFINE_MIN_FRACTION
+ * of the element's volume is not applied (octs: that plane only, the others still are). The
+ * reason: a child that small gets a badly conditioned basis (DG mass matrix, harmonic MFS fit),
+ * a stiffness far above its neighbours' and a stable time step to match, and would be merged
+ * back at once by the slicer's sliver rule, which uses the same 5 %. A request none of whose
+ * planes applies leaves its element as it is and is counted in n_skipped, not an error.
+ *
+ * Conformity: the result is a valid conforming mesh (pf_mesh_validate and pf_mesh_derive pass;
+ * every face interior in src stays interior). A face an unsplit neighbour shares with a split
+ * element is replaced by the children's polygons (reversed), and every new node on an edge of
+ * the mesh is inserted into every face containing that edge, in every element, so no node hangs
+ * (the harmonic basis needs it; DG accepts the collinear face vertices it makes). Requests are
+ * applied one after the other, each on the mesh the earlier ones left, so neighbours split in
+ * one call conform too.
+ *
+ * Numbering: every node of src keeps its index and its coordinates bit for bit; new nodes are
+ * appended in the order the requests make them. A new node on an edge is placed by
+ * pf_poly_split's formula, which depends only on the edge's end points, and nodes are merged by
+ * exact coordinates. Elements: src's order, each split element replaced in place by its children
+ * (consecutive, in pf_poly_split's piece order). Faces: the faces of src that survive in src's
+ * order, then the new ones in the order they were made. dst->id = src->id + 1.
+ *
+ * Cost: O(size of src) to copy and index the mesh once, then work proportional to the split
+ * elements and the elements around them.
+ */
+#ifndef PF_REFINE_H
+#define PF_REFINE_H
+
+#include <stdint.h>
+
+#include <pf/base.h>
+#include <pf/geom.h>
+#include <pf/mesh.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Smallest child a plane may make, as a fraction of the split element's volume (the slicer's
+ * default sliver threshold, pf_slice_params.merge). */
+#define PF_REFINE_MIN_FRACTION 0.05
+
+typedef enum pf_split_kind { PF_SPLIT_OCTS = 0, PF_SPLIT_HALVES = 1 } pf_split_kind;
+
+typedef struct pf_refine_request {
+    int32_t elem; /* element of src to split (each at most once per call) */
+    pf_split_kind kind;
+    pf_vec3 normal; /* halves: the plane through the element's centroid with this normal
+                       (need not be unit, must be finite and non-zero; the caller passes the
+                       largest principal stress direction). Unused for octs. */
+} pf_refine_request;
+
+typedef struct pf_refine_result {
+    int32_t *parent;    /* [dst->n_elems] the src element each dst element comes from: a child's
+                           split parent, or the unchanged element itself (pf_alloc; released by
+                           pf_refine_result_release) */
+    int32_t n_split;    /* requests that split their element */
+    int32_t n_skipped;  /* requests none of whose planes applied (all would make slivers) */
+    int32_t n_children; /* dst elements that are children of a split */
+    int32_t n_neighbours_changed; /* unsplit elements whose faces were subdivided or got nodes
+                                     inserted (CG must rebuild their basis; DG their faces) */
+    uint8_t *changed; /* [dst->n_elems] 1 for children and for unsplit elements whose face list
+                         changed; 0 exactly for elements whose face polygons are those of their
+                         src element, node for node (their caches can be reused) */
+    int32_t n_planes_skipped; /* planes not applied by the sliver rule, over all requests */
+    int32_t *face_src; /* [dst->n_faces] the src face a dst face is, node for node, or -1 for a
+                          face that is new or got nodes inserted */
+} pf_refine_result;
+
+/* Splits the requested elements of src into dst (zeroed or released first; written derived) and
+ * describes the change in *res (overwritten). src is read only and needs no derived arrays; it
+ * must be a valid mesh (pf_mesh_validate). n_req may be 0 (dst is then a copy with a new id).
+ * Statuses: PF_ERR_INVALID for a request naming an element out of range or twice, an unknown
+ * kind, a halves normal that is zero or not finite, a face used by more than two elements or
+ * twice the same way round, an index out of range, an element without positive volume;
+ * PF_ERR_NUMERIC when the split of an element is inconsistent at pf_poly_split's tolerance
+ * (degenerate geometry); PF_ERR_TOO_LARGE beyond 32-bit counts; PF_ERR_NOMEM. Every message
+ * names the request and element. On failure dst is released and *res zeroed: nothing is
+ * output. */
+pf_status pf_mesh_refine(const pf_mesh *src, const pf_refine_request *req, int32_t n_req,
+                         pf_mesh *dst, pf_refine_result *res, pf_error *err);
+
+/* Frees the arrays and zeroes *r. Safe on a zeroed result. */
+void pf_refine_result_release(pf_refine_result *r);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,684 @@
+/* refine: pf_mesh_refine (octs and halves) on boxes, tets, non-convex and sliced elements.
+ *
+ * Oracles, independent of the code under test:
+ * - volumes: children's volumes sum to their parent's, the mesh's total and its boundary area are
+ *   unchanged. Each volume is a sum over fan tetrahedra of O(1) size with relative rounding
+ *   ~1e-16 per term; a few hundred terms give ~1e-14, so 1e-12 relative is tight yet safe.
+ * - boxes cut at their centres: closed forms (children are cubes of half the side, a shared face
+ *   is cut into four quarters, an edge gets its midpoint). Coordinates of a midpoint are exact in
+ *   binary, so they are compared with ==.
+ * - conformity: pf_mesh_validate and pf_mesh_derive (every face used once or twice, opposite ways
+ *   round), no hanging node (no node lies strictly inside a face edge it is not a vertex of,
+ *   checked by brute force over the edges of each node), and `changed` against a direct
+ *   comparison of each unsplit element's face polygons with its src element's. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <pf/geom.h>
+#include <pf/mesh.h>
+#include <pf/refine.h>
+
+#define CHECKF(cond, ...)                                                                          \
+    do {                                                                                           \
+        if (!(cond)) {                                                                             \
+            print_error(__VA_ARGS__);                                                              \
+            print_error("\n");                                                                     \
+            fail_msg("%s", #cond);                                                                 \
+        }                                                                                          \
+    } while (0)
+
+#define assert_near(a, b, tol)                                                                     \
+    do {                                                                                           \
+        double got_ = (a), want_ = (b);                                                            \
+        CHECKF(fabs(got_ - want_) <= (tol), "%s = %.17g, expected %.17g", #a, got_, want_);        \
+    } while (0)
+
+/* ---- helpers -----------------------------------------------------------------------------------
+ */
+
+static double face_area(const pf_mesh *m, int32_t f)
+{
+    return pf_polygon_area(m->x, m->face_nodes + m->face_offsets[f],
+                           m->face_offsets[f + 1] - m->face_offsets[f]);
+}
+
+static double boundary_area(const pf_mesh *m)
+{
+    double a = 0;
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        if (m->face_elems[2 * f] < 0 || m->face_elems[2 * f + 1] < 0)
+            a += face_area(m, f);
+    return a;
+}
+
+static double total_volume(const pf_mesh *m)
+{
+    double v = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        v += pf_mesh_elem_volume(m, e);
+    return v;
+}
+
+/* Element e of a and element d of b have the same face polygons, node for node, in order. */
+static bool same_polygons(const pf_mesh *a, int32_t e, const pf_mesh *b, int32_t d)
+{
+    int64_t n = a->elem_offsets[e + 1] - a->elem_offsets[e];
+    if (b->elem_offsets[d + 1] - b->elem_offsets[d] != n)
+        return false;
+    for (int64_t k = 0; k < n; ++k) {
+        uint32_t ea = a->elem_faces[a->elem_offsets[e] + k];
+        uint32_t eb = b->elem_faces[b->elem_offsets[d] + k];
+        if ((ea & PF_FACE_REVERSED) != (eb & PF_FACE_REVERSED))
+            return false;
+        int32_t fa = PF_FACE_INDEX(ea), fb = PF_FACE_INDEX(eb);
+        int64_t len = a->face_offsets[fa + 1] - a->face_offsets[fa];
+        if (b->face_offsets[fb + 1] - b->face_offsets[fb] != len ||
+            memcmp(a->face_nodes + a->face_offsets[fa], b->face_nodes + b->face_offsets[fb],
+                   (size_t)len * sizeof(uint32_t)) != 0)
+            return false;
+    }
+    return true;
+}
+
+/* No node lies strictly inside a face edge (u, v): for each edge, the other edges at u are
+ * checked for one that runs along (u, v) and ends before v. */
+static void check_no_hanging_nodes(const pf_mesh *m)
+{
+    int64_t nfn = m->face_offsets[m->n_faces];
+    /* all undirected edges as (u, v) pairs, both ways round */
+    uint32_t *ed = malloc(4 * (size_t)nfn * sizeof *ed);
+    int64_t *first = calloc((size_t)m->n_nodes + 1, sizeof *first);
+    uint32_t *nbr = malloc(2 * (size_t)nfn * sizeof *nbr);
+    assert_non_null(ed), assert_non_null(first), assert_non_null(nbr);
+    int64_t ne = 0;
+    for (int32_t f = 0; f < m->n_faces; ++f) {
+        int64_t k0 = m->face_offsets[f], n = m->face_offsets[f + 1] - k0;
+        for (int64_t k = 0; k < n; ++k) {
+            uint32_t u = m->face_nodes[k0 + k], v = m->face_nodes[k0 + (k + 1) % n];
+            ed[2 * ne] = u, ed[2 * ne + 1] = v, ne++;
+            ed[2 * ne] = v, ed[2 * ne + 1] = u, ne++;
+        }
+    }
+    for (int64_t i = 0; i < ne; ++i)
+        first[ed[2 * i] + 1]++;
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        first[i + 1] += first[i];
+    int64_t *fill = malloc(((size_t)m->n_nodes + 1) * sizeof *fill);
+    memcpy(fill, first, ((size_t)m->n_nodes + 1) * sizeof *fill);
+    for (int64_t i = 0; i < ne; ++i)
+        nbr[fill[ed[2 * i]]++] = ed[2 * i + 1];
+    for (int64_t i = 0; i < ne; ++i) {
+        uint32_t u = ed[2 * i], v = ed[2 * i + 1];
+        pf_vec3 pu = pf_v3(m->x[3 * u], m->x[3 * u + 1], m->x[3 * u + 2]);
+        pf_vec3 d = pf_v3_sub(pf_v3(m->x[3 * v], m->x[3 * v + 1], m->x[3 * v + 2]), pu);
+        double len2 = pf_v3_dot(d, d);
+        for (int64_t k = first[u]; k < first[u + 1]; ++k) {
+            uint32_t w = nbr[k];
+            if (w == v)
+                continue;
+            pf_vec3 q = pf_v3_sub(pf_v3(m->x[3 * w], m->x[3 * w + 1], m->x[3 * w + 2]), pu);
+            double t = pf_v3_dot(q, d) / len2;
+            double off = pf_v3_norm(pf_v3_sub(q, pf_v3_scale(d, t)));
+            CHECKF(!(t > 1e-9 && t < 1 - 1e-9 && off <= 1e-9 * sqrt(len2)),
+                   "node %u hangs inside edge %u-%u", w, u, v);
+        }
+    }
+    free(ed), free(first), free(nbr), free(fill);
+}
+
+/* Everything pf_mesh_refine promises for any input: a valid derived conforming mesh without
+ * hanging nodes, src nodes kept bit for bit, children in place of their parent with the parent's
+ * volume, total volume and boundary area unchanged, `changed` and `face_src` exact. */
+static void check_refined(const pf_mesh *src, const pf_mesh *dst, const pf_refine_result *res)
+{
+    pf_error err = {0};
+    CHECKF(pf_mesh_validate(dst, NULL, &err) == PF_OK, "validate: %s", err.msg);
+    assert_non_null(dst->face_elems);
+    assert_true(dst->id == src->id + 1);
+    assert_true(dst->n_nodes >= src->n_nodes);
+    assert_memory_equal(dst->x, src->x, 3 * (size_t)src->n_nodes * sizeof(double));
+    check_no_hanging_nodes(dst);
+
+    pf_mesh s = {0};
+    assert_int_equal(pf_mesh_copy(&s, src, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(&s, &err), PF_OK);
+    double vs = total_volume(&s), vd = total_volume(dst);
+    assert_near(vd, vs, 1e-12 * vs);
+    double as = boundary_area(&s), ad = boundary_area(dst);
+    assert_near(ad, as, 1e-12 * as);
+
+    int32_t d = 0, children = 0, neighbours = 0;
+    for (int32_t e = 0; e < src->n_elems; ++e) {
+        CHECKF(d < dst->n_elems && res->parent[d] == e, "element %d is not in place", (int)e);
+        int32_t d0 = d;
+        double sum = 0;
+        while (d < dst->n_elems && res->parent[d] == e)
+            sum += pf_mesh_elem_volume(dst, d++);
+        double ve = pf_mesh_elem_volume(src, e);
+        assert_near(sum, ve, 1e-12 * ve);
+        if (d - d0 > 1) {
+            children += d - d0;
+            for (int32_t c = d0; c < d; ++c)
+                assert_int_equal(res->changed[c], 1);
+        } else {
+            bool same = same_polygons(src, e, dst, d0);
+            CHECKF(res->changed[d0] == !same, "element %d: changed %d, polygons %s", (int)e,
+                   res->changed[d0], same ? "same" : "different");
+            neighbours += res->changed[d0];
+        }
+    }
+    assert_int_equal(d, dst->n_elems);
+    assert_int_equal(res->n_children, children);
+    assert_int_equal(res->n_neighbours_changed, neighbours);
+    for (int32_t f = 0; f < dst->n_faces; ++f) {
+        int32_t g = res->face_src[f];
+        if (g < 0)
+            continue;
+        int64_t n = dst->face_offsets[f + 1] - dst->face_offsets[f];
+        assert_true(g < src->n_faces);
+        assert_int_equal(src->face_offsets[g + 1] - src->face_offsets[g], n);
+        assert_memory_equal(dst->face_nodes + dst->face_offsets[f],
+                            src->face_nodes + src->face_offsets[g], (size_t)n * sizeof(uint32_t));
+    }
+    pf_mesh_release(&s);
+}
+
+static void refine_ok(const pf_mesh *src, const pf_refine_request *req, int32_t n, pf_mesh *dst,
+                      pf_refine_result *res)
+{
+    pf_error err = {0};
+    pf_status st = pf_mesh_refine(src, req, n, dst, res, &err);
+    CHECKF(st == PF_OK, "refine: %s", err.msg);
+    check_refined(src, dst, res);
+}
+
+static pf_mesh make_box(int nx, int ny, int nz, double sx, double sy, double sz)
+{
+    pf_mesh m = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(sx, sy, sz), nx, ny, nz, &err),
+                     PF_OK);
+    m.id = 7;
+    return m;
+}
+
+static void elem_bounds(const pf_mesh *m, int32_t e, pf_vec3 *lo, pf_vec3 *hi)
+{
+    *lo = pf_v3(INFINITY, INFINITY, INFINITY);
+    *hi = pf_v3(-INFINITY, -INFINITY, -INFINITY);
+    for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+        for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+            const double *p = m->x + 3 * (size_t)m->face_nodes[j];
+            *lo = pf_v3(fmin(lo->x, p[0]), fmin(lo->y, p[1]), fmin(lo->z, p[2]));
+            *hi = pf_v3(fmax(hi->x, p[0]), fmax(hi->y, p[1]), fmax(hi->z, p[2]));
+        }
+    }
+}
+
+/* Whether face f of m has a node at p (exact coordinates). */
+static bool face_has_point(const pf_mesh *m, int32_t f, pf_vec3 p)
+{
+    for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+        const double *q = m->x + 3 * (size_t)m->face_nodes[j];
+        if (q[0] == p.x && q[1] == p.y && q[2] == p.z)
+            return true;
+    }
+    return false;
+}
+
+/* ---- boxes -------------------------------------------------------------------------------------
+ */
+
+/* The corner element of a 2x2x2 box of unit cubes by octs: 8 cubes of side 1/2; the three face
+ * neighbours get the shared face as 4 quarters, the three edge neighbours the edge midpoints,
+ * the opposite corner nothing. */
+static void test_corner_octs(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(2, 2, 2, 2, 2, 2), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_OCTS};
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_split, 1);
+    assert_int_equal(res.n_skipped, 0);
+    assert_int_equal(res.n_planes_skipped, 0);
+    assert_int_equal(res.n_children, 8);
+    assert_int_equal(dst.n_elems, 15);
+    assert_int_equal(dst.n_nodes, 27 + 19); /* a 3x3x3 lattice of nodes in the corner cube */
+    for (int32_t c = 0; c < 8; ++c) {
+        assert_int_equal(res.parent[c], 0);
+        assert_int_equal(dst.elem_kind[c], PF_ELEM_HEX);
+        pf_vec3 lo, hi;
+        elem_bounds(&dst, c, &lo, &hi);
+        assert_true(hi.x - lo.x == 0.5 && hi.y - lo.y == 0.5 && hi.z - lo.z == 0.5);
+        assert_true(lo.x == 0 || lo.x == 0.5);
+        assert_near(pf_mesh_elem_volume(&dst, c), 0.125, 1e-15);
+    }
+    /* src element e is dst element e + 7 for e >= 1; box element (i, j, k) = i + 2 j + 4 k */
+    for (int32_t e = 1; e < 8; ++e) {
+        int32_t d = e + 7;
+        assert_int_equal(res.parent[d], e);
+        int bits = (e & 1) + ((e >> 1) & 1) + ((e >> 2) & 1);
+        assert_int_equal(res.changed[d], bits < 3);
+        int32_t quarters = 0, nf = (int32_t)(dst.elem_offsets[d + 1] - dst.elem_offsets[d]);
+        for (int64_t k = dst.elem_offsets[d]; k < dst.elem_offsets[d + 1]; ++k) {
+            int32_t f = PF_FACE_INDEX(dst.elem_faces[k]);
+            int32_t other =
+                dst.face_elems[2 * f] == d ? dst.face_elems[2 * f + 1] : dst.face_elems[2 * f];
+            if (other >= 0 && other < 8) {
+                assert_near(face_area(&dst, f), 0.25, 1e-15);
+                quarters++;
+            }
+        }
+        if (bits == 1) { /* face neighbour: 5 faces + 4 quarters */
+            assert_int_equal(quarters, 4);
+            assert_int_equal(nf, 9);
+        } else {
+            assert_int_equal(quarters, 0);
+            assert_int_equal(nf, 6);
+        }
+        if (bits == 2) { /* edge neighbour: the shared edge's midpoint is in its two faces on it */
+            pf_vec3 mid = pf_v3((e & 1) ? 1 : 0.5, (e & 2) ? 1 : 0.5, (e & 4) ? 1 : 0.5);
+            int32_t with_mid = 0;
+            for (int64_t k = dst.elem_offsets[d]; k < dst.elem_offsets[d + 1]; ++k)
+                with_mid += face_has_point(&dst, PF_FACE_INDEX(dst.elem_faces[k]), mid);
+            assert_int_equal(with_mid, 2);
+            assert_int_equal(dst.elem_kind[d], PF_ELEM_POLY);
+        }
+    }
+    assert_int_equal(res.n_neighbours_changed, 6);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* Every element of a 2x2x2 box by octs is the 4x4x4 box: 64 hexes of side 1/2 on 125 nodes. */
+static void test_uniform_octs(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(2, 2, 2, 2, 2, 2), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req[8];
+    for (int i = 0; i < 8; ++i)
+        req[i] = (pf_refine_request){.elem = 7 - i, .kind = PF_SPLIT_OCTS};
+    refine_ok(&src, req, 8, &dst, &res);
+    assert_int_equal(dst.n_elems, 64);
+    assert_int_equal(dst.n_nodes, 125);
+    assert_int_equal(dst.n_faces, 3 * 4 * 4 * 5);
+    assert_int_equal(res.n_neighbours_changed, 0);
+    for (int32_t c = 0; c < 64; ++c) {
+        assert_int_equal(dst.elem_kind[c], PF_ELEM_HEX);
+        assert_near(pf_mesh_elem_volume(&dst, c), 0.125, 1e-15);
+    }
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A box 2 x 1 x 0.5 by octs: the longest side is cut first, so the children are ordered with
+ * x slowest; 8 boxes 1 x 0.5 x 0.25. */
+static void test_octs_box_axes(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(1, 1, 1, 2, 1, 0.5), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_OCTS};
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(dst.n_elems, 8);
+    for (int32_t c = 0; c < 8; ++c) {
+        pf_vec3 lo, hi;
+        elem_bounds(&dst, c, &lo, &hi);
+        assert_true(hi.x - lo.x == 1 && hi.y - lo.y == 0.5 && hi.z - lo.z == 0.25);
+        assert_true(lo.x == (c < 4 ? 0 : 1));
+    }
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* Two face neighbours split by halves along different planes (z = 1/2 and y = 1/2): the shared
+ * face x = 1 becomes four quarters, each used by two children. */
+static void test_neighbour_halves(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(2, 1, 1, 2, 1, 1), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req[2] = {{.elem = 0, .kind = PF_SPLIT_HALVES, .normal = {0, 0, 3}},
+                                {.elem = 1, .kind = PF_SPLIT_HALVES, .normal = {0, -1, 0}}};
+    refine_ok(&src, req, 2, &dst, &res);
+    assert_int_equal(res.n_split, 2);
+    assert_int_equal(dst.n_elems, 4);
+    int32_t interior = 0;
+    for (int32_t f = 0; f < dst.n_faces; ++f)
+        interior += dst.face_elems[2 * f] >= 0 && dst.face_elems[2 * f + 1] >= 0;
+    /* two caps (z = 1/2 in element 0, y = 1/2 in element 1) and the four quarters of x = 1 */
+    assert_int_equal(interior, 6);
+    int32_t quarters = 0;
+    for (int32_t f = 0; f < dst.n_faces; ++f) {
+        bool on_x1 = true;
+        for (int64_t j = dst.face_offsets[f]; j < dst.face_offsets[f + 1]; ++j)
+            on_x1 &= dst.x[3 * (size_t)dst.face_nodes[j]] == 1;
+        if (on_x1) {
+            quarters++;
+            assert_near(face_area(&dst, f), 0.25, 1e-15);
+            assert_true(dst.face_elems[2 * f] >= 0 && dst.face_elems[2 * f + 1] >= 0);
+        }
+    }
+    assert_int_equal(quarters, 4);
+    assert_near(boundary_area(&dst), 10, 1e-13);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A plane that contains two edges of a cube up to 5e-14 (within pf_poly_split's tolerance): two
+ * prisms on the cube's own nodes, no sliver faces, and the neighbour across x = 1, which the plane
+ * only touches along an edge, is left alone. A plane 1e-6 from those edges crosses them and four
+ * more edges near their ends (6 new nodes) and cuts a thin triangle off the shared face. */
+static void test_plane_near_vertex(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(2, 1, 1, 2, 1, 1), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_HALVES, .normal = {1, 1, 1e-13}};
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_children, 2);
+    assert_int_equal(dst.n_nodes, src.n_nodes);
+    for (int c = 0; c < 2; ++c) {
+        assert_int_equal(dst.elem_offsets[c + 1] - dst.elem_offsets[c], 5);
+        assert_near(pf_mesh_elem_volume(&dst, c), 0.5, 1e-14);
+    }
+    assert_int_equal(res.changed[2], 0);
+    assert_int_equal(res.n_neighbours_changed, 0);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+
+    req.normal = pf_v3(1, 1, 2e-6);
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_children, 2);
+    assert_int_equal(dst.n_nodes, src.n_nodes + 6);
+    assert_int_equal(res.changed[2], 1);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* ---- non-convex elements ----------------------------------------------------------------------
+ */
+
+/* One element: the prism z in [0, 1] over the counter-clockwise polygon xy[n]. */
+static pf_mesh make_prism(const double *xy, int n)
+{
+    pf_mesh m = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_alloc(&m, 2 * n, n + 2, 6 * (int64_t)n, 1, n + 2, &err), PF_OK);
+    for (int i = 0; i < n; ++i)
+        for (int z = 0; z < 2; ++z) {
+            m.x[3 * (i + z * n)] = xy[2 * i];
+            m.x[3 * (i + z * n) + 1] = xy[2 * i + 1];
+            m.x[3 * (i + z * n) + 2] = z;
+        }
+    int64_t k = 0;
+    for (int i = 0; i < n; ++i) /* bottom, seen from below */
+        m.face_nodes[k++] = (uint32_t)(n - 1 - i);
+    m.face_offsets[1] = k;
+    for (int i = 0; i < n; ++i)
+        m.face_nodes[k++] = (uint32_t)(n + i);
+    m.face_offsets[2] = k;
+    for (int i = 0; i < n; ++i) {
+        uint32_t a = (uint32_t)i, b = (uint32_t)((i + 1) % n);
+        uint32_t q[4] = {a, b, b + (uint32_t)n, a + (uint32_t)n};
+        memcpy(m.face_nodes + k, q, sizeof q);
+        k += 4;
+        m.face_offsets[3 + i] = k;
+    }
+    for (int f = 0; f < n + 2; ++f)
+        m.elem_faces[f] = (uint32_t)f;
+    m.elem_offsets[1] = n + 2;
+    return m;
+}
+
+/* An L (areas 2 + 1, centroid x = y = 5/6) by halves along x: a rectangle 5/6 x 2 and an L. */
+static void test_l_shape(void **state)
+{
+    (void)state;
+    const double xy[] = {0, 0, 2, 0, 2, 1, 1, 1, 1, 2, 0, 2};
+    pf_mesh src = make_prism(xy, 6), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_HALVES, .normal = {1, 0, 0}};
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(dst.n_elems, 2);
+    assert_near(pf_mesh_elem_volume(&dst, 0), 5.0 / 3, 1e-14);
+    assert_near(pf_mesh_elem_volume(&dst, 1), 4.0 / 3, 1e-14);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    /* octs: the L's principal axes are the diagonals; every piece's volume sums to 3 */
+    req.kind = PF_SPLIT_OCTS;
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_true(dst.n_elems >= 4);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A U (base 3 x 1, arms 1 x 2; area 7, centroid y = 9.5 / 7) by halves along y: the plane cuts
+ * both arms, so three children: the base with stubs and the two arm tips (each 1 x (3 - 9.5/7)). */
+static void test_u_shape_three_children(void **state)
+{
+    (void)state;
+    const double xy[] = {0, 0, 3, 0, 3, 3, 2, 3, 2, 1, 1, 1, 1, 3, 0, 3};
+    pf_mesh src = make_prism(xy, 8), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_HALVES, .normal = {0, 1, 0}};
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_children, 3);
+    double tip = 3 - 9.5 / 7;
+    assert_near(pf_mesh_elem_volume(&dst, 0), 7 - 2 * tip, 1e-13);
+    assert_near(pf_mesh_elem_volume(&dst, 1), tip, 1e-13);
+    assert_near(pf_mesh_elem_volume(&dst, 2), tip, 1e-13);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* The sliver rule: a U whose right arm is a stub 0.1 x 0.3 (area 10 + 4 + 0.03, centroid
+ * y = 17.0345 / 14.03 = 1.214): the plane y = 1.214 cuts 0.1 x 0.086 off the stub, 0.06 % of the
+ * element, so the request is skipped and the mesh unchanged. */
+static void test_sliver_skipped(void **state)
+{
+    (void)state;
+    const double xy[] = {0, 0, 10, 0, 10, 1.3, 9.9, 1.3, 9.9, 1, 1, 1, 1, 5, 0, 5};
+    pf_mesh src = make_prism(xy, 8), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_HALVES, .normal = {0, 1, 0}};
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_split, 0);
+    assert_int_equal(res.n_skipped, 1);
+    assert_int_equal(res.n_planes_skipped, 1);
+    assert_int_equal(dst.n_elems, 1);
+    assert_int_equal(res.changed[0], 0);
+    assert_true(same_polygons(&src, 0, &dst, 0));
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    /* the other direction makes no sliver */
+    req.normal = pf_v3(1, 0, 0);
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_split, 1);
+    assert_int_equal(res.n_planes_skipped, 0);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* ---- tetrahedra and sliced meshes -------------------------------------------------------------
+ */
+
+/* Kuhn tets of a 2x1x1 box: one by octs, one (a face neighbour) by halves, then every tet by
+ * octs. A tet's children by octs are whatever the planes make; with the sliver rule some planes
+ * may be skipped, never all three (the first plane through a convex element's centroid leaves at
+ * least (3/4)^3 of it on each side, Gruenbaum's bound). */
+static void test_tets(void **state)
+{
+    (void)state;
+    pf_mesh src = {0}, dst = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_make_box_tets(&src, pf_v3(0, 0, 0), pf_v3(2, 1, 1), 2, 1, 1, &err),
+                     PF_OK);
+    pf_refine_result res;
+    pf_refine_request req[12] = {{.elem = 0, .kind = PF_SPLIT_OCTS},
+                                 {.elem = 1, .kind = PF_SPLIT_HALVES, .normal = {1, 2, 3}}};
+    refine_ok(&src, req, 2, &dst, &res);
+    assert_int_equal(res.n_split, 2);
+    assert_true(res.n_children >= 2 + 2);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    for (int i = 0; i < 12; ++i)
+        req[i] = (pf_refine_request){.elem = (i * 5) % 12, .kind = PF_SPLIT_OCTS};
+    refine_ok(&src, req, 12, &dst, &res);
+    assert_int_equal(res.n_split, 12);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A sphere sliced on a 4^3 grid (hexes inside, exact non-convex-faced polyhedra at the surface):
+ * every other element by octs, the others by halves along varied normals, in a scrambled order. */
+static void test_sliced_sphere(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_mesh src = {0}, dst = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.res = 4;
+    assert_int_equal(pf_mesh_slice(&src, &s, &p, NULL, &err), PF_OK);
+    int32_t n = src.n_elems;
+    pf_refine_request *req = calloc((size_t)n, sizeof *req);
+    assert_non_null(req);
+    /* a scrambled order: i -> i * step mod n, step a prime not dividing n */
+    const int64_t primes[] = {7, 11, 13, 17};
+    int64_t step = 0;
+    for (int i = 3; i >= 0; --i)
+        if (n % primes[i] != 0)
+            step = primes[i];
+    assert_true(step > 0);
+    for (int32_t i = 0; i < n; ++i) {
+        int32_t e = (int32_t)(((int64_t)i * step) % n);
+        req[i].elem = e;
+        req[i].kind = (e % 2) ? PF_SPLIT_HALVES : PF_SPLIT_OCTS;
+        req[i].normal = pf_v3(cos(e), sin(2.0 * e), 0.3 + cos(3.0 * e));
+    }
+    pf_refine_result res;
+    refine_ok(&src, req, n, &dst, &res);
+    assert_true(res.n_split > n / 2);
+    assert_int_equal(res.n_split + res.n_skipped, n);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    /* a third of them: unsplit neighbours get subdivided faces */
+    refine_ok(&src, req, n / 3, &dst, &res);
+    assert_true(res.n_neighbours_changed > 0);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    free(req);
+    pf_mesh_release(&src);
+    pf_surface_release(&s);
+}
+
+/* The same call twice gives byte-identical meshes and results. */
+static void test_deterministic(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(3, 2, 2, 3, 2, 2), a = {0}, b = {0};
+    pf_refine_request req[4] = {{.elem = 4, .kind = PF_SPLIT_OCTS},
+                                {.elem = 5, .kind = PF_SPLIT_HALVES, .normal = {0.3, 1, 0.2}},
+                                {.elem = 1, .kind = PF_SPLIT_HALVES, .normal = {1, 0.1, 0.7}},
+                                {.elem = 10, .kind = PF_SPLIT_OCTS}};
+    pf_refine_result ra, rb;
+    refine_ok(&src, req, 4, &a, &ra);
+    refine_ok(&src, req, 4, &b, &rb);
+    assert_int_equal(a.n_nodes, b.n_nodes);
+    assert_int_equal(a.n_faces, b.n_faces);
+    assert_int_equal(a.n_elems, b.n_elems);
+    assert_memory_equal(a.x, b.x, 3 * (size_t)a.n_nodes * sizeof(double));
+    assert_memory_equal(a.face_offsets, b.face_offsets, ((size_t)a.n_faces + 1) * sizeof(int64_t));
+    assert_memory_equal(a.face_nodes, b.face_nodes,
+                        (size_t)a.face_offsets[a.n_faces] * sizeof(uint32_t));
+    assert_memory_equal(a.elem_offsets, b.elem_offsets, ((size_t)a.n_elems + 1) * sizeof(int64_t));
+    assert_memory_equal(a.elem_faces, b.elem_faces,
+                        (size_t)a.elem_offsets[a.n_elems] * sizeof(uint32_t));
+    assert_memory_equal(ra.parent, rb.parent, (size_t)a.n_elems * sizeof(int32_t));
+    assert_memory_equal(ra.changed, rb.changed, (size_t)a.n_elems);
+    assert_memory_equal(ra.face_src, rb.face_src, (size_t)a.n_faces * sizeof(int32_t));
+    pf_refine_result_release(&ra);
+    pf_refine_result_release(&rb);
+    pf_mesh_release(&a);
+    pf_mesh_release(&b);
+    pf_mesh_release(&src);
+}
+
+/* Bad requests: nothing is output, and the message names the request and element. */
+static void test_bad_requests(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(2, 1, 1, 2, 1, 1), dst = {0};
+    pf_refine_result res;
+    pf_error err = {0};
+    struct {
+        pf_refine_request req[2];
+        const char *says;
+    } cases[] = {
+        {{{.elem = 2, .kind = PF_SPLIT_OCTS}, {.elem = 0}}, "element 2"},
+        {{{.elem = 1, .kind = PF_SPLIT_OCTS}, {.elem = 1}}, "element 1 a second time"},
+        {{{.elem = 0, .kind = PF_SPLIT_OCTS}, {.elem = 1, .kind = 7}}, "unknown split kind"},
+        {{{.elem = 0, .kind = PF_SPLIT_OCTS}, {.elem = 1, .kind = PF_SPLIT_HALVES}}, "element 1"},
+        {{{.elem = 0, .kind = PF_SPLIT_HALVES, .normal = {NAN, 0, 1}}, {.elem = 1}}, "element 0"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; ++i) {
+        pf_status st = pf_mesh_refine(&src, cases[i].req, 2, &dst, &res, &err);
+        assert_int_equal(st, PF_ERR_INVALID);
+        CHECKF(strstr(err.msg, cases[i].says), "case %zu: %s", i, err.msg);
+        assert_null(dst.x);
+        assert_null(res.parent);
+        assert_int_equal(dst.n_elems, 0);
+    }
+    /* an inside-out element */
+    pf_mesh_release(&src);
+    src = make_box(1, 1, 1, 1, 1, 1);
+    for (int64_t k = 0; k < src.elem_offsets[1]; ++k)
+        src.elem_faces[k] ^= PF_FACE_REVERSED;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_OCTS};
+    pf_status st = pf_mesh_refine(&src, &req, 1, &dst, &res, &err);
+    assert_true(st < 0);
+    CHECKF(strstr(err.msg, "element 0"), "%s", err.msg);
+    assert_null(dst.x);
+    pf_mesh_release(&src);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_corner_octs),
+        cmocka_unit_test(test_uniform_octs),
+        cmocka_unit_test(test_octs_box_axes),
+        cmocka_unit_test(test_neighbour_halves),
+        cmocka_unit_test(test_plane_near_vertex),
+        cmocka_unit_test(test_l_shape),
+        cmocka_unit_test(test_u_shape_three_children),
+        cmocka_unit_test(test_sliver_skipped),
+        cmocka_unit_test(test_tets),
+        cmocka_unit_test(test_sliced_sphere),
+        cmocka_unit_test(test_deterministic),
+        cmocka_unit_test(test_bad_requests),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

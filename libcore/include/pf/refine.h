@@ -98,6 +98,70 @@ pf_status pf_mesh_refine(const pf_mesh *src, const pf_refine_request *req, int32
 /* Frees the arrays and zeroes *r. Safe on a zeroed result. */
 void pf_refine_result_release(pf_refine_result *r);
 
+/* ---- coarsening: the inverse of pf_mesh_refine ----------------------------------------------
+ *
+ * group[e] >= 0 names the group of element e of src (any non-negative ids, not necessarily
+ * consecutive); group[e] = -1: the element stays as it is. The elements of a group become one
+ * element. A group must be face-connected (PF_ERR_INVALID naming the group otherwise); a group of
+ * one element stays as it is (so the refine result's parent array can be passed whole).
+ *
+ * Merging: the faces between two elements of one group disappear; the merged element has the
+ * other faces of its elements, in element order, then each element's face order.
+ *
+ * Cleaning, so that a refine-then-coarsen cycle gives back the mesh that was refined:
+ *   - United faces: faces of a merged element that lie between it and the same element (or on
+ *     the boundary), that are coplanar and meet along an edge of a face the merge removed become
+ *     one face, the union of their polygons, when that union is one simple polygon (its boundary
+ *     one cycle through distinct nodes) planar within PF_COARSEN_TOL of its size; else they are
+ *     left as they are. The cut edges are what tells a refinement's pieces from faces that were
+ *     separate before (two coplanar boundary triangles of one element stay two). Coplanar: every
+ *     node of either face within PF_COARSEN_TOL times the diameter (bounding box diagonal) of
+ *     the two from the other's plane, normals the same way. Orientation does not matter: the
+ *     union takes the place (index and orientation) of the lowest-numbered face.
+ *   - Unneeded nodes: a node of a removed or united face is dropped from every face when no face
+ *     uses it any more, or when in every face that has it, it lies between its two neighbours
+ *     within PF_COARSEN_TOL of their distance (a straight part of the face boundary) and the face
+ *     keeps at least 3 nodes. Removing such a node from all faces at once keeps every element
+ *     closed and the mesh conforming: a node some face has as a corner stays (where a neighbour
+ *     was refined later, its nodes on the merged element's faces stay). Nodes are examined in
+ *     ascending order, each on the faces as the earlier removals left them.
+ * Cost: O(size of src) to read, scan the faces once and copy, the rest proportional to the
+ * groups' faces.
+ *
+ * Numbering: the kept nodes in src order, compactly (res->node_map), coordinates bit for bit.
+ * Faces: src's surviving faces in src order (a union at its lowest face's place), nodes mapped.
+ * Elements: src order, each group at the place of its first (lowest) element. dst->id =
+ * src->id + 1. dst is valid, conforming and derived (pf_mesh_validate, pf_mesh_derive). */
+
+/* Relative tolerance of coplanar faces and of nodes on a straight part of a face boundary:
+ * refinement places its nodes on the plane and the edge they split to rounding (1e-16 of the
+ * coordinates), a face must be planar to 1e-9 of its size (pf_mesh_validate). */
+#define PF_COARSEN_TOL 1e-10
+
+typedef struct pf_coarsen_result {
+    int32_t *parent;   /* [dst->n_elems] the src element each dst element comes from: for a merged
+                          group its first element (lowest index), else the element itself */
+    int32_t *node_map; /* [src->n_nodes] the dst index of each src node, -1 for a removed node */
+    uint8_t *changed;  /* [dst->n_elems] 0 exactly when the dst element's faces are those of
+                          src element parent[e], node for node through node_map, in the same
+                          order (its caches can be reused); 1 for merged elements and for
+                          neighbours whose faces were united or lost nodes */
+    int32_t n_merged;  /* groups of two or more elements merged */
+    int32_t n_removed_nodes;
+} pf_coarsen_result;
+
+/* Merges the groups of src into dst (zeroed or released first; written derived) and describes
+ * the change in *res (overwritten; arrays from pf_alloc). src is read only, needs no derived
+ * arrays and must be valid (pf_mesh_validate). Statuses: PF_ERR_INVALID for a group that is not
+ * face-connected (naming it), a group below -1, a face used by more than two elements or twice
+ * the same way round, an index out of range; PF_ERR_NOMEM. On failure dst is released and *res
+ * zeroed: nothing is output. */
+pf_status pf_mesh_coarsen(const pf_mesh *src, const int32_t *group, pf_mesh *dst,
+                          pf_coarsen_result *res, pf_error *err);
+
+/* Frees the arrays and zeroes *r. Safe on a zeroed result. */
+void pf_coarsen_result_release(pf_coarsen_result *r);
+
 #ifdef __cplusplus
 }
 #endif

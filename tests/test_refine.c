@@ -541,6 +541,18 @@ static void test_tets(void **state)
     assert_true(res.n_children >= 2 + 2);
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+    for (int32_t e = 0; e < 12; ++e) { /* each alone */
+        req[0] = (pf_refine_request){.elem = e, .kind = PF_SPLIT_OCTS};
+        refine_ok(&src, req, 1, &dst, &res);
+        assert_int_equal(res.n_split, 1);
+        pf_refine_result_release(&res);
+        pf_mesh_release(&dst);
+        req[0] = (pf_refine_request){.elem = e, .kind = PF_SPLIT_HALVES, .normal = {-1, 0.5, 2}};
+        refine_ok(&src, req, 1, &dst, &res);
+        assert_int_equal(res.n_split, 1);
+        pf_refine_result_release(&res);
+        pf_mesh_release(&dst);
+    }
     for (int i = 0; i < 12; ++i)
         req[i] = (pf_refine_request){.elem = (i * 5) % 12, .kind = PF_SPLIT_OCTS};
     refine_ok(&src, req, 12, &dst, &res);

@@ -424,17 +424,21 @@ static pf_status edge_nodes(work *w, const uint32_t *gl, const int64_t *list, in
             ++m;
         }
     }
+    /* inner edges are marked first (by a node value no edge has), then dropped */
+    for (int64_t i = 0; i < m; ++i)
+        for (int64_t k = i + 1; k < m; ++k)
+            if (ed[2 * k] == ed[2 * i + 1] && ed[2 * k + 1] == ed[2 * i] &&
+                ed[2 * i] != UINT32_MAX) {
+                ed[2 * i] = ed[2 * k] = UINT32_MAX;
+                break;
+            }
     int64_t kept = 0;
-    for (int64_t i = 0; i < m; ++i) {
-        bool inner = false;
-        for (int64_t k = 0; k < m && !inner; ++k)
-            inner = ed[2 * k] == ed[2 * i + 1] && ed[2 * k + 1] == ed[2 * i];
-        if (!inner) {
+    for (int64_t i = 0; i < m; ++i)
+        if (ed[2 * i] != UINT32_MAX) {
             ed[2 * kept] = ed[2 * i];
             ed[2 * kept + 1] = ed[2 * i + 1];
             ++kept;
         }
-    }
     for (int32_t k = 0; k < nf; ++k) {
         uint32_t a = fo[k], b = fo[(k + 1) % nf];
         if (a > b)

@@ -128,9 +128,14 @@ pf_polyhedron pf_refine_piece_view(const refine_local *L, const refine_pieces *p
 
 /* ---- the octs planes ----------------------------------------------------------------------- */
 
-/* v with its largest component (the first of equal ones) made positive: a deterministic sign. */
+/* v with its largest component (the first of equal ones) made positive: a deterministic sign.
+ * Components below 1e-12 are rounding (of the moments of a face with extra collinear nodes, or of
+ * the Jacobi rotations) and are dropped, so that a box's planes are exactly its axes. */
 static pf_vec3 canonical_sign(pf_vec3 v)
 {
+    v = pf_v3(fabs(v.x) < 1e-12 ? 0 : v.x, fabs(v.y) < 1e-12 ? 0 : v.y,
+              fabs(v.z) < 1e-12 ? 0 : v.z);
+    v = pf_v3_normalize(v);
     double c[3] = {v.x, v.y, v.z};
     int k = 0;
     for (int i = 1; i < 3; ++i)

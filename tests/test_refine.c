@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "test_random.h"
 #include <pf/geom.h>
 #include <pf/mesh.h>
 #include <pf/refine.h>
@@ -301,11 +302,21 @@ static void test_corner_octs(void **state)
     pf_mesh_release(&src);
 }
 
-/* Every element of a 2x2x2 box by octs is the 4x4x4 box: 64 hexes of side 1/2 on 125 nodes. */
+/* Every element of a 2x2x2 box by octs is the 4x4x4 box: 64 hexes of side 1/2 on 125 nodes. The
+ * elements split after their neighbours have extra nodes in their faces, which must not tilt
+ * their planes: with cells 2 x 1 x 0.5 (distinct moments, no tie) the same. */
+static void uniform_octs(double sx, double sy, double sz);
+
 static void test_uniform_octs(void **state)
 {
+    for (int shape = 0; shape < 2; ++shape)
+        uniform_octs(shape ? 4 : 2, shape ? 2 : 2, shape ? 1 : 2);
     (void)state;
-    pf_mesh src = make_box(2, 2, 2, 2, 2, 2), dst = {0};
+}
+
+static void uniform_octs(double sx, double sy, double sz)
+{
+    pf_mesh src = make_box(2, 2, 2, sx, sy, sz), dst = {0};
     pf_refine_result res;
     pf_refine_request req[8];
     for (int i = 0; i < 8; ++i)
@@ -317,7 +328,7 @@ static void test_uniform_octs(void **state)
     assert_int_equal(res.n_neighbours_changed, 0);
     for (int32_t c = 0; c < 64; ++c) {
         assert_int_equal(dst.elem_kind[c], PF_ELEM_HEX);
-        assert_near(pf_mesh_elem_volume(&dst, c), 0.125, 1e-15);
+        assert_near(pf_mesh_elem_volume(&dst, c), sx * sy * sz / 64, 1e-15);
     }
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
@@ -541,6 +552,18 @@ static void test_tets(void **state)
     assert_true(res.n_children >= 2 + 2);
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+    for (int32_t e = 0; e < 12; ++e) { /* each alone */
+        req[0] = (pf_refine_request){.elem = e, .kind = PF_SPLIT_OCTS};
+        refine_ok(&src, req, 1, &dst, &res);
+        assert_int_equal(res.n_split, 1);
+        pf_refine_result_release(&res);
+        pf_mesh_release(&dst);
+        req[0] = (pf_refine_request){.elem = e, .kind = PF_SPLIT_HALVES, .normal = {-1, 0.5, 2}};
+        refine_ok(&src, req, 1, &dst, &res);
+        assert_int_equal(res.n_split, 1);
+        pf_refine_result_release(&res);
+        pf_mesh_release(&dst);
+    }
     for (int i = 0; i < 12; ++i)
         req[i] = (pf_refine_request){.elem = (i * 5) % 12, .kind = PF_SPLIT_OCTS};
     refine_ok(&src, req, 12, &dst, &res);
@@ -591,6 +614,75 @@ static void test_sliced_sphere(void **state)
     pf_mesh_release(&dst);
     free(req);
     pf_mesh_release(&src);
+    pf_surface_release(&s);
+}
+
+/* Random requests (about a third of the elements, either kind, random normals, random order),
+ * twice in a row (the second round splits elements whose faces the first subdivided), on a hex
+ * box, Kuhn tets, a sliced sphere and an octree of a sphere (cells of three depths: faces split
+ * into the neighbours' faces, collinear face vertices). */
+static void refine_randomly(pf_mesh *m, rng *r, const char *name)
+{
+    for (int round = 0; round < 2; ++round) {
+        int32_t n = 0;
+        pf_refine_request *req = calloc((size_t)m->n_elems, sizeof *req);
+        uint8_t *used = calloc((size_t)m->n_elems, 1);
+        assert_non_null(req), assert_non_null(used);
+        for (int32_t i = 0; i < m->n_elems / 3; ++i) {
+            int32_t e = (int32_t)(uniform01(r) * m->n_elems);
+            if (used[e])
+                continue;
+            used[e] = 1;
+            req[n++] =
+                (pf_refine_request){.elem = e,
+                                    .kind = uniform01(r) < 0.5 ? PF_SPLIT_OCTS : PF_SPLIT_HALVES,
+                                    .normal = pf_v3(uniform(r), uniform(r), uniform(r))};
+        }
+        pf_mesh dst = {0};
+        pf_refine_result res;
+        pf_error err = {0};
+        pf_status st = pf_mesh_refine(m, req, n, &dst, &res, &err);
+        CHECKF(st == PF_OK, "%s round %d: %s", name, round, err.msg);
+        check_refined(m, &dst, &res);
+        assert_int_equal(res.n_split + res.n_skipped, n);
+        printf(
+            "%s round %d: %d elements, %d split, %d skipped, %d children, %d neighbours changed\n",
+            name, round, (int)m->n_elems, (int)res.n_split, (int)res.n_skipped, (int)res.n_children,
+            (int)res.n_neighbours_changed);
+        pf_refine_result_release(&res);
+        pf_mesh_release(m);
+        *m = dst;
+        free(req);
+        free(used);
+    }
+}
+
+static void test_random_requests(void **state)
+{
+    (void)state;
+    rng r = {0x9e3779b97f4a7c15ull};
+    pf_error err = {0};
+    pf_mesh m = make_box(4, 3, 3, 4, 3, 3);
+    refine_randomly(&m, &r, "box");
+    pf_mesh_release(&m);
+    assert_int_equal(pf_mesh_make_box_tets(&m, pf_v3(0, 0, 0), pf_v3(2, 2, 1), 2, 2, 1, &err),
+                     PF_OK);
+    refine_randomly(&m, &r, "tets");
+    pf_mesh_release(&m);
+
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
+    pf_slice_params sp = pf_slice_params_default();
+    sp.grid.res = 4;
+    assert_int_equal(pf_mesh_slice(&m, &s, &sp, NULL, &err), PF_OK);
+    refine_randomly(&m, &r, "sliced sphere");
+    pf_mesh_release(&m);
+    pf_octree_params op = pf_octree_params_default();
+    op.depth = 3;
+    op.min_depth = 1;
+    assert_int_equal(pf_mesh_octree(&m, &s, &op, NULL, &err), PF_OK);
+    refine_randomly(&m, &r, "octree");
+    pf_mesh_release(&m);
     pf_surface_release(&s);
 }
 
@@ -677,6 +769,7 @@ int main(void)
         cmocka_unit_test(test_sliver_skipped),
         cmocka_unit_test(test_tets),
         cmocka_unit_test(test_sliced_sphere),
+        cmocka_unit_test(test_random_requests),
         cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_bad_requests),
     };

@@ -27,6 +27,9 @@ pf_status pf_extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *
 /* The closed surface s as one piece (its triangles the faces). */
 pf_status pf_surface_piece(const pf_surface *s, piece *p, pf_error *err);
 
+/* Hash of a point's exact coordinates (-0 and +0 alike), for merging nodes by coordinates. */
+uint64_t pf_hash_point(const double *p);
+
 /* Builds a mesh from closed pieces: nodes merged by exact coordinates (-0 = +0), faces by their
  * node sets; a face met a second time is used reversed, a third time is an error. Zero-initialise
  * before the first pf_glue_piece. */

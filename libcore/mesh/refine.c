@@ -12,6 +12,7 @@
  * that edge. */
 #include <pf/refine.h>
 
+#include "mesh_internal.h"
 #include "refine_internal.h"
 
 #include <math.h>
@@ -59,28 +60,11 @@ typedef struct work {
     pf_buffer entries; /* uint32 the children's face entries */
 } work;
 
-static pf_status grow(void *pp, int64_t *cap, int64_t need, size_t size, pf_error *err)
-{
-    if (need <= *cap)
-        return PF_OK;
-    PF_CHECK(need < INT32_MAX || size == sizeof(uint32_t), err, PF_ERR_TOO_LARGE,
-             "refine: the mesh would exceed 2^31 entries");
-    int64_t n = *cap ? 2 * *cap : 64;
-    while (n < need)
-        n *= 2;
-    void **p = pp;
-    void *q = pf_realloc_array(*p, (size_t)n, size);
-    PF_CHECK(q, err, PF_ERR_NOMEM, "refine: out of memory");
-    *p = q;
-    *cap = n;
-    return PF_OK;
-}
-
 /* Same capacity for several parallel arrays. */
 #define GROW_WITH(ptr, old_cap, new_cap, err)                                                      \
     do {                                                                                           \
         int64_t c_ = (old_cap);                                                                    \
-        PF_TRY(grow(&(ptr), &c_, (new_cap), sizeof *(ptr), (err)));                                \
+        PF_TRY(pf_refine_grow(&(ptr), &c_, (new_cap), sizeof *(ptr), (err)));                      \
     } while (0)
 
 static void work_release(work *w)
@@ -106,38 +90,17 @@ static pf_status reserve_nodes(work *w, int64_t n, pf_error *err)
     if (n <= w->cap_nodes)
         return PF_OK;
     int64_t cap = w->cap_nodes;
-    PF_TRY(grow(&w->adj_head, &cap, n, sizeof *w->adj_head, err));
+    PF_TRY(pf_refine_grow(&w->adj_head, &cap, n, sizeof *w->adj_head, err));
     GROW_WITH(w->local_of, w->cap_nodes, cap, err);
     GROW_WITH(w->x, 3 * w->cap_nodes, 3 * cap, err);
     w->cap_nodes = cap;
     return PF_OK;
 }
 
-static uint64_t mix(uint64_t h)
-{
-    h ^= h >> 33;
-    h *= 0xff51afd7ed558ccdull;
-    h ^= h >> 33;
-    h *= 0xc4ceb9fe1a85ec53ull;
-    return h ^ (h >> 33);
-}
-
-static uint64_t hash_point(const double *p)
-{
-    uint64_t h = 0;
-    for (int c = 0; c < 3; ++c) {
-        double v = p[c] == 0 ? 0 : p[c]; /* -0 and +0 are the same point */
-        uint64_t bits;
-        memcpy(&bits, &v, sizeof bits);
-        h = mix(h ^ bits);
-    }
-    return h;
-}
-
 static void hash_insert(work *w, int32_t id)
 {
     uint64_t mask = (uint64_t)w->node_slots - 1;
-    for (uint64_t s = hash_point(w->x + 3 * (size_t)id) & mask;; s = (s + 1) & mask)
+    for (uint64_t s = pf_hash_point(w->x + 3 * (size_t)id) & mask;; s = (s + 1) & mask)
         if (w->node_table[s] < 0) {
             w->node_table[s] = id;
             return;
@@ -159,7 +122,7 @@ static pf_status made_node(work *w, const double *p, int32_t *id, pf_error *err)
             hash_insert(w, i);
     }
     uint64_t mask = (uint64_t)w->node_slots - 1;
-    for (uint64_t s = hash_point(p) & mask; w->node_table[s] >= 0; s = (s + 1) & mask) {
+    for (uint64_t s = pf_hash_point(p) & mask; w->node_table[s] >= 0; s = (s + 1) & mask) {
         const double *q = w->x + 3 * (size_t)w->node_table[s];
         if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) {
             *id = w->node_table[s];
@@ -180,9 +143,10 @@ static pf_status made_node(work *w, const double *p, int32_t *id, pf_error *err)
 
 static pf_status add_incidence(work *w, int32_t node, int32_t face, pf_error *err)
 {
+    PF_CHECK(w->n_adj < INT32_MAX, err, PF_ERR_TOO_LARGE, "refine: more than 2^31 face nodes");
     if (w->n_adj + 1 > w->cap_adj) {
         int64_t cap = w->cap_adj;
-        PF_TRY(grow(&w->adj_face, &cap, w->n_adj + 1, sizeof *w->adj_face, err));
+        PF_TRY(pf_refine_grow(&w->adj_face, &cap, w->n_adj + 1, sizeof *w->adj_face, err));
         GROW_WITH(w->adj_next, w->cap_adj, cap, err);
         w->cap_adj = cap;
     }
@@ -206,13 +170,14 @@ static pf_status new_face(work *w, const uint32_t *nodes, int64_t n, int32_t use
     PF_CHECK(w->n_faces < INT32_MAX - 1, err, PF_ERR_TOO_LARGE, "refine: more than 2^31 faces");
     if ((int64_t)w->n_faces + 1 > w->cap_faces) {
         int64_t cap = w->cap_faces;
-        PF_TRY(grow(&w->face_start, &cap, (int64_t)w->n_faces + 1, sizeof *w->face_start, err));
+        PF_TRY(pf_refine_grow(&w->face_start, &cap, (int64_t)w->n_faces + 1, sizeof *w->face_start,
+                              err));
         GROW_WITH(w->face_len, w->cap_faces, cap, err);
         GROW_WITH(w->face_flags, w->cap_faces, cap, err);
         GROW_WITH(w->face_user, 2 * w->cap_faces, 2 * cap, err);
         w->cap_faces = cap;
     }
-    PF_TRY(grow(&w->fpool, &w->cap_fpool, w->n_fpool + n, sizeof *w->fpool, err));
+    PF_TRY(pf_refine_grow(&w->fpool, &w->cap_fpool, w->n_fpool + n, sizeof *w->fpool, err));
     int32_t f = w->n_faces++;
     memcpy(w->fpool + w->n_fpool, nodes, (size_t)n * sizeof *nodes);
     w->face_start[f] = w->n_fpool;
@@ -231,7 +196,7 @@ static pf_status new_face(work *w, const uint32_t *nodes, int64_t n, int32_t use
 static pf_status set_elem_faces(work *w, int32_t e, const uint32_t *entries, int64_t n,
                                 pf_error *err)
 {
-    PF_TRY(grow(&w->epool, &w->cap_epool, w->n_epool + n, sizeof *w->epool, err));
+    PF_TRY(pf_refine_grow(&w->epool, &w->cap_epool, w->n_epool + n, sizeof *w->epool, err));
     memcpy(w->epool + w->n_epool, entries, (size_t)n * sizeof *entries);
     w->elem_start[e] = w->n_epool;
     w->elem_len[e] = (int32_t)n;
@@ -244,7 +209,8 @@ static pf_status new_elem(work *w, int32_t *id, pf_error *err)
     PF_CHECK(w->n_elems < INT32_MAX - 1, err, PF_ERR_TOO_LARGE, "refine: more than 2^31 elements");
     if ((int64_t)w->n_elems + 1 > w->cap_elems) {
         int64_t cap = w->cap_elems;
-        PF_TRY(grow(&w->elem_start, &cap, (int64_t)w->n_elems + 1, sizeof *w->elem_start, err));
+        PF_TRY(pf_refine_grow(&w->elem_start, &cap, (int64_t)w->n_elems + 1, sizeof *w->elem_start,
+                              err));
         GROW_WITH(w->elem_len, w->cap_elems, cap, err);
         GROW_WITH(w->elem_changed, w->cap_elems, cap, err);
         w->cap_elems = cap;
@@ -279,13 +245,14 @@ static pf_status work_init(work *w, const pf_mesh *src, pf_error *err)
     }
     /* faces */
     int64_t cap = 0;
-    PF_TRY(grow(&w->face_start, &cap, (int64_t)src->n_faces + 16, sizeof *w->face_start, err));
+    PF_TRY(pf_refine_grow(&w->face_start, &cap, (int64_t)src->n_faces + 16, sizeof *w->face_start,
+                          err));
     GROW_WITH(w->face_len, 0, cap, err);
     GROW_WITH(w->face_flags, 0, cap, err);
     GROW_WITH(w->face_user, 0, 2 * cap, err);
     w->cap_faces = cap;
-    PF_TRY(grow(&w->fpool, &w->cap_fpool, nfn + 64, sizeof *w->fpool, err));
-    PF_TRY(grow(&w->adj_face, &w->cap_adj, nfn + 64, sizeof *w->adj_face, err));
+    PF_TRY(pf_refine_grow(&w->fpool, &w->cap_fpool, nfn + 64, sizeof *w->fpool, err));
+    PF_TRY(pf_refine_grow(&w->adj_face, &w->cap_adj, nfn + 64, sizeof *w->adj_face, err));
     GROW_WITH(w->adj_next, 0, w->cap_adj, err);
     for (int32_t f = 0; f < src->n_faces; ++f) {
         int64_t k0 = src->face_offsets[f], k1 = src->face_offsets[f + 1];
@@ -307,11 +274,12 @@ static pf_status work_init(work *w, const pf_mesh *src, pf_error *err)
     w->n_faces = src->n_faces;
     /* elements */
     cap = 0;
-    PF_TRY(grow(&w->elem_start, &cap, (int64_t)src->n_elems + 16, sizeof *w->elem_start, err));
+    PF_TRY(pf_refine_grow(&w->elem_start, &cap, (int64_t)src->n_elems + 16, sizeof *w->elem_start,
+                          err));
     GROW_WITH(w->elem_len, 0, cap, err);
     GROW_WITH(w->elem_changed, 0, cap, err);
     w->cap_elems = cap;
-    PF_TRY(grow(&w->epool, &w->cap_epool, nef + 64, sizeof *w->epool, err));
+    PF_TRY(pf_refine_grow(&w->epool, &w->cap_epool, nef + 64, sizeof *w->epool, err));
     memcpy(w->epool, src->elem_faces, (size_t)nef * sizeof *w->epool);
     w->n_epool = nef;
     w->n_elems = src->n_elems;
@@ -424,17 +392,21 @@ static pf_status edge_nodes(work *w, const uint32_t *gl, const int64_t *list, in
             ++m;
         }
     }
+    /* inner edges are marked first (by a node value no edge has), then dropped */
+    for (int64_t i = 0; i < m; ++i)
+        for (int64_t k = i + 1; k < m; ++k)
+            if (ed[2 * k] == ed[2 * i + 1] && ed[2 * k + 1] == ed[2 * i] &&
+                ed[2 * i] != UINT32_MAX) {
+                ed[2 * i] = ed[2 * k] = UINT32_MAX;
+                break;
+            }
     int64_t kept = 0;
-    for (int64_t i = 0; i < m; ++i) {
-        bool inner = false;
-        for (int64_t k = 0; k < m && !inner; ++k)
-            inner = ed[2 * k] == ed[2 * i + 1] && ed[2 * k + 1] == ed[2 * i];
-        if (!inner) {
+    for (int64_t i = 0; i < m; ++i)
+        if (ed[2 * i] != UINT32_MAX) {
             ed[2 * kept] = ed[2 * i];
             ed[2 * kept + 1] = ed[2 * i + 1];
             ++kept;
         }
-    }
     for (int32_t k = 0; k < nf; ++k) {
         uint32_t a = fo[k], b = fo[(k + 1) % nf];
         if (a > b)
@@ -484,7 +456,8 @@ static pf_status insert_edge_nodes(work *w, pf_error *err)
             }
             if (at < 0)
                 continue;
-            PF_TRY(grow(&w->fpool, &w->cap_fpool, w->n_fpool + n + count, sizeof *w->fpool, err));
+            PF_TRY(pf_refine_grow(&w->fpool, &w->cap_fpool, w->n_fpool + n + count,
+                                  sizeof *w->fpool, err));
             const uint32_t *old = face_nodes(w, f);
             uint32_t *nw = w->fpool + w->n_fpool;
             memcpy(nw, old, (size_t)(at + 1) * sizeof *nw);
@@ -510,7 +483,7 @@ static pf_status replace_in_elem(work *w, int32_t e, int32_t f, const uint32_t *
                                  pf_error *err)
 {
     int32_t len = w->elem_len[e];
-    PF_TRY(grow(&w->epool, &w->cap_epool, w->n_epool + len + n, sizeof *w->epool, err));
+    PF_TRY(pf_refine_grow(&w->epool, &w->cap_epool, w->n_epool + len + n, sizeof *w->epool, err));
     const uint32_t *old = w->epool + w->elem_start[e];
     uint32_t *nw = w->epool + w->n_epool;
     int64_t m = 0;

@@ -30,6 +30,10 @@ typedef struct refine_local {
     refine_pieces cur, next;
 } refine_local;
 
+/* Grows the array *pp of *cap elements of size bytes to hold need (doubling; contents kept).
+ * PF_ERR_TOO_LARGE beyond 2^31 entries of more than 4 bytes, PF_ERR_NOMEM. */
+pf_status pf_refine_grow(void *pp, int64_t *cap, int64_t need, size_t size, pf_error *err);
+
 void pf_refine_local_release(refine_local *L);
 /* Room for n local nodes. */
 pf_status pf_refine_local_reserve(refine_local *L, int64_t n, pf_error *err);

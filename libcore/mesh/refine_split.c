@@ -12,10 +12,12 @@
 
 /* ---- local nodes and piece sets ----------------------------------------------------------- */
 
-static pf_status grow(void *pp, int64_t *cap, int64_t need, size_t size, pf_error *err)
+pf_status pf_refine_grow(void *pp, int64_t *cap, int64_t need, size_t size, pf_error *err)
 {
     if (need <= *cap)
         return PF_OK;
+    PF_CHECK(need < INT32_MAX || size <= sizeof(uint32_t), err, PF_ERR_TOO_LARGE,
+             "refine: the mesh would exceed 2^31 entries");
     int64_t n = *cap ? 2 * *cap : 16;
     while (n < need)
         n *= 2;
@@ -47,7 +49,7 @@ pf_status pf_refine_local_reserve(refine_local *L, int64_t n, pf_error *err)
     if (n <= L->cap)
         return PF_OK;
     int64_t cap = L->cap;
-    PF_TRY(grow(&L->glob, &cap, n, sizeof *L->glob, err));
+    PF_TRY(pf_refine_grow(&L->glob, &cap, n, sizeof *L->glob, err));
     double *x = pf_realloc_array(L->x, 3 * (size_t)cap, sizeof *x);
     PF_CHECK(x, err, PF_ERR_NOMEM, "refine: out of memory");
     L->x = x;
@@ -83,7 +85,8 @@ pf_status pf_refine_pieces_begin(refine_pieces *ps, pf_error *err)
 {
     if ((int64_t)ps->n + 2 > ps->cap) {
         int64_t cap = ps->cap;
-        PF_TRY(grow(&ps->first_face, &cap, (int64_t)ps->n + 2, sizeof *ps->first_face, err));
+        PF_TRY(
+            pf_refine_grow(&ps->first_face, &cap, (int64_t)ps->n + 2, sizeof *ps->first_face, err));
         double *v = pf_realloc_array(ps->volume, (size_t)cap, sizeof *v);
         PF_CHECK(v, err, PF_ERR_NOMEM, "refine: out of memory");
         ps->volume = v;
@@ -102,7 +105,7 @@ pf_status pf_refine_pieces_face(refine_pieces *ps, const uint32_t *nodes, int64_
 {
     if ((int64_t)ps->n_faces + 2 > ps->cap_faces) {
         int64_t cap = ps->cap_faces;
-        PF_TRY(grow(&ps->off, &cap, (int64_t)ps->n_faces + 2, sizeof *ps->off, err));
+        PF_TRY(pf_refine_grow(&ps->off, &cap, (int64_t)ps->n_faces + 2, sizeof *ps->off, err));
         int32_t *o = pf_realloc_array(ps->origin, (size_t)cap, sizeof *o);
         PF_CHECK(o, err, PF_ERR_NOMEM, "refine: out of memory");
         ps->origin = o;
@@ -111,7 +114,7 @@ pf_status pf_refine_pieces_face(refine_pieces *ps, const uint32_t *nodes, int64_
     if (ps->n_faces == 0)
         ps->off[0] = 0;
     int64_t at = ps->off[ps->n_faces];
-    PF_TRY(grow(&ps->nodes, &ps->cap_nodes, at + n, sizeof *ps->nodes, err));
+    PF_TRY(pf_refine_grow(&ps->nodes, &ps->cap_nodes, at + n, sizeof *ps->nodes, err));
     memcpy(ps->nodes + at, nodes, (size_t)n * sizeof *nodes);
     ps->origin[ps->n_faces] = origin;
     ps->n_faces++;
@@ -128,9 +131,14 @@ pf_polyhedron pf_refine_piece_view(const refine_local *L, const refine_pieces *p
 
 /* ---- the octs planes ----------------------------------------------------------------------- */
 
-/* v with its largest component (the first of equal ones) made positive: a deterministic sign. */
+/* v with its largest component (the first of equal ones) made positive: a deterministic sign.
+ * Components below 1e-12 are rounding (of the moments of a face with extra collinear nodes, or of
+ * the Jacobi rotations) and are dropped, so that a box's planes are exactly its axes. */
 static pf_vec3 canonical_sign(pf_vec3 v)
 {
+    v = pf_v3(fabs(v.x) < 1e-12 ? 0 : v.x, fabs(v.y) < 1e-12 ? 0 : v.y,
+              fabs(v.z) < 1e-12 ? 0 : v.z);
+    v = pf_v3_normalize(v);
     double c[3] = {v.x, v.y, v.z};
     int k = 0;
     for (int i = 1; i < 3; ++i)

@@ -101,7 +101,7 @@ static uint64_t mix(uint64_t h)
     return h ^ (h >> 33);
 }
 
-static uint64_t hash_point(const double *p)
+uint64_t pf_hash_point(const double *p)
 {
     uint64_t h = 0;
     for (int c = 0; c < 3; ++c) {
@@ -133,7 +133,7 @@ static bool grow_table(int32_t **table, int64_t *slots, int64_t needed)
 static void insert_node_slot(glue *g, int32_t id)
 {
     uint64_t mask = (uint64_t)g->node_slots - 1;
-    for (uint64_t s = hash_point(g->x + 3 * (size_t)id) & mask;; s = (s + 1) & mask)
+    for (uint64_t s = pf_hash_point(g->x + 3 * (size_t)id) & mask;; s = (s + 1) & mask)
         if (g->node_table[s] < 0) {
             g->node_table[s] = id;
             return;
@@ -149,7 +149,7 @@ static pf_status glue_node(glue *g, const double *p, int32_t *id, pf_error *err)
             insert_node_slot(g, k);
     }
     uint64_t mask = (uint64_t)g->node_slots - 1;
-    uint64_t s = hash_point(p) & mask;
+    uint64_t s = pf_hash_point(p) & mask;
     for (; g->node_table[s] >= 0; s = (s + 1) & mask) {
         const double *q = g->x + 3 * (size_t)g->node_table[s];
         if (q[0] == p[0] && q[1] == p[1] && q[2] == p[2]) {

@@ -73,11 +73,12 @@ typedef struct run {
     const char *scene_path;
     const char *input_path;
     bool quiet;
-    pf_mesh mesh;       /* the input's latest MESH, moved out of input */
+    pf_mesh mesh; /* the input's latest MESH, moved out of input */
     bool have_mesh;
     pf_stream_state input; /* the latest SURF and WGHT, for contact at the embedded surface */
-    bool embedded; /* contact at the surface's vertices */
+    bool embedded;         /* contact at the surface's vertices */
     pf_stream_writer *out;
+    uint64_t written_mesh; /* the id of the last MESH written: a refined mesh is written anew */
     pf_error err;
 } run;
 
@@ -222,15 +223,31 @@ static pf_status write_scene(run *r, pf_error *err)
     return st;
 }
 
+/* A mesh the simulator changed (refinement) goes out before the first frame on it, with the
+ * embedded surface's weights on it. */
+static pf_status write_changed_mesh(run *r, const pf_sim *sim, pf_error *err)
+{
+    const pf_mesh *m = pf_sim_mesh(sim);
+    if (m->id == r->written_mesh)
+        return PF_OK;
+    PF_TRY(pf_stream_write_mesh(r->out, m, err));
+    if (pf_sim_weights(sim))
+        PF_TRY(pf_stream_write_weights(r->out, pf_sim_weights(sim), err));
+    r->written_mesh = m->id;
+    return PF_OK;
+}
+
 static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error *err)
 {
+    const pf_mesh *m = pf_sim_mesh(sim);
+    PF_TRY(write_changed_mesh(r, sim, err));
     pf_frame_data f = {0};
     pf_stress_data s = {0};
-    pf_status st = pf_frame_data_alloc(&f, r->mesh.n_nodes, err);
+    pf_status st = pf_frame_data_alloc(&f, m->n_nodes, err);
     if (st >= 0)
-        st = pf_stress_data_alloc(&s, r->mesh.n_elems, 1, err);
+        st = pf_stress_data_alloc(&s, m->n_elems, 1, err);
     if (st >= 0) {
-        f.mesh_id = s.mesh_id = r->mesh.id;
+        f.mesh_id = s.mesh_id = m->id;
         f.index = s.frame = (uint32_t)index;
         f.time = pf_sim_time(sim);
         pf_sim_nodal_displacements(sim, f.u);
@@ -277,13 +294,13 @@ static void print_summary(const run *r, const pf_sim *sim)
         fprintf(stderr,
                 "pf-sim: cg, %d elements (%d closed forms, MFS skipped; %d harmonic, %lld "
                 "kernels, basis %.3f s), %lld unknowns, %lld steps; ",
-                (int)r->mesh.n_elems, (int)st->closed_form_elems, (int)st->harmonic_elems,
+                (int)st->elements, (int)st->closed_form_elems, (int)st->harmonic_elems,
                 (long long)st->kernels, st->basis_seconds, (long long)st->dofs,
                 (long long)st->steps);
     else
         fprintf(stderr,
                 "pf-sim: dg, %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; ",
-                (int)r->mesh.n_elems, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
+                (int)st->elements, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
                 (long long)st->steps);
     fprintf(stderr,
             "setup %.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at "
@@ -292,6 +309,13 @@ static void print_summary(const run *r, const pf_sim *sim)
             (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
             r->embedded ? "surface vertices" : "nodes", samples, (long long)st->contacts,
             st->contact_seconds, st->embed_seconds);
+    if (st->refinements > 0)
+        fprintf(stderr,
+                "pf-sim: mesh changes: %d (%lld elements split, %lld groups merged back; %d -> "
+                "%d elements), %.3f s; integrals %lld reused, %lld computed\n",
+                (int)st->refinements, (long long)st->elements_split, (long long)st->elements_merged,
+                (int)r->mesh.n_elems, (int)st->elements, st->refine_seconds,
+                (long long)st->integrals_reused, (long long)st->integrals_computed);
     print_solver_summary(&st->solver);
 }
 
@@ -324,6 +348,7 @@ static pf_status simulate(run *r, pf_error *err)
      * that they belong to its latest SURF and MESH) */
     const pf_weights *w = &r->input.weights;
     bool embedded = r->embedded = r->input.have_weights;
+    r->written_mesh = r->mesh.id;
     PF_TRY(load_obstacles(&r->scene, err));
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,

@@ -679,18 +679,8 @@ void pf_cg_von_mises(const pf_cg *cg, const double *u, double *out)
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j)
                     f.m[i][j] += u[3 * (size_t)nodes[p] + i] * g[3 * p + j];
-        pf_mat3 rf = pf_m3_mul(pf_m3_transpose(pf_mat3_polar_rotation(f)), f);
-        double eps[3][3];
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-                eps[i][j] = 0.5 * (rf.m[i][j] + rf.m[j][i]) - (i == j);
-        double tr = eps[0][0] + eps[1][1] + eps[2][2], lambda = cg->lambda, mu = cg->mu;
-        double sigma[6] = {lambda * tr + 2 * mu * eps[0][0],
-                           lambda * tr + 2 * mu * eps[1][1],
-                           lambda * tr + 2 * mu * eps[2][2],
-                           2 * mu * eps[0][1],
-                           2 * mu * eps[1][2],
-                           2 * mu * eps[2][0]};
+        double sigma[6];
+        pf_corotated_stress(f, cg->lambda, cg->mu, sigma);
         out[e] = pf_von_mises(sigma);
     }
 }

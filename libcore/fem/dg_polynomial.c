@@ -3,7 +3,10 @@
  * accuracy studies). The data polynomial is rewritten in the frame of the element it meets
  * (pf_poly_monomial_in_frame), where the basis functions are plain monomials; then every
  * integral is a sum of element or face moments in that frame, exact like the element terms.
- * Degrees: data <= 4, basis <= 2, so products stay within PF_MOMENT_MAX_DEGREE = 8. */
+ * Degrees: data <= 4, basis <= 2, so products stay within PF_MOMENT_MAX_DEGREE = 8.
+ * Also the fields carried from one mesh to the next when the simulation mesh changes: a parent's
+ * polynomial re-expanded in a child's frame (refinement), the L2 projection of merged children
+ * onto their parent (coarsening), and gradients at any point (the refinement criterion). */
 #include <pf/fem.h>
 
 #include <math.h>
@@ -48,8 +51,7 @@ static pf_status check_poly(const pf_poly3 *p, pf_error *err)
 }
 
 /* The components of p written in frame `to`: out[i] has pf_moment_count(p->degree) entries. */
-static void poly3_in_frame(const pf_poly3 *p, const pf_frame *to,
-                           double out[3][PF_POLY3_MAX_COUNT])
+static void poly3_in_frame(const pf_poly3 *p, const pf_frame *to, double out[3][PF_POLY3_MAX_COUNT])
 {
     int n = pf_moment_count(p->degree);
     memset(out, 0, 3 * sizeof out[0]);
@@ -176,8 +178,8 @@ pf_status pf_dg_add_polynomial_dirichlet(const pf_dg *dg, const pf_mesh *m,
             low[j]--;
             int l = pf_moment_index(low[0], low[1], low[2]);
             for (int i = 0; i < 3; ++i)
-                d[i][j] = t.e[b][j] / fr->scale * integrate_times_monomial(&t, local[i], g->degree,
-                                                                          l, mom);
+                d[i][j] = t.e[b][j] / fr->scale *
+                          integrate_times_monomial(&t, local[i], g->degree, l, mom);
         }
         double trace = d[0][0] + d[1][1] + d[2][2];
         for (int k = 0; k < 3; ++k) {
@@ -191,8 +193,8 @@ pf_status pf_dg_add_polynomial_dirichlet(const pf_dg *dg, const pf_mesh *m,
     return PF_OK;
 }
 
-pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
-                         const pf_poly3 *exact, double *error, double *norm, pf_error *err)
+pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u, const pf_poly3 *exact,
+                         double *error, double *norm, pf_error *err)
 {
     PF_TRY(check_poly(exact, err));
     PF_TRY(check_mesh(dg, m, err));
@@ -226,5 +228,130 @@ pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
     *error = sqrt(sum_error);
     if (norm)
         *norm = sqrt(sum_norm);
+    return PF_OK;
+}
+
+void pf_dg_gradient_at(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x, double g[9])
+{
+    const pf_frame *fr = &dg->frame[e];
+    pf_vec3 p = pf_v3_scale(pf_v3_sub(x, fr->center), 1 / fr->scale);
+    double m[10]; /* the monomials of degree <= 1 at p: d/dx_j of x^a y^b z^c needs them */
+    pf_moment_monomials(p, 1, m);
+    const double *ue = u + 3 * (size_t)e * dg->nb;
+    memset(g, 0, 9 * sizeof *g);
+    for (int k = 1; k < dg->nb; ++k) {
+        int ex[3];
+        pf_moment_exponents(k, &ex[0], &ex[1], &ex[2]);
+        for (int j = 0; j < 3; ++j) {
+            if (ex[j] == 0)
+                continue;
+            int lower[3] = {ex[0], ex[1], ex[2]};
+            lower[j]--;
+            double d = ex[j] * m[pf_moment_index(lower[0], lower[1], lower[2])] / fr->scale;
+            for (int i = 0; i < 3; ++i)
+                g[3 * i + j] += ue[3 * k + i] * d;
+        }
+    }
+}
+
+void pf_dg_copy_field(const pf_dg *src, const double *u_src, int32_t p, const pf_dg *dst, int32_t e,
+                      double *u_dst)
+{
+    int nb = dst->nb;
+    const double *up = u_src + 3 * (size_t)p * nb;
+    double *ue = u_dst + 3 * (size_t)e * nb;
+    const pf_frame *from = &src->frame[p], *to = &dst->frame[e];
+    if (from->scale == to->scale && pf_v3_max_abs(pf_v3_sub(from->center, to->center)) == 0) {
+        memcpy(ue, up, 3 * (size_t)nb * sizeof *ue);
+        return;
+    }
+    memset(ue, 0, 3 * (size_t)nb * sizeof *ue);
+    for (int a = 0; a < nb; ++a) {
+        double c[10] = {0};
+        pf_poly_monomial_in_frame(a, from, to, c);
+        for (int b = 0; b < nb; ++b)
+            for (int i = 0; i < 3; ++i)
+                ue[3 * b + i] += c[b] * up[3 * a + i];
+    }
+}
+
+/* Solves a x = b (a symmetric positive definite, n x n row-major, overwritten by its Cholesky
+ * factor; b by x). false when a pivot is not positive. */
+static bool solve_spd(double *a, int n, double *b, int nrhs)
+{
+    for (int j = 0; j < n; ++j) {
+        double d = a[j * n + j];
+        for (int k = 0; k < j; ++k)
+            d -= a[j * n + k] * a[j * n + k];
+        if (!(d > 0))
+            return false;
+        a[j * n + j] = sqrt(d);
+        for (int i = j + 1; i < n; ++i) {
+            double v = a[i * n + j];
+            for (int k = 0; k < j; ++k)
+                v -= a[i * n + k] * a[j * n + k];
+            a[i * n + j] = v / a[j * n + j];
+        }
+    }
+    for (int r = 0; r < nrhs; ++r) {
+        for (int i = 0; i < n; ++i) { /* L y = b */
+            double v = b[i * nrhs + r];
+            for (int k = 0; k < i; ++k)
+                v -= a[i * n + k] * b[k * nrhs + r];
+            b[i * nrhs + r] = v / a[i * n + i];
+        }
+        for (int i = n - 1; i >= 0; --i) { /* L^T x = y */
+            double v = b[i * nrhs + r];
+            for (int k = i + 1; k < n; ++k)
+                v -= a[k * n + i] * b[k * nrhs + r];
+            b[i * nrhs + r] = v / a[i * n + i];
+        }
+    }
+    return true;
+}
+
+pf_status pf_dg_project_field(const pf_dg *src, const pf_mesh *src_mesh, const double *u_src,
+                              const int32_t *q, int32_t n, const pf_dg *dst, int32_t e,
+                              double *u_dst, pf_error *err)
+{
+    int nb = dst->nb, p = dst->degree;
+    const pf_frame *to = &dst->frame[e];
+    double rhs[10 * 3] = {0}, mass[10 * 10];
+    memcpy(mass, dst->me + (size_t)e * nb * nb, (size_t)nb * nb * sizeof *mass);
+    pf_arena arena;
+    PF_TRY(pf_arena_init(&arena, (size_t)1 << 16, err));
+    pf_status st = PF_OK;
+    for (int32_t k = 0; k < n && st >= 0; ++k) {
+        /* int_q rho phi^e_a u_q = rho sum_b u_{q,b} int_q phi^e_a phi^q_b, phi^q_b re-expanded
+         * in e's frame, over q's moments in e's frame */
+        pf_polyhedron poly;
+        double m[PF_MOMENT_MAX_COUNT];
+        size_t mark = pf_arena_mark(&arena);
+        st = pf_mesh_elem_polyhedron(src_mesh, q[k], &arena, &poly, err);
+        if (st >= 0)
+            st = pf_polyhedron_moments(&poly, to, 2 * p, m, err);
+        pf_arena_reset(&arena, mark);
+        if (st < 0) {
+            pf_error_prefix(err, "element %d", (int)q[k]);
+            break;
+        }
+        const double *uq = u_src + 3 * (size_t)q[k] * nb;
+        for (int b = 0; b < nb; ++b) {
+            double cb[10] = {0};
+            pf_poly_monomial_in_frame(b, &src->frame[q[k]], to, cb);
+            for (int a = 0; a < nb; ++a) {
+                double ea[10] = {0};
+                ea[a] = 1;
+                double w = src->density * pf_poly_integrate_product(ea, p, cb, p, m);
+                for (int i = 0; i < 3; ++i)
+                    rhs[3 * a + i] += w * uq[3 * b + i];
+            }
+        }
+    }
+    pf_arena_release(&arena);
+    PF_TRY(st);
+    PF_CHECK(solve_spd(mass, nb, rhs, 3), err, PF_ERR_NUMERIC,
+             "element %d: the mass matrix is not positive definite", (int)e);
+    memcpy(u_dst + 3 * (size_t)e * nb, rhs, 3 * (size_t)nb * sizeof *u_dst);
     return PF_OK;
 }

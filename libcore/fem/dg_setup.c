@@ -85,11 +85,29 @@ static void element_mass(const pf_dg *dg, const double *m, double *me, double *p
     }
 }
 
-static pf_status setup_elements(pf_dg *dg, const pf_mesh *mesh, pf_arena *arena, pf_error *err)
+/* Element e's terms copied from element p of old (the same polyhedron). */
+static void copy_element(pf_dg *dg, int32_t e, const pf_dg *old, int32_t p)
+{
+    size_t nb = (size_t)dg->nb, n = 3 * nb;
+    dg->frame[e] = old->frame[p];
+    dg->volume[e] = old->volume[p];
+    memcpy(dg->centroid + 3 * (size_t)e, old->centroid + 3 * (size_t)p, 3 * sizeof(double));
+    memcpy(dg->ke + (size_t)e * n * n, old->ke + (size_t)p * n * n, n * n * sizeof(double));
+    memcpy(dg->me + (size_t)e * nb * nb, old->me + (size_t)p * nb * nb, nb * nb * sizeof(double));
+    memcpy(dg->phi_int + (size_t)e * nb, old->phi_int + (size_t)p * nb, nb * sizeof(double));
+}
+
+static pf_status setup_elements(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reuse *reuse,
+                                pf_arena *arena, pf_error *err)
 {
     int nb = dg->nb, n = 3 * nb;
     double m[PF_MOMENT_MAX_COUNT];
     for (int32_t e = 0; e < mesh->n_elems; ++e) {
+        if (reuse && reuse->same_solid[e]) {
+            copy_element(dg, e, reuse->old, reuse->parent[e]);
+            dg->reused_elems++;
+            continue;
+        }
         size_t mark = pf_arena_mark(arena);
         pf_polyhedron p;
         PF_TRY(pf_mesh_elem_polyhedron(mesh, e, arena, &p, err));
@@ -146,8 +164,8 @@ static void basis_in_face_frame(const pf_dg *dg, int32_t e, const pf_frame *ff, 
                 continue;
             int lowered[3] = {ea[0], ea[1], ea[2]};
             lowered[j]--;
-            pf_poly_monomial_in_frame(pf_moment_index(lowered[0], lowered[1], lowered[2]), fe,
-                                      ff, d);
+            pf_poly_monomial_in_frame(pf_moment_index(lowered[0], lowered[1], lowered[2]), fe, ff,
+                                      d);
             double factor = ea[j] / fe->scale;
             for (int k = 0; k < nb; ++k)
                 d[k] *= factor;
@@ -176,8 +194,8 @@ static double bz_growth(const pf_dg *dg, double eta_geometry, int sides)
     return pow(dg->body_length * eta_geometry / sides, dg->degree);
 }
 
-static pf_status setup_face(pf_dg *dg, const pf_mesh *mesh, int32_t f, int32_t left,
-                            int32_t right, double sign, pf_dg_face *out, pf_error *err)
+static pf_status setup_face(pf_dg *dg, const pf_mesh *mesh, int32_t f, int32_t left, int32_t right,
+                            double sign, pf_dg_face *out, pf_error *err)
 {
     int nb = dg->nb, p = dg->degree;
     const uint32_t *idx = mesh->face_nodes + mesh->face_offsets[f];
@@ -193,9 +211,9 @@ static pf_status setup_face(pf_dg *dg, const pf_mesh *mesh, int32_t f, int32_t l
     out->elem[1] = right;
     out->normal = pf_v3_scale(area_vector, sign / area);
     out->area = m[0];
-    out->centroid = (pf_vec3){ff.center.x + ff.scale * m[1] / m[0],
-                              ff.center.y + ff.scale * m[2] / m[0],
-                              ff.center.z + ff.scale * m[3] / m[0]};
+    out->centroid =
+        (pf_vec3){ff.center.x + ff.scale * m[1] / m[0], ff.center.y + ff.scale * m[2] / m[0],
+                  ff.center.z + ff.scale * m[3] / m[0]};
     out->eta_geometry = m[0] * (1 / dg->volume[left] + (right >= 0 ? 1 / dg->volume[right] : 0));
     out->bz_growth = bz_growth(dg, out->eta_geometry, right >= 0 ? 2 : 1);
 
@@ -208,8 +226,8 @@ static pf_status setup_face(pf_dg *dg, const pf_mesh *mesh, int32_t f, int32_t l
             for (int a = 0; a < nb; ++a)
                 for (int b = 0; b < nb; ++b) {
                     size_t st = (size_t)((s * 2 + t) * nb + a) * nb + b;
-                    out->S[st] = pf_poly_integrate_product(basis[s] + a * nb, p,
-                                                           basis[t] + b * nb, p, m);
+                    out->S[st] =
+                        pf_poly_integrate_product(basis[s] + a * nb, p, basis[t] + b * nb, p, m);
                     for (int j = 0; j < 3; ++j)
                         out->G[3 * st + j] = pf_poly_integrate_product(
                             basis[s] + a * nb, p, deriv[t] + (b * 3 + j) * nb, p - 1, m);
@@ -217,15 +235,56 @@ static pf_status setup_face(pf_dg *dg, const pf_mesh *mesh, int32_t f, int32_t l
     return PF_OK;
 }
 
-static pf_status setup_faces(pf_dg *dg, const pf_mesh *mesh, pf_error *err)
+/* The face of old with the same polygon and the same elements in the same roles as face f of
+ * mesh, or -1: f's elements both have their parents' faces node for node (reuse->same_faces),
+ * so f is, in its element's face list, where the old face is in the parent's. */
+static int32_t old_face_of(const pf_mesh *mesh, int32_t f, int32_t left, int32_t right,
+                           const pf_dg_reuse *reuse)
+{
+    if (!reuse || !reuse->same_faces[left] || (right >= 0 && !reuse->same_faces[right]))
+        return -1;
+    const pf_mesh *om = reuse->old_mesh;
+    int32_t p = reuse->parent[left];
+    int64_t n = mesh->elem_offsets[left + 1] - mesh->elem_offsets[left];
+    for (int64_t k = 0; k < n; ++k) {
+        if (PF_FACE_INDEX(mesh->elem_faces[mesh->elem_offsets[left] + k]) != f)
+            continue;
+        int32_t g = PF_FACE_INDEX(om->elem_faces[om->elem_offsets[p] + k]);
+        int32_t a = om->face_elems[2 * g], b = om->face_elems[2 * g + 1];
+        int32_t old_left = a >= 0 ? a : b, old_right = a >= 0 ? b : -1;
+        bool same_roles = old_left == p && old_right == (right >= 0 ? reuse->parent[right] : -1);
+        return same_roles ? g : -1;
+    }
+    return -1;
+}
+
+/* Face f's terms copied from the old face g (the same polygon between the same elements). */
+static void copy_face(const pf_dg *dg, pf_dg_face *out, int32_t f, int32_t left, int32_t right,
+                      const pf_dg *old, int32_t g)
+{
+    const pf_dg_face *in = &old->faces[old->face_slot[g]];
+    size_t nb = (size_t)dg->nb;
+    double *S = out->S, *G = out->G;
+    *out = *in;
+    out->S = S;
+    out->G = G;
+    out->face = f;
+    out->elem[0] = left;
+    out->elem[1] = right;
+    memcpy(S, in->S, 4 * nb * nb * sizeof *S);
+    memcpy(G, in->G, 12 * nb * nb * sizeof *G);
+}
+
+static pf_status setup_faces(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reuse *reuse,
+                             pf_error *err)
 {
     int nb = dg->nb;
     size_t per_face = 4 * (size_t)nb * nb * 4; /* S and G (3 per entry) */
     dg->faces = pf_calloc((size_t)mesh->n_faces, sizeof *dg->faces);
     dg->face_slot = pf_alloc_array((size_t)mesh->n_faces, sizeof *dg->face_slot);
     dg->face_storage = pf_alloc_array((size_t)mesh->n_faces * per_face, sizeof(double));
-    PF_CHECK(dg->faces && dg->face_slot && (dg->face_storage || mesh->n_faces == 0), err, PF_ERR_NOMEM,
-             "cannot allocate the terms of %d faces", (int)mesh->n_faces);
+    PF_CHECK(dg->faces && dg->face_slot && (dg->face_storage || mesh->n_faces == 0), err,
+             PF_ERR_NOMEM, "cannot allocate the terms of %d faces", (int)mesh->n_faces);
     dg->n_faces = mesh->n_faces;
     /* Interior faces first, then boundary faces. */
     int32_t slot = 0;
@@ -242,7 +301,13 @@ static pf_status setup_faces(pf_dg *dg, const pf_mesh *mesh, pf_error *err)
             /* The stored orientation is outward for face_elems[2f]; a boundary face used only
              * reversed has its outward normal opposite to the stored one. */
             int32_t left = a >= 0 ? a : b, right = a >= 0 ? b : -1;
-            pf_status s = setup_face(dg, mesh, f, left, right, a >= 0 ? 1 : -1, out, err);
+            int32_t g = old_face_of(mesh, f, left, right, reuse);
+            if (g >= 0) {
+                copy_face(dg, out, f, left, right, reuse->old, g);
+                dg->reused_faces++;
+            }
+            pf_status s =
+                g >= 0 ? PF_OK : setup_face(dg, mesh, f, left, right, a >= 0 ? 1 : -1, out, err);
             if (s < 0) {
                 pf_error_prefix(err, "face %d", (int)f);
                 return s;
@@ -317,8 +382,8 @@ static pf_status allocate_elements(pf_dg *dg, pf_error *err)
     dg->ke = pf_alloc_array(ne * 9 * nb * nb, sizeof *dg->ke);
     dg->me = pf_alloc_array(ne * nb * nb, sizeof *dg->me);
     dg->phi_int = pf_alloc_array(ne * nb, sizeof *dg->phi_int);
-    PF_CHECK(ne == 0 || (dg->frame && dg->volume && dg->centroid && dg->ke && dg->me &&
-                         dg->phi_int),
+    PF_CHECK(ne == 0 ||
+                 (dg->frame && dg->volume && dg->centroid && dg->ke && dg->me && dg->phi_int),
              err, PF_ERR_NOMEM, "cannot allocate the terms of %d elements", (int)dg->n_elems);
     return PF_OK;
 }
@@ -326,11 +391,17 @@ static pf_status allocate_elements(pf_dg *dg, pf_error *err)
 pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
                        double density, pf_error *err)
 {
+    return pf_dg_create_reusing(dg, m, degree, E, nu, density, NULL, err);
+}
+
+pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
+                               double density, const pf_dg_reuse *reuse, pf_error *err)
+{
     memset(dg, 0, sizeof *dg);
-    PF_CHECK(degree == 1 || degree == 2, err, PF_ERR_INVALID,
-             "DG degree must be 1 or 2, got %d", (int)degree);
-    PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && density > 0 && isfinite(density),
-             err, PF_ERR_INVALID, "bad material: E = %g, nu = %g, density = %g", E, nu, density);
+    PF_CHECK(degree == 1 || degree == 2, err, PF_ERR_INVALID, "DG degree must be 1 or 2, got %d",
+             (int)degree);
+    PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && density > 0 && isfinite(density), err,
+             PF_ERR_INVALID, "bad material: E = %g, nu = %g, density = %g", E, nu, density);
     PF_CHECK(m->face_elems, err, PF_ERR_INVALID, "mesh not derived (pf_mesh_derive)");
     dg->degree = degree;
     dg->nb = pf_moment_count(degree);
@@ -344,13 +415,13 @@ pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, do
     if (s >= 0)
         s = allocate_elements(dg, err);
     if (s >= 0)
-        s = setup_elements(dg, m, &arena, err);
+        s = setup_elements(dg, m, reuse, &arena, err);
     if (s >= 0) {
         double total = 0;
         for (int32_t e = 0; e < dg->n_elems; ++e)
             total += dg->volume[e];
         dg->body_length = cbrt(total);
-        s = setup_faces(dg, m, err);
+        s = setup_faces(dg, m, reuse, err);
     }
     if (s >= 0)
         s = setup_stitching(dg, m, err);

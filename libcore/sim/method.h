@@ -12,6 +12,18 @@
 #include <pf/sim.h>
 #include <pf/solve.h>
 
+/* How the elements and nodes of a new mesh relate to the old one's (sim_change.c). */
+typedef struct pf_mesh_change {
+    const pf_mesh *old_mesh;
+    const int32_t *parent;      /* [new elements] the old element each comes from (a merged
+                                   element: one of its group) */
+    const uint8_t *split;       /* [old elements] 1 for an element split into children */
+    const int32_t *merged_into; /* [old elements] the new element an old one was merged into,
+                                   -1 for none; NULL when nothing merged */
+    const int32_t *node_map;    /* [old nodes] the new index of each old node, -1 when removed;
+                                   NULL: every old node keeps its index */
+} pf_mesh_change;
+
 typedef struct pf_method_ops {
     /* Unknowns and the pattern of the system matrix. */
     int64_t (*n_dofs)(const void *m);
@@ -62,6 +74,15 @@ typedef struct pf_method_ops {
     void (*affine)(const void *m, const double a[9], const double b[3], double *u);
     /* Largest disagreement between elements at a node (0 for a conforming method). */
     double (*max_node_jump)(const void *m, const double *u);
+    /* Refinement (sim_refine.c). The principal stress of largest magnitude in element e
+     * (corotated, sampled at its centroid and vertices), its direction in the rest frame. */
+    double (*principal_stress)(const void *m, const double *u, int32_t e, pf_vec3 *direction);
+    /* The field u_old of old (this method on the mesh before a change, pf_mesh_change) carried
+     * over to this method's unknowns u_new. DG: each child its parent's polynomial (exact), each
+     * merged element the L2 projection of its children (momentum exact); CG: old nodes keep
+     * their values (through node_map), new ones take the parent's field at their position. */
+    pf_status (*transfer)(const void *m, const void *old, const pf_mesh_change *change,
+                          const double *u_old, double *u_new, pf_error *err);
     void (*destroy)(void *m);
 } pf_method_ops;
 
@@ -80,21 +101,40 @@ static inline void sort_row(int64_t *triple, double *w, int64_t n)
         }
 }
 
+/* What a method on a refined mesh may take over from the same method on the mesh before
+ * (pf_sim_split): the old method's context and mesh, each new element's parent, and per new
+ * element whether it is its parent's solid (not a child) and whether its faces are the parent's
+ * node for node (pf_refine_result.changed == 0). */
+typedef struct pf_method_reuse {
+    const void *old;
+    const pf_mesh *old_mesh;
+    const int32_t *parent;
+    const uint8_t *same_solid;
+    const uint8_t *same_faces;
+} pf_method_reuse;
+
 /* Creates a method for the scene on the mesh: *ops and *ctx; fixed_faces and loaded_faces count
- * the boundary faces the scene's regions selected. */
+ * the boundary faces the scene's regions selected. reuse: NULL, or what a refined mesh takes
+ * over. */
 typedef pf_status (*pf_method_create_fn)(const pf_scene *scene, const pf_mesh *mesh,
-                                         const pf_method_ops **ops, void **ctx,
-                                         int32_t *fixed_faces, int32_t *loaded_faces,
+                                         const pf_method_reuse *reuse, const pf_method_ops **ops,
+                                         void **ctx, int32_t *fixed_faces, int32_t *loaded_faces,
                                          pf_error *err);
 
-pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
-                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
+pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
+                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
+                           int32_t *loaded_faces, pf_error *err);
 
 /* The CG method (sim_cg.c), and its set-up statistics: elements with closed-form functions (MFS
  * skipped), harmonic elements, their MFS kernels, seconds spent building the shape functions. */
-pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
-                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
+pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
+                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
+                           int32_t *loaded_faces, pf_error *err);
 void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic, int64_t *kernels,
                      double *basis_seconds);
+
+/* The DG method's reuse at its creation (pf_dg_create_reusing): element and face integrals
+ * copied, and computed. */
+void pf_sim_dg_reuse_stats(const void *ctx, int64_t *reused, int64_t *computed);
 
 #endif

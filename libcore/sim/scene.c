@@ -47,6 +47,11 @@ void pf_scene_default(pf_scene *s)
         .frames = 60,
         .substeps = 10,
         .solver = pf_solver_params_default(),
+        .refine = {.split = PF_SPLIT_OCTS,
+                   .max_level = 2,
+                   .max_elements = 100000,
+                   .coarsen_fraction = 0.5,
+                   .coarsen_after = 10},
     };
 }
 
@@ -346,6 +351,47 @@ static pf_status read_solver(reader *r, const cJSON *v, pf_solver_params *p)
         else
             READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &p->max_iterations));
     }
+    return PF_OK;
+}
+
+static pf_status read_split(reader *r, const cJSON *v, pf_split_kind *out)
+{
+    if (cJSON_IsString(v) && !strcmp(v->valuestring, "octs"))
+        *out = PF_SPLIT_OCTS;
+    else if (cJSON_IsString(v) && !strcmp(v->valuestring, "halves"))
+        *out = PF_SPLIT_HALVES;
+    else
+        return fail_type(r, v, "\"octs\" or \"halves\"");
+    return PF_OK;
+}
+
+static pf_status read_refine(reader *r, const cJSON *v, pf_refine_params *p)
+{
+    static const char *const keys[] = {"threshold",     "split",    "max_level",
+                                       "max_elements",  "min_size", "coarsen_fraction",
+                                       "coarsen_after", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    bool threshold = false;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "threshold")) {
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &p->threshold));
+            threshold = true;
+        } else if (!strcmp(it->string, "split"))
+            READ_KEY(r, it, read_split(r, it, &p->split));
+        else if (!strcmp(it->string, "max_level"))
+            READ_KEY(r, it, read_int(r, it, RANGE_INT_NONNEG, &p->max_level));
+        else if (!strcmp(it->string, "max_elements"))
+            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &p->max_elements));
+        else if (!strcmp(it->string, "coarsen_fraction"))
+            READ_KEY(r, it, read_number(r, it, RANGE_UNIT_INTERVAL, &p->coarsen_fraction));
+        else if (!strcmp(it->string, "coarsen_after"))
+            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &p->coarsen_after));
+        else
+            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &p->min_size));
+    }
+    if (!threshold)
+        return fail(r, "needs a threshold (stress units)");
+    p->enabled = true;
     return PF_OK;
 }
 
@@ -738,8 +784,7 @@ pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t)
     return o->key_translation[o->n_keys - 1];
 }
 
-pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surface,
-                                        pf_error *err)
+pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surface, pf_error *err)
 {
     PF_CHECK(i >= 0 && i < s->n_obstacles && s->obstacles[i].kind == PF_OBSTACLE_MESH, err,
              PF_ERR_INVALID, "obstacles[%d]: not a mesh obstacle", (int)i);
@@ -762,7 +807,7 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
     }
     static const char *const keys[] = {"material", "method", "corotation", "gravity", "body_force",
                                        "damping",  "fixed",  "loads",      "ground",  "obstacles",
-                                       "time",     "static", "solver",     NULL};
+                                       "time",     "static", "solver",     "refine",  NULL};
     PF_TRY(begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;
@@ -790,6 +835,8 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
             READ_KEY(r, it, read_time(r, it, s));
         else if (!strcmp(k, "solver"))
             READ_KEY(r, it, read_solver(r, it, &s->solver));
+        else if (!strcmp(k, "refine"))
+            READ_KEY(r, it, read_refine(r, it, &s->refine));
         else
             READ_KEY(r, it, read_bool(r, it, &s->is_static));
     }
@@ -828,70 +875,4 @@ pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *
     pf_status st = read_scene(&r, root, s);
     cJSON_Delete(root);
     return st;
-}
-
-enum { SCENE_MAX_BYTES = 64 << 20 };
-
-pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err)
-{
-    memset(s, 0, sizeof *s);
-    pf_scene_default(s);
-    PF_CHECK(path, err, PF_ERR_INVALID, "scene: no file name");
-    FILE *f = fopen(path, "rb");
-    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    /* Read to the end in growing chunks: works for pipes and process substitution too. */
-    pf_buffer buf = {0};
-    pf_status st = PF_OK;
-    char chunk[8192];
-    size_t n;
-    while (st == PF_OK && (n = fread(chunk, 1, sizeof chunk, f)) > 0) {
-        st = pf_buffer_append(&buf, chunk, n, err);
-        if (st == PF_OK && buf.size > SCENE_MAX_BYTES)
-            st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
-                              "%s: larger than %d bytes: not a scene file", path, SCENE_MAX_BYTES);
-    }
-    if (st == PF_OK && ferror(f))
-        st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: read failed: %s", path,
-                          strerror(errno));
-    fclose(f);
-    if (st == PF_OK)
-        st = pf_scene_parse(s, (const char *)buf.data, buf.size, path, err);
-    else if (st == PF_ERR_NOMEM)
-        pf_error_prefix(err, "%s", path);
-    pf_buffer_release(&buf);
-    return st;
-}
-
-/* ---- completion against a mesh, regions ------------------------------------------------------ */
-
-void pf_scene_resolve(pf_scene *s, pf_vec3 lo, pf_vec3 hi)
-{
-    if (s->ground_auto) {
-        /* The bounding box's extent along the normal from its 8 corners; the plane sits 5 % of
-         * that extent below the lowest corner, so the body starts just above the ground. */
-        pf_vec3 n = s->ground_normal;
-        double smin = INFINITY, smax = -INFINITY;
-        for (int c = 0; c < 8; ++c) {
-            pf_vec3 corner = pf_v3(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
-            double d = pf_v3_dot(n, corner);
-            smin = fmin(smin, d);
-            smax = fmax(smax, d);
-        }
-        s->ground_point = pf_v3_scale(n, smin - 0.05 * (smax - smin));
-    }
-    double tol = 1e-6 * pf_v3_dist(lo, hi);
-    for (int32_t i = 0; i < s->n_fixed; ++i)
-        if (s->fixed[i].region.kind == PF_REGION_PLANE && s->fixed[i].region.tol < 0)
-            s->fixed[i].region.tol = tol;
-    for (int32_t i = 0; i < s->n_loads; ++i)
-        if (s->loads[i].region.kind == PF_REGION_PLANE && s->loads[i].region.tol < 0)
-            s->loads[i].region.tol = tol;
-}
-
-bool pf_region_contains(const pf_region *r, pf_vec3 p)
-{
-    if (r->kind == PF_REGION_BOX)
-        return p.x >= r->lo.x && p.x <= r->hi.x && p.y >= r->lo.y && p.y <= r->hi.y &&
-               p.z >= r->lo.z && p.z <= r->hi.z;
-    return fabs(pf_plane_signed_distance(r->plane, p)) <= r->tol;
 }

@@ -44,6 +44,8 @@ bool pf_scene_in_range(scene_range r, double v)
         return v >= 1;
     case RANGE_OPEN_UNIT:
         return v > 0 && v < 1;
+    case RANGE_UNIT_INTERVAL:
+        return v >= 0 && v < 1;
     }
     return false;
 }
@@ -69,6 +71,8 @@ const char *pf_scene_range_text(scene_range r)
         return "must be an integer >= 1";
     case RANGE_OPEN_UNIT:
         return "must be in (0, 1)";
+    case RANGE_UNIT_INTERVAL:
+        return "must be in [0, 1)";
     }
     return "out of range";
 }

@@ -9,15 +9,16 @@
 #include <pf/sim.h>
 
 typedef enum scene_range {
-    RANGE_FINITE,       /* any finite number */
-    RANGE_POSITIVE,     /* > 0 */
-    RANGE_NONNEG,       /* >= 0 */
-    RANGE_POISSON,      /* (-1, 0.5): the bulk and shear moduli are then positive */
-    RANGE_DEGREE,       /* integer 1 or 2 */
-    RANGE_EDGE_SAMPLES, /* integer 1 .. 16 */
-    RANGE_INT_NONNEG,   /* integer >= 0 (fits int32) */
-    RANGE_INT_POS,      /* integer >= 1 (fits int32) */
-    RANGE_OPEN_UNIT,    /* (0, 1) */
+    RANGE_FINITE,        /* any finite number */
+    RANGE_POSITIVE,      /* > 0 */
+    RANGE_NONNEG,        /* >= 0 */
+    RANGE_POISSON,       /* (-1, 0.5): the bulk and shear moduli are then positive */
+    RANGE_DEGREE,        /* integer 1 or 2 */
+    RANGE_EDGE_SAMPLES,  /* integer 1 .. 16 */
+    RANGE_INT_NONNEG,    /* integer >= 0 (fits int32) */
+    RANGE_INT_POS,       /* integer >= 1 (fits int32) */
+    RANGE_OPEN_UNIT,     /* (0, 1) */
+    RANGE_UNIT_INTERVAL, /* [0, 1) */
 } scene_range;
 
 bool pf_scene_range_is_integer(scene_range r);

@@ -113,6 +113,17 @@ static cJSON *scene_object(const pf_scene *s)
     cJSON_AddStringToObject(solver, "method", pf_solver_method_name(s->solver.method));
     cJSON_AddNumberToObject(solver, "tolerance", s->solver.tolerance);
     cJSON_AddNumberToObject(solver, "max_iterations", s->solver.max_iterations);
+    if (s->refine.enabled) {
+        cJSON *refine = cJSON_AddObjectToObject(root, "refine");
+        add_number(refine, "threshold", s->refine.threshold);
+        cJSON_AddStringToObject(refine, "split",
+                                s->refine.split == PF_SPLIT_HALVES ? "halves" : "octs");
+        add_number(refine, "max_level", s->refine.max_level);
+        add_number(refine, "max_elements", s->refine.max_elements);
+        add_number(refine, "min_size", s->refine.min_size);
+        add_number(refine, "coarsen_fraction", s->refine.coarsen_fraction);
+        add_number(refine, "coarsen_after", s->refine.coarsen_after);
+    }
     cJSON *damping = cJSON_AddObjectToObject(root, "damping");
     add_number(damping, "alpha", s->damping_alpha);
     add_number(damping, "beta", s->damping_beta);

@@ -15,35 +15,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "contact.h"
-#include "method.h"
-
-struct pf_sim {
-    const pf_scene *scene;
-    const pf_mesh *mesh;
-    const pf_method_ops *ops;
-    void *method;
-    int64_t n;     /* unknowns */
-    double *f_ext; /* [n] loads and body forces, constant */
-    double *u, *v; /* state */
-    double *f, *ku, *rhs;
-    double *u_prev, *v_prev; /* the state before the frame, restored on failure */
-    double *dv;              /* the last step's velocity change (the warm start's trend) */
-    pf_block_matrix k;
-    pf_solver *solver;
-    bool assembled;      /* the system matrix has been assembled once (it changes afterwards only
-                            with corotation) */
-    pf_contact *contact; /* NULL without ground and obstacles, and in static scenes */
-    double model_size;
-    /* the energy check (energy_is_bounded): the kinetic energy when the first frame began, the
-     * work of the loads, body forces and moving obstacles since, the elastic energy the start
-     * can release, and a floor below which kinetic energy is noise */
-    bool energy_started;
-    double kinetic0, work, fixed_energy, energy_floor;
-    double time;
-    int32_t frame;
-    pf_sim_stats stats;
-};
+#include "sim_internal.h"
 
 /* ---- set-up ------------------------------------------------------------------------------ */
 
@@ -59,16 +31,28 @@ static pf_status allocate_state(pf_sim *s, pf_error *err)
     return PF_OK;
 }
 
-/* The solver's statistics into the simulator's. */
-static void sync_solver_stats(pf_sim *s)
+void pf_sim_sync_solver_stats(pf_sim *s)
 {
-    const pf_solver_stats *ss = pf_solver_get_stats(s->solver);
-    s->stats.solver = *ss;
-    s->stats.factorisations = ss->factorisations;
-    s->stats.factor_seconds = ss->factor_seconds;
-    s->stats.solve_seconds = ss->solve_seconds;
-    s->stats.matrix_nnz = ss->matrix_nnz;
-    s->stats.factor_nnz = ss->factor_nnz;
+    pf_solver_stats ss = *pf_solver_get_stats(s->solver);
+    const pf_solver_stats *b = &s->solver_before;
+    ss.solves += b->solves;
+    ss.factorisations += b->factorisations;
+    for (int k = 0; k < PF_REFACTOR_REASONS; ++k)
+        ss.by_reason[k] += b->by_reason[k];
+    ss.pcg_solves += b->pcg_solves;
+    ss.iterations += b->iterations;
+    ss.max_iterations =
+        ss.max_iterations > b->max_iterations ? ss.max_iterations : b->max_iterations;
+    ss.factor_seconds += b->factor_seconds;
+    ss.solve_seconds += b->solve_seconds;
+    ss.factor_cpu_seconds += b->factor_cpu_seconds;
+    ss.solve_cpu_seconds += b->solve_cpu_seconds;
+    s->stats.solver = ss;
+    s->stats.factorisations = ss.factorisations;
+    s->stats.factor_seconds = ss.factor_seconds;
+    s->stats.solve_seconds = ss.solve_seconds;
+    s->stats.matrix_nnz = ss.matrix_nnz;
+    s->stats.factor_nnz = ss.factor_nnz;
 }
 
 /* The automatic BZ penalty. BZ is positive definite for any eta > 0 (sec. 3.3), so the search
@@ -106,11 +90,12 @@ static bool definite_at(pf_sim *s, const double *u, double shift)
  * and 7.6). Corotated dynamics therefore take 8 x the smallest definite eta, one doubling of
  * margin beyond the largest failure seen; the DG paper reports 10-100 in practice. */
 enum { COROTATED_PENALTY_MARGIN = 8 };
-static pf_status choose_penalty(pf_sim *s, pf_error *err)
+static pf_status choose_penalty(pf_sim *s, double given, pf_error *err)
 {
     if (!s->ops->set_penalty)
         return PF_OK;
-    double given = s->scene->penalty;
+    if (given <= 0)
+        given = s->scene->penalty;
     if (given <= 0 && s->scene->flux == PF_FLUX_BZ)
         given = bz_default_penalty(s->scene->degree);
     if (given > 0) {
@@ -137,16 +122,15 @@ static pf_status choose_penalty(pf_sim *s, pf_error *err)
 }
 
 /* Contact (contact.c) through the method's nodal map, and the pattern it needs. */
-static pf_status setup_contact(pf_sim *s, const pf_surface *surface, const pf_weights *weights,
-                               pf_error *err)
+static pf_status setup_contact(pf_sim *s, pf_error *err)
 {
     if (s->scene->is_static)
         return PF_OK;
     pf_contact_setup cs = {.scene = s->scene,
                            .mesh = s->mesh,
                            .n_triples = s->n / 3,
-                           .surface = surface,
-                           .weights = weights,
+                           .surface = s->surface,
+                           .weights = s->weights,
                            .auto_stiffness = s->ops->ground_stiffness(s->method),
                            .model_size = s->model_size,
                            .ops = s->ops,
@@ -166,22 +150,17 @@ pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh
     return pf_sim_create_embedded(out, scene, mesh, NULL, NULL, err);
 }
 
-pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh,
-                                 const pf_surface *surface, const pf_weights *weights,
-                                 pf_error *err)
+pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *reuse, double penalty,
+                       pf_error *err)
 {
-    *out = NULL;
-    PF_CHECK(!surface == !weights, err, PF_ERR_INVALID,
-             "an embedded surface needs both the surface and its weights");
-    double t0 = pf_time_seconds();
-    pf_sim *s = pf_calloc(1, sizeof *s);
-    PF_CHECK(s, err, PF_ERR_NOMEM, "cannot allocate the simulator");
-    s->scene = scene;
+    const pf_scene *scene = s->scene;
     s->mesh = mesh;
     pf_method_create_fn create =
         scene->method == PF_METHOD_CG ? pf_sim_cg_create : pf_sim_dg_create;
-    pf_status st = create(scene, mesh, &s->ops, &s->method, &s->stats.fixed_faces,
+    double t0 = pf_time_seconds();
+    pf_status st = create(scene, mesh, reuse, &s->ops, &s->method, &s->stats.fixed_faces,
                           &s->stats.loaded_faces, err);
+    s->method_seconds = pf_time_seconds() - t0;
     if (st >= 0 && scene->method == PF_METHOD_CG)
         pf_sim_cg_stats(s->method, &s->stats.closed_form_elems, &s->stats.harmonic_elems,
                         &s->stats.kernels, &s->stats.basis_seconds);
@@ -199,23 +178,73 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
     if (st >= 0)
         st = s->ops->pattern(s->method, &s->k, err);
     if (st >= 0)
-        st = setup_contact(s, surface, weights, err);
+        st = setup_contact(s, err);
     if (st >= 0) {
         bool changes = !scene->is_static && (scene->corotation || s->contact);
         st = pf_solver_create(&s->solver, &s->k, &scene->solver, changes, err);
     }
     if (st >= 0)
-        st = choose_penalty(s, err);
+        st = choose_penalty(s, penalty, err);
+    if (st < 0)
+        return st;
+    s->ops->external_forces(s->method, s->f_ext);
+    s->stats.dofs = s->n;
+    s->stats.elements = mesh->n_elems;
+    pf_sim_sync_solver_stats(s);
+    return PF_OK;
+}
+
+pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh,
+                                 const pf_surface *surface, const pf_weights *weights,
+                                 pf_error *err)
+{
+    *out = NULL;
+    PF_CHECK(!surface == !weights, err, PF_ERR_INVALID,
+             "an embedded surface needs both the surface and its weights");
+    double t0 = pf_time_seconds();
+    pf_sim *s = pf_calloc(1, sizeof *s);
+    PF_CHECK(s, err, PF_ERR_NOMEM, "cannot allocate the simulator");
+    s->scene = scene;
+    s->surface = surface;
+    s->weights = weights;
+    pf_status st = pf_sim_build(s, mesh, NULL, 0, err);
     if (st < 0) {
         pf_sim_destroy(&s);
         return st;
     }
-    s->ops->external_forces(s->method, s->f_ext);
-    s->stats.dofs = s->n;
-    sync_solver_stats(s);
     s->stats.setup_seconds = pf_time_seconds() - t0;
     *out = s;
     return PF_OK;
+}
+
+void pf_sim_release(pf_sim *s)
+{
+    if (s->ops)
+        s->ops->destroy(s->method);
+    s->ops = NULL;
+    s->method = NULL;
+    double **vectors[] = {&s->f_ext, &s->u,      &s->v,      &s->f, &s->ku,
+                          &s->rhs,   &s->u_prev, &s->v_prev, &s->dv};
+    for (size_t k = 0; k < sizeof vectors / sizeof *vectors; ++k) {
+        pf_free(*vectors[k]);
+        *vectors[k] = NULL;
+    }
+    pf_block_matrix_release(&s->k);
+    pf_solver_destroy(&s->solver);
+    pf_contact_destroy(&s->contact);
+    pf_free(s->level);
+    pf_free(s->family);
+    pf_free(s->calm);
+    s->level = s->family = s->calm = NULL;
+    pf_buffer_release(&s->families);
+    if (s->owned_weights)
+        pf_weights_release(s->owned_weights);
+    pf_free(s->owned_weights);
+    s->owned_weights = NULL;
+    if (s->owned_mesh)
+        pf_mesh_release(s->owned_mesh);
+    pf_free(s->owned_mesh);
+    s->owned_mesh = NULL;
 }
 
 void pf_sim_destroy(pf_sim **sim)
@@ -223,14 +252,7 @@ void pf_sim_destroy(pf_sim **sim)
     pf_sim *s = *sim;
     if (!s)
         return;
-    if (s->ops)
-        s->ops->destroy(s->method);
-    double *vectors[] = {s->f_ext, s->u, s->v, s->f, s->ku, s->rhs, s->u_prev, s->v_prev, s->dv};
-    for (size_t k = 0; k < sizeof vectors / sizeof *vectors; ++k)
-        pf_free(vectors[k]);
-    pf_block_matrix_release(&s->k);
-    pf_solver_destroy(&s->solver);
-    pf_contact_destroy(&s->contact);
+    pf_sim_release(s);
     pf_free(s);
     *sim = NULL;
 }
@@ -312,7 +334,7 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
         s->v[q] += s->dv[q];
     }
     pf_status st = pf_solver_solve(s->solver, &s->k, change, s->rhs, s->v, &failed, err);
-    sync_solver_stats(s);
+    pf_sim_sync_solver_stats(s);
     if (st < 0) {
         if (failed >= 0)
             pf_error_prefix(err, "element %d", (int)s->ops->element_of_dof(s->method, failed));
@@ -437,6 +459,13 @@ pf_status pf_sim_frame(pf_sim *s, pf_error *err)
         s->time += h;
     }
     s->frame++;
+    if (sc->refine.enabled) {
+        pf_status st = pf_sim_refine(s, NULL, err);
+        if (st < 0) {
+            pf_error_prefix(err, "frame %d", (int)s->frame);
+            return st;
+        }
+    }
     return PF_OK;
 }
 
@@ -449,7 +478,7 @@ pf_status pf_sim_solve_static(pf_sim *s, pf_error *err)
     s->stats.assemble_seconds += pf_time_seconds() - t0;
     int64_t failed = -1;
     pf_status st = pf_solver_solve(s->solver, &s->k, PF_MATRIX_NEW, s->f, s->u, &failed, err);
-    sync_solver_stats(s);
+    pf_sim_sync_solver_stats(s);
     if (st < 0) {
         if (failed >= 0)
             pf_error_prefix(err, "static solve, element %d",

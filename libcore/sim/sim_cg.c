@@ -314,6 +314,99 @@ static double max_node_jump(const void *m, const double *u)
     return 0;
 }
 
+/* The corotated principal stress of element e at x from the nodal displacements u [3 n_nodes],
+ * kept in *best (and its direction) when it is larger in magnitude. */
+static void stress_sample(const cg_method *c, const double *u, int32_t e, pf_vec3 x, double *best,
+                          pf_vec3 *direction)
+{
+    const int32_t *nodes;
+    int32_t k = pf_basis_elem_nodes(&c->cg.basis, e, &nodes);
+    double grad[3 * PF_BASIS_MAX_NODES], sigma[6];
+    pf_basis_eval(&c->cg.basis, e, x, NULL, grad);
+    pf_mat3 f = pf_m3_identity();
+    for (int32_t a = 0; a < k; ++a)
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                f.m[i][j] += u[3 * (size_t)nodes[a] + i] * grad[3 * a + j];
+    pf_corotated_stress(f, c->cg.lambda, c->cg.mu, sigma);
+    pf_vec3 dir;
+    double value = pf_principal_stress(sigma, &dir);
+    if (fabs(value) > fabs(*best))
+        *best = value, *direction = dir;
+}
+
+/* At the centroid and at every node of the element. */
+static double principal_stress(const void *m, const double *u, int32_t e, pf_vec3 *direction)
+{
+    const cg_method *c = m;
+    to_nodal(c, u, c->u_full);
+    double best = 0;
+    *direction = pf_v3(1, 0, 0);
+    stress_sample(c, c->u_full, e, c->cg.centroid[e], &best, direction);
+    const int32_t *nodes;
+    int32_t k = pf_basis_elem_nodes(&c->cg.basis, e, &nodes);
+    for (int32_t a = 0; a < k; ++a)
+        stress_sample(c, c->u_full, e, pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]), &best,
+                      direction);
+    return best;
+}
+
+/* Node i of the new mesh takes the old field of old element p at its position. */
+static void interpolate_node(const cg_method *o, const double *old_nodal, int32_t p, pf_vec3 x,
+                             double *value)
+{
+    const int32_t *nodes;
+    int32_t k = pf_basis_elem_nodes(&o->cg.basis, p, &nodes);
+    double n[PF_BASIS_MAX_NODES];
+    pf_basis_eval(&o->cg.basis, p, x, n, NULL);
+    value[0] = value[1] = value[2] = 0;
+    for (int32_t a = 0; a < k; ++a)
+        for (int i = 0; i < 3; ++i)
+            value[i] += n[a] * old_nodal[3 * (size_t)nodes[a] + i];
+}
+
+/* Old nodes keep their values (through the change's node map: a merge drops the nodes no face
+ * needs any more); a new node takes the field of the split parent of a child it belongs to
+ * (children first: their parents' fields hold the node inside or on their boundary), exact
+ * where the parent's functions reproduce the field there: affine fields always, trilinear ones
+ * on a hexahedron's closed form. Fixed nodes keep their prescribed displacement. */
+static pf_status transfer(const void *m, const void *old, const pf_mesh_change *change,
+                          const double *u_old, double *u_new, pf_error *err)
+{
+    const cg_method *c = m, *o = old;
+    int32_t old_nodes = o->cg.n_nodes;
+    uint8_t *done = pf_calloc((size_t)c->cg.n_nodes + 1, 1);
+    PF_CHECK(done, err, PF_ERR_NOMEM, "cannot allocate %d node flags", (int)c->cg.n_nodes);
+    to_nodal(o, u_old, o->u_full);
+    double *nodal = c->u_full;
+    for (int32_t i = 0; i < old_nodes; ++i) {
+        int32_t j = change->node_map ? change->node_map[i] : i;
+        if (j < 0)
+            continue;
+        memcpy(nodal + 3 * (size_t)j, o->u_full + 3 * (size_t)i, 3 * sizeof *nodal);
+        done[j] = 1;
+    }
+    for (int pass = 0; pass < 2; ++pass)
+        for (int32_t e = 0; e < c->cg.n_elems; ++e) {
+            bool child = change->split && change->split[change->parent[e]];
+            if (child != (pass == 0))
+                continue;
+            const int32_t *nodes;
+            int32_t k = pf_basis_elem_nodes(&c->cg.basis, e, &nodes);
+            for (int32_t a = 0; a < k; ++a)
+                if (!done[nodes[a]]) {
+                    pf_vec3 x = pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]);
+                    interpolate_node(o, o->u_full, change->parent[e], x,
+                                     nodal + 3 * (size_t)nodes[a]);
+                    done[nodes[a]] = 1;
+                }
+        }
+    pf_free(done);
+    for (int32_t i = 0; i < c->map.n_free; ++i)
+        memcpy(u_new + 3 * (size_t)i, nodal + 3 * (size_t)c->map.block_node[i], 3 * sizeof *u_new);
+    return PF_OK;
+}
+
 static void destroy(void *m)
 {
     cg_method *c = m;
@@ -353,6 +446,8 @@ static const pf_method_ops CG_OPS = {
     .momentum = momentum,
     .affine = affine,
     .max_node_jump = max_node_jump,
+    .principal_stress = principal_stress,
+    .transfer = transfer,
     .destroy = destroy,
 };
 
@@ -403,9 +498,11 @@ void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic, i
     *basis_seconds = c->cg.basis_seconds;
 }
 
-pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
-                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err)
+pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
+                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
+                           int32_t *loaded_faces, pf_error *err)
 {
+    (void)reuse; /* the basis is rebuilt on every element (see docs/scene.md, "refine") */
     *ops = &CG_OPS;
     *ctx = NULL;
     cg_method *c = pf_calloc(1, sizeof *c);

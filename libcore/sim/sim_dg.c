@@ -201,18 +201,8 @@ static void von_mises(const void *m, const double *u, double *out)
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
                 f.m[i][j] = (i == j) + g[3 * i + j];
-        pf_mat3 rf = pf_m3_mul(pf_m3_transpose(pf_mat3_polar_rotation(f)), f);
-        double eps[3][3];
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-                eps[i][j] = 0.5 * (rf.m[i][j] + rf.m[j][i]) - (i == j);
-        double tr = eps[0][0] + eps[1][1] + eps[2][2];
-        double sigma[6] = {lambda * tr + 2 * mu * eps[0][0],
-                           lambda * tr + 2 * mu * eps[1][1],
-                           lambda * tr + 2 * mu * eps[2][2],
-                           2 * mu * eps[0][1],
-                           2 * mu * eps[1][2],
-                           2 * mu * eps[2][0]};
+        double sigma[6];
+        pf_corotated_stress(f, lambda, mu, sigma);
         out[e] = pf_von_mises(sigma);
     }
 }
@@ -281,6 +271,77 @@ static double max_node_jump(const void *m, const double *u)
     return largest;
 }
 
+/* The corotated principal stress of element e at x, kept in *best (and its direction) when it
+ * is larger in magnitude. */
+static void stress_sample(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x, double *best,
+                          pf_vec3 *direction)
+{
+    double g[9], sigma[6];
+    pf_dg_gradient_at(dg, u, e, x, g);
+    pf_mat3 f;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            f.m[i][j] = (i == j) + g[3 * i + j];
+    pf_corotated_stress(f, dg->lambda, dg->mu, sigma);
+    pf_vec3 dir;
+    double value = pf_principal_stress(sigma, &dir);
+    if (fabs(value) > fabs(*best))
+        *best = value, *direction = dir;
+}
+
+/* The centroid and, for degree 2 (degree 1 has a constant gradient), every vertex. */
+static double principal_stress(const void *m, const double *u, int32_t e, pf_vec3 *direction)
+{
+    const dg_method *d = m;
+    const pf_mesh *mesh = d->mesh;
+    double best = 0;
+    *direction = pf_v3(1, 0, 0);
+    stress_sample(&d->dg, u, e, pf_v3_load(d->dg.centroid + 3 * (size_t)e), &best, direction);
+    for (int64_t q = mesh->elem_offsets[e]; d->dg.degree >= 2 && q < mesh->elem_offsets[e + 1];
+         ++q) {
+        int32_t f = PF_FACE_INDEX(mesh->elem_faces[q]);
+        for (int64_t k = mesh->face_offsets[f]; k < mesh->face_offsets[f + 1]; ++k)
+            stress_sample(&d->dg, u, e, pf_v3_load(mesh->x + 3 * (size_t)mesh->face_nodes[k]),
+                          &best, direction);
+    }
+    return best;
+}
+
+/* Every child takes its parent's polynomial and unchanged elements their own (exact); a merged
+ * element the L2 projection of the elements merged into it. */
+static pf_status transfer(const void *m, const void *old, const pf_mesh_change *change,
+                          const double *u_old, double *u_new, pf_error *err)
+{
+    const dg_method *d = m, *o = old;
+    int32_t n_old = o->dg.n_elems;
+    int32_t *group = NULL, *first = NULL; /* old elements by the new element they merged into */
+    if (change->merged_into) {
+        group = pf_alloc_array((size_t)n_old + 1, sizeof *group);
+        first = pf_calloc((size_t)d->dg.n_elems + 2, sizeof *first);
+        PF_CHECK(group && first, err, PF_ERR_NOMEM, "cannot allocate %d merge slots", (int)n_old);
+        for (int32_t q = 0; q < n_old; ++q)
+            if (change->merged_into[q] >= 0)
+                first[change->merged_into[q] + 2]++;
+        for (int32_t e = 0; e < d->dg.n_elems; ++e)
+            first[e + 2] += first[e + 1];
+        for (int32_t q = 0; q < n_old; ++q)
+            if (change->merged_into[q] >= 0)
+                group[first[change->merged_into[q] + 1]++] = q;
+    }
+    pf_status st = PF_OK;
+    for (int32_t e = 0; e < d->dg.n_elems && st >= 0; ++e) {
+        int32_t begin = group ? first[e] : 0, end = group ? first[e + 1] : 0;
+        if (end > begin)
+            st = pf_dg_project_field(&o->dg, change->old_mesh, u_old, group + begin, end - begin,
+                                     &d->dg, e, u_new, err);
+        else
+            pf_dg_copy_field(&o->dg, u_old, change->parent[e], &d->dg, e, u_new);
+    }
+    pf_free(group);
+    pf_free(first);
+    return st;
+}
+
 static void destroy(void *m)
 {
     dg_method *d = m;
@@ -318,6 +379,8 @@ static const pf_method_ops DG_OPS = {
     .momentum = momentum,
     .affine = affine,
     .max_node_jump = max_node_jump,
+    .principal_stress = principal_stress,
+    .transfer = transfer,
     .destroy = destroy,
 };
 
@@ -360,8 +423,9 @@ static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loade
     return PF_OK;
 }
 
-pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_ops **ops,
-                           void **ctx, int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err)
+pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
+                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
+                           int32_t *loaded_faces, pf_error *err)
 {
     *ops = &DG_OPS;
     *ctx = NULL;
@@ -369,8 +433,15 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     PF_CHECK(d, err, PF_ERR_NOMEM, "cannot allocate the DG method");
     d->scene = scene;
     d->mesh = mesh;
-    pf_status st =
-        pf_dg_create(&d->dg, mesh, scene->degree, scene->E, scene->nu, scene->density, err);
+    pf_dg_reuse dg_reuse = {0};
+    if (reuse)
+        dg_reuse = (pf_dg_reuse){.old = &((const dg_method *)reuse->old)->dg,
+                                 .old_mesh = reuse->old_mesh,
+                                 .parent = reuse->parent,
+                                 .same_solid = reuse->same_solid,
+                                 .same_faces = reuse->same_faces};
+    pf_status st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, scene->E, scene->nu,
+                                        scene->density, reuse ? &dg_reuse : NULL, err);
     if (st >= 0) {
         d->x0 = pf_alloc_array((size_t)(d->dg.n_dofs ? d->dg.n_dofs : 1), sizeof *d->x0);
         d->rot = pf_alloc_array(9 * (size_t)(d->dg.n_elems ? d->dg.n_elems : 1), sizeof *d->rot);
@@ -391,4 +462,11 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     }
     *ctx = d;
     return PF_OK;
+}
+
+void pf_sim_dg_reuse_stats(const void *ctx, int64_t *reused, int64_t *computed)
+{
+    const pf_dg *dg = &((const dg_method *)ctx)->dg;
+    *reused = (int64_t)dg->reused_elems + dg->reused_faces;
+    *computed = (int64_t)dg->n_elems + dg->n_faces - *reused;
 }

@@ -92,6 +92,8 @@ typedef struct pf_dg {
     int64_t *node_offsets; /* [n_nodes + 1] into node_elem */
     int32_t *node_elem;    /* element of each incidence */
     double *node_phi;      /* [nb per incidence] phi_a^elem(x_node) */
+    /* pf_dg_create_reusing: element and face terms copied instead of integrated */
+    int32_t reused_elems, reused_faces;
 } pf_dg;
 
 /* Sets up everything that depends on the mesh and material only: frames, moments, element
@@ -100,6 +102,27 @@ typedef struct pf_dg {
 pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
                        double density, pf_error *err);
 void pf_dg_release(pf_dg *dg);
+
+/* What a refined mesh (pf/refine.h) takes over from the set-up of the mesh it came from: element
+ * e of the new mesh comes from element parent[e] of old_mesh (set up as old, same degree and
+ * material); same_solid[e] non-zero when e is its parent's polyhedron (not a child: a neighbour
+ * whose faces were only subdivided is still the same solid), so its element integrals are the
+ * parent's; same_faces[e] non-zero when e's faces are its parent's node for node
+ * (pf_refine_result.changed == 0), so every face between two such elements has the old face's
+ * integrals. The DG paper sec. 9.4: after a split only the integrals over what the split
+ * touched are computed again. */
+typedef struct pf_dg_reuse {
+    const pf_dg *old;
+    const pf_mesh *old_mesh;
+    const int32_t *parent;
+    const uint8_t *same_solid;
+    const uint8_t *same_faces;
+} pf_dg_reuse;
+
+/* pf_dg_create, copying what reuse allows (NULL: nothing); dg->reused_elems and
+ * dg->reused_faces count what was copied. */
+pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
+                               double density, const pf_dg_reuse *reuse, pf_error *err);
 
 /* The coefficient vector of the rest positions, X0 of sec. 6.2 (x = sum_a x0_a phi_a), [n_dofs]. */
 void pf_dg_rest_coefficients(const pf_dg *dg, double *x0);
@@ -113,6 +136,25 @@ pf_vec3 pf_dg_eval(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x);
 /* Displacement gradient of element e at its frame centre (the linear part), row-major 3 x 3:
  * g[3 i + j] = d u_i / d x_j. */
 void pf_dg_gradient(const pf_dg *dg, const double *u, int32_t e, double g[9]);
+
+/* The same at the point x (degree 2: the gradient varies linearly). */
+void pf_dg_gradient_at(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x, double g[9]);
+
+/* Coefficients of element e of dst (u_dst, in dst's layout) equal to the field of element p of src
+ * (u_src): the same polynomial re-expanded in e's frame, exact up to rounding (a copy when the
+ * frames are equal). Both of the same degree. */
+void pf_dg_copy_field(const pf_dg *src, const double *u_src, int32_t p, const pf_dg *dst,
+                      int32_t e, double *u_dst);
+
+/* Coefficients of element e of dst: the L2 projection (weighted by the density) onto e's
+ * polynomials of the field of the src elements q[0 .. n) (src_mesh's elements, which together
+ * fill e: merged children), exact integrals from their moments in e's frame. Keeps the field's
+ * integral against every polynomial of e's degree: the mass and linear momentum of a velocity
+ * field exactly, and a field that is one polynomial of that degree on all of them exactly.
+ * PF_ERR_INVALID when an element's moments fail; PF_ERR_NUMERIC for a singular mass. */
+pf_status pf_dg_project_field(const pf_dg *src, const pf_mesh *src_mesh, const double *u_src,
+                              const int32_t *q, int32_t n, const pf_dg *dst, int32_t e,
+                              double *u_dst, pf_error *err);
 
 /* Stitched nodal displacements (eq. 30), out [3 n_nodes]. */
 void pf_dg_stitch(const pf_dg *dg, const double *u, double *out);

@@ -166,6 +166,16 @@ void pf_mat3_svd(pf_mat3 a, pf_mat3 *u, double sigma[3], pf_mat3 *v);
  * sqrt(((s1-s2)^2 + (s2-s3)^2 + (s3-s1)^2) / 2) in the principal stresses s1, s2, s3. */
 double pf_von_mises(const double s[6]);
 
+/* The corotated linear stress of the deformation gradient f (Mueller and Gross 2004; DG paper
+ * sec. 6.1): with R the rotation of f's polar decomposition, the strain sym(R^T f) - I and the
+ * isotropic stress lambda tr(eps) I + 2 mu eps, as (xx yy zz xy yz zx). Expressed in the rest
+ * frame: its principal directions are directions of the undeformed body. */
+void pf_corotated_stress(pf_mat3 f, double lambda, double mu, double sigma[6]);
+
+/* The principal stress of largest magnitude of s = (xx yy zz xy yz zx) (its sign kept), and its
+ * unit direction (may be NULL). */
+double pf_principal_stress(const double s[6], pf_vec3 *direction);
+
 /* ---- planes ----------------------------------------------------------------------------------
  * The points p with dot(n, p) = d; n is a unit vector, so dot(n, p) - d is a signed distance in
  * model units, positive on the side n points to. */

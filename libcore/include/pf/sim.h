@@ -13,6 +13,7 @@
 #include <pf/base.h>
 #include <pf/geom.h>
 #include <pf/mesh.h>
+#include <pf/refine.h>
 #include <pf/solve.h>
 
 #ifdef __cplusplus
@@ -86,6 +87,23 @@ typedef struct pf_obstacle {
 /* The obstacle's translation at time t (zero without keys). */
 pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t);
 
+/* Stress-based refinement (docs/scene.md, "refine"; DG paper sec. 9.3, harmonic paper sec. 8):
+ * after every frame, an element whose largest absolute principal stress (sampled at its centroid
+ * and vertices) exceeds threshold is split, up to max_level splits deep, while the mesh has fewer
+ * than max_elements elements and the element is larger than min_size; and the children of a
+ * split that have all stayed calm (below coarsen_fraction * threshold) for coarsen_after frames
+ * merge back. */
+typedef struct pf_refine_params {
+    bool enabled;         /* the scene has a "refine" key */
+    double threshold;     /* stress units, > 0 */
+    pf_split_kind split;  /* octs (default) or halves */
+    int32_t max_level;    /* default 2 */
+    int32_t max_elements; /* default 100000 */
+    double min_size;      /* model units: the cube root of an element's volume; default 0 */
+    double coarsen_fraction; /* [0, 1); 0: never (default 0.5) */
+    int32_t coarsen_after;   /* frames, >= 1 (default 10) */
+} pf_refine_params;
+
 typedef struct pf_scene {
     /* material: isotropic, linear (corotated) */
     double E;       /* Young's modulus, stress units (default 1e5) */
@@ -139,6 +157,9 @@ typedef struct pf_scene {
     /* linear solves (pf/solve.h): method auto | direct | pcg, the PCG tolerance relative to the
      * right-hand side (default 1e-10) and its iteration limit per factor (default 200) */
     pf_solver_params solver;
+
+    /* stress-based refinement and coarsening (off unless the scene has a "refine" key) */
+    pf_refine_params refine;
 
     char *json; /* the scene text as read (NUL-terminated), for the SCEN chunk; NULL without file */
 } pf_scene;
@@ -237,6 +258,20 @@ typedef struct pf_sim_stats {
     /* the linear solves: method, factorisations and why, PCG iterations (factorisations,
      * factor_seconds, solve_seconds, matrix_nnz and factor_nnz above repeat its counts) */
     pf_solver_stats solver;
+    /* mesh changes (refinement and coarsening) */
+    int32_t elements;        /* of the current mesh */
+    int32_t refinements;     /* mesh changes */
+    int64_t elements_split;  /* over all changes */
+    int64_t elements_merged; /* groups of children merged back into their parent */
+    double refine_seconds;   /* criterion, new mesh, set-up on it and state transfer (wall) */
+    /* its parts (wall): the new mesh (pf_mesh_refine, pf_mesh_coarsen), the method on it
+     * (integrals, basis functions), the rest of the set-up (an embedded surface's weights,
+     * pattern, contact, the solver's analysis), the state carried over; the first factorisation
+     * on a new mesh is the solver's (reason "first") */
+    double refine_mesh_seconds, refine_method_seconds, refine_setup_seconds,
+        refine_transfer_seconds;
+    /* DG: element and face integrals of the new meshes copied from the old ones, and computed */
+    int64_t integrals_reused, integrals_computed;
 } pf_sim_stats;
 
 /* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles' triangles handed
@@ -298,6 +333,38 @@ double pf_sim_max_node_jump(const pf_sim *sim);
 double pf_sim_deformed_volume(const pf_sim *sim);
 
 const pf_sim_stats *pf_sim_get_stats(const pf_sim *sim);
+
+/* The mesh the simulator runs on now: the one it was created with, or its latest change (owned
+ * by the simulator, valid until the next frame or change; a new mesh has a new id). The embedded
+ * surface's weights on it (NULL without an embedded surface). */
+const pf_mesh *pf_sim_mesh(const pf_sim *sim);
+const pf_weights *pf_sim_weights(const pf_sim *sim);
+
+/* Splits the requested elements of the current mesh (pf_mesh_refine) and carries the state over
+ * (DG: each child the parent's polynomial, exact; CG: new nodes take the parent's field at their
+ * position), between steps: a new discretisation on the new mesh (DG integrals of untouched
+ * elements and faces copied, the rest computed; pattern, factorisation), the same penalty, the
+ * same time and energy bookkeeping. The embedded surface's weights are recomputed (MLS,
+ * pf_embed_compute's defaults). *n_split (may be NULL) receives the elements split (0: nothing
+ * changed). On failure the simulator is unchanged. */
+pf_status pf_sim_split(pf_sim *sim, const pf_refine_request *req, int32_t n_req, int32_t *n_split,
+                       pf_error *err);
+
+/* Merges groups of elements back into one element each (pf_mesh_coarsen: group[e] >= 0 the
+ * group of element e of the current mesh, -1 kept) and carries the state over (DG: the L2
+ * projection of the group's fields onto the merged element's polynomials, which keeps mass and
+ * linear momentum exactly; CG: the nodes the merged mesh keeps keep their values). *n_merged
+ * (may be NULL) receives the groups merged. On failure the simulator is unchanged. */
+pf_status pf_sim_merge(pf_sim *sim, const int32_t *group, int32_t *n_merged, pf_error *err);
+
+/* Stress-based refinement by the scene's "refine" parameters: every element whose largest absolute
+ * corotated principal stress (at its centroid and vertices) exceeds the threshold, below
+ * max_level and larger than min_size, is split (octs, or halves across the direction of that
+ * stress), the most stressed first while the mesh stays within max_elements; but first, when the
+ * children of some split have all stayed calm for coarsen_after calls, those merge back instead
+ * (and splits wait for the next call). pf_sim_frame calls it after every frame when the scene
+ * refines. *n_changed (may be NULL): the elements split or groups merged. */
+pf_status pf_sim_refine(pf_sim *sim, int32_t *n_changed, pf_error *err);
 
 #ifdef __cplusplus
 }

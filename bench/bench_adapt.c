@@ -1,0 +1,254 @@
+/* Changing the mesh while the simulation runs (pf_sim_refine, pf_sim_split).
+ *
+ *   bench_adapt events     CSV per bar, method and split kind: the bars of the harmonic paper's
+ *                          table 1 (40 hexes, 10 x 2 x 2 cells of a 5 x 1 x 1 bar, 99 nodes):
+ *                          "bending", clamped at both ends and sagging under gravity, and
+ *                          "twisting", clamped at one end and set spinning about its axis. After
+ *                          10 frames the bar is refined (threshold: a fraction of its largest
+ *                          principal stress then) until nothing more splits (max_level 2), and
+ *                          runs 10 frames more. Per case: elements and nodes before and after,
+ *                          the changes, the elements split, milliseconds per split element (all
+ *                          of it, and its parts: new mesh, method set-up, the rest of the set-up,
+ *                          state transfer; the first factorisation on the new mesh), the
+ *                          fraction of DG integrals copied instead of computed, and steps per CPU
+ *                          second before and after:
+ *                          case,method,split,elems_before,nodes_before,elems_after,nodes_after,
+ *                          changes,split_elems,ms_per_split,mesh_ms,method_ms,setup_ms,
+ *                          transfer_ms,factor_ms,reused,steps_per_s_before,steps_per_s_after
+ *   bench_adapt accuracy   CSV: the static cantilever of bench_guidance (4 x 1 x 1, clamped at
+ *                          x = 0, traction (0, 0, -1) on x = 4, E = 1e5, nu = 0.3), CG and DG IP
+ *                          degree 2: uniform meshes of 4r x r x r hexes (r = 1, 2, 4) against
+ *                          meshes refined by stress from 4 x 1 x 1 (levels 1, 2: octs where the
+ *                          principal stress exceeds 30 % of its largest value), tip error
+ *                          against the 3-D limit against unknowns:
+ *                          method,mesh,level,elems,dofs,tip,error,cpu_s
+ *   bench_adapt ... quick  smaller cases (a check that the program runs)
+ *
+ * Timings of a change are wall seconds (pf_sim_stats); steps per second are CPU seconds (the
+ * process clock); the first line says what machine and load they were taken on. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <pf/sim.h>
+
+#include "machine.h"
+
+/* The 3-D limit of the cantilever's tip at nu = 0.3: bench/results/guidance.csv's Aitken
+ * extrapolation of DG IP degree 2 over r = 2, 4, 8 (every row's value / (1 + error)). */
+static const double CANTILEVER_TIP = -2.641546e-3;
+
+static int fail(const pf_error *err)
+{
+    fprintf(stderr, "bench_adapt: %s\n", err->msg);
+    return 1;
+}
+
+static pf_status parse(pf_scene *sc, const char *json, pf_error *err)
+{
+    return pf_scene_parse(sc, json, strlen(json), "bench.json", err);
+}
+
+/* CPU seconds per step over frames frames. */
+static pf_status time_frames(pf_sim *sim, int frames, int substeps, double *steps_per_s,
+                             pf_error *err)
+{
+    double c0 = bench_cpu_seconds();
+    for (int f = 0; f < frames; ++f)
+        PF_TRY(pf_sim_frame(sim, err));
+    double used = bench_cpu_seconds() - c0;
+    *steps_per_s = used > 0 ? frames * substeps / used : INFINITY;
+    return PF_OK;
+}
+
+/* Refines until nothing splits, with the threshold at fraction of the largest principal stress
+ * now (the scene's refine parameters are set here). */
+static pf_status refine_fully(pf_sim *sim, pf_scene *sc, pf_split_kind kind, double fraction,
+                              pf_error *err)
+{
+    const pf_mesh *m = pf_sim_mesh(sim);
+    double *vm = pf_alloc_array((size_t)m->n_elems, sizeof *vm);
+    PF_CHECK(vm, err, PF_ERR_NOMEM, "out of memory");
+    pf_sim_von_mises(sim, vm);
+    double largest = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        largest = fmax(largest, vm[e]);
+    pf_free(vm);
+    sc->refine = (pf_refine_params){.enabled = true,
+                                    .threshold = fraction * largest,
+                                    .split = kind,
+                                    .max_level = 2,
+                                    .max_elements = 100000};
+    for (int32_t split = 1; split > 0;)
+        PF_TRY(pf_sim_refine(sim, &split, err));
+    sc->refine.enabled = false; /* the timed frames after do not refine */
+    return PF_OK;
+}
+
+static int event_case(const char *name, const char *json, bool cg, pf_split_kind kind, bool spin,
+                      bool quick)
+{
+    pf_error err = {0};
+    pf_mesh m = {0};
+    pf_scene sc;
+    int frames = quick ? 2 : 10;
+    if (pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(5, 1, 1), 10, 2, 2, &err) < 0 ||
+        pf_mesh_derive(&m, &err) < 0 || parse(&sc, json, &err) < 0)
+        return fail(&err);
+    sc.method = cg ? PF_METHOD_CG : PF_METHOD_DG;
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(&m, &lo, &hi);
+    pf_scene_resolve(&sc, lo, hi);
+    pf_sim *sim = NULL;
+    double before = 0, after = 0;
+    pf_status st = pf_sim_create(&sim, &sc, &m, &err);
+    if (st >= 0 && spin)
+        pf_sim_set_rigid_velocity(sim, pf_v3(4, 0, 0), pf_v3(2.5, 0.5, 0.5), pf_v3(0, 0, 0));
+    if (st >= 0)
+        st = time_frames(sim, frames, sc.substeps, &before, &err);
+    pf_sim_stats s0 = st >= 0 ? *pf_sim_get_stats(sim) : (pf_sim_stats){0};
+    if (st >= 0)
+        st = refine_fully(sim, &sc, kind, 0.5, &err);
+    pf_sim_stats s1 = st >= 0 ? *pf_sim_get_stats(sim) : (pf_sim_stats){0};
+    /* the first step on the new mesh factorises it */
+    if (st >= 0)
+        st = pf_sim_frame(sim, &err);
+    pf_sim_stats s2 = st >= 0 ? *pf_sim_get_stats(sim) : (pf_sim_stats){0};
+    if (st >= 0)
+        st = time_frames(sim, frames, sc.substeps, &after, &err);
+    if (st < 0) {
+        pf_sim_destroy(&sim);
+        return fail(&err);
+    }
+    const pf_mesh *now = pf_sim_mesh(sim);
+    double n_split = (double)(s1.elements_split > 0 ? s1.elements_split : 1);
+    double ms = 1e3 / n_split;
+    double factor_ms = 1e3 * (s2.factor_seconds - s1.factor_seconds) / n_split;
+    int64_t integrals = s1.integrals_reused + s1.integrals_computed;
+    printf("%s,%s,%s,%d,%d,%d,%d,%d,%lld,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.1f,%.1f\n", name,
+           cg ? "cg" : "dg", kind == PF_SPLIT_OCTS ? "octs" : "halves", (int)m.n_elems,
+           (int)m.n_nodes, (int)now->n_elems, (int)now->n_nodes, (int)s1.refinements,
+           (long long)s1.elements_split, ms * (s1.refine_seconds - s0.refine_seconds),
+           ms * s1.refine_mesh_seconds, ms * s1.refine_method_seconds, ms * s1.refine_setup_seconds,
+           ms * s1.refine_transfer_seconds, factor_ms,
+           integrals > 0 ? (double)s1.integrals_reused / (double)integrals : 0.0, before, after);
+    fflush(stdout);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+    return 0;
+}
+
+static int events(bool quick)
+{
+    static const char BENDING[] =
+        "{\"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}},"
+        " {\"plane\": {\"point\": [5, 0, 0], \"normal\": [1, 0, 0]}}], \"ground\": false,"
+        " \"material\": {\"E\": 1e6}, \"damping\": {\"beta\": 0.02}}";
+    static const char TWISTING[] =
+        "{\"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}}],"
+        " \"ground\": false, \"gravity\": [0, 0, 0], \"material\": {\"E\": 1e6},"
+        " \"damping\": {\"beta\": 0.02}}";
+    printf("case,method,split,elems_before,nodes_before,elems_after,nodes_after,changes,"
+           "split_elems,ms_per_split,mesh_ms,method_ms,setup_ms,transfer_ms,factor_ms,reused,"
+           "steps_per_s_before,steps_per_s_after\n");
+    for (int cg = 0; cg < 2; ++cg)
+        for (int kind = 0; kind < 2; ++kind) {
+            if (event_case("bending", BENDING, cg, (pf_split_kind)kind, false, quick) ||
+                event_case("twisting", TWISTING, cg, (pf_split_kind)kind, true, quick))
+                return 1;
+        }
+    return 0;
+}
+
+/* The mean u_z over the nodes of the end face x = 4. */
+static double tip(const pf_sim *sim)
+{
+    const pf_mesh *m = pf_sim_mesh(sim);
+    double *u = pf_alloc_array(3 * (size_t)m->n_nodes, sizeof *u);
+    if (!u)
+        return NAN;
+    pf_sim_nodal_displacements(sim, u);
+    double w = 0;
+    int count = 0;
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        if (fabs(m->x[3 * (size_t)i] - 4) < 1e-12)
+            w += u[3 * (size_t)i + 2], ++count;
+    pf_free(u);
+    return w / count;
+}
+
+static void print_accuracy(const char *method, const char *mesh, int level, const pf_sim *sim,
+                           double cpu)
+{
+    double t = tip(sim);
+    printf("%s,%s,%d,%d,%lld,%.6e,%.4e,%.4f\n", method, mesh, level, (int)pf_sim_mesh(sim)->n_elems,
+           (long long)pf_sim_get_stats(sim)->dofs, t, t / CANTILEVER_TIP - 1, cpu);
+}
+
+static int accuracy_case(bool cg, int r, bool adaptive, int levels)
+{
+    pf_error err = {0};
+    pf_mesh m = {0};
+    pf_scene sc;
+    const char *json = "{\"static\": true, \"material\": {\"E\": 1e5, \"density\": 1},"
+                       " \"gravity\": [0, 0, 0], \"method\": {\"degree\": 2},"
+                       " \"fixed\": [{\"box\": [[-0.001, -1, -1], [0.001, 2, 2]]}],"
+                       " \"loads\": [{\"box\": [[3.999, -1, -1], [4.001, 2, 2]],"
+                       " \"traction\": [0, 0, -1]}]}";
+    if (pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(4, 1, 1), 4 * r, r, r, &err) < 0 ||
+        pf_mesh_derive(&m, &err) < 0 || parse(&sc, json, &err) < 0)
+        return fail(&err);
+    sc.method = cg ? PF_METHOD_CG : PF_METHOD_DG;
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(&m, &lo, &hi);
+    pf_scene_resolve(&sc, lo, hi);
+    pf_sim *sim = NULL;
+    double c0 = bench_cpu_seconds();
+    pf_status st = pf_sim_create(&sim, &sc, &m, &err);
+    if (st >= 0)
+        st = pf_sim_solve_static(sim, &err);
+    const char *name = cg ? "cg" : "dg2";
+    if (st >= 0)
+        print_accuracy(name, adaptive ? "adaptive" : "uniform", 0, sim, bench_cpu_seconds() - c0);
+    for (int level = 1; adaptive && st >= 0 && level <= levels; ++level) {
+        st = refine_fully(sim, &sc, PF_SPLIT_OCTS, 0.3, &err);
+        if (st >= 0)
+            st = pf_sim_solve_static(sim, &err);
+        if (st >= 0)
+            print_accuracy(name, "adaptive", level, sim, bench_cpu_seconds() - c0);
+    }
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+    return st < 0 ? fail(&err) : 0;
+}
+
+static int accuracy(bool quick)
+{
+    printf("method,mesh,level,elems,dofs,tip,error,cpu_s\n");
+    for (int cg = 0; cg < 2; ++cg) {
+        for (int r = 1; r <= (quick ? 2 : 4); r *= 2)
+            if (accuracy_case(cg, r, false, 0))
+                return 1;
+        if (accuracy_case(cg, 1, true, quick ? 1 : 2))
+            return 1;
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    const char *mode = argc > 1 ? argv[1] : "events";
+    bool quick = argc > 2 && !strcmp(argv[2], "quick");
+    char machine[256];
+    bench_describe_machine(machine, sizeof machine);
+    printf("# mesh changes while the simulation runs; %s\n", machine);
+    if (!strcmp(mode, "events"))
+        return events(quick);
+    if (!strcmp(mode, "accuracy"))
+        return accuracy(quick);
+    fprintf(stderr, "usage: bench_adapt events|accuracy [quick]\n");
+    return 2;
+}

@@ -1,0 +1,132 @@
+/* Changing the simulation mesh between steps: one transaction for refinement and coarsening
+ * (sim_refine.c), and cutting later.
+ *
+ * A change is the new mesh and how its elements and nodes relate to the old ones
+ * (pf_mesh_change). A complete simulator is built on the new mesh (pf_sim_build), taking over
+ * from the old method what the change left as it was (DG: the integrals of unchanged elements
+ * and faces), the state is carried over by the method, and only then is the new simulator
+ * swapped in: until the swap nothing of the running simulator is touched, so a failure leaves it
+ * as it was. */
+#include <pf/embed.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "sim_change.h"
+
+const pf_mesh *pf_sim_mesh(const pf_sim *s)
+{
+    return s->mesh;
+}
+
+const pf_weights *pf_sim_weights(const pf_sim *s)
+{
+    return s->weights;
+}
+
+/* Statistics: cumulative ones from s, what describes the mesh from t. */
+static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
+{
+    pf_sim_stats mesh_stats = t->stats;
+    t->stats = s->stats;
+    t->stats.dofs = mesh_stats.dofs;
+    t->stats.elements = mesh_stats.elements;
+    t->stats.contact_points = mesh_stats.contact_points;
+    t->stats.contact_samples = mesh_stats.contact_samples;
+    t->stats.fixed_faces = mesh_stats.fixed_faces;
+    t->stats.loaded_faces = mesh_stats.loaded_faces;
+    t->stats.closed_form_elems = mesh_stats.closed_form_elems;
+    t->stats.harmonic_elems = mesh_stats.harmonic_elems;
+    t->stats.kernels = mesh_stats.kernels;
+    t->stats.basis_seconds += mesh_stats.basis_seconds;
+    if (t->scene->method == PF_METHOD_DG) {
+        int64_t reused, computed;
+        pf_sim_dg_reuse_stats(t->method, &reused, &computed);
+        t->stats.integrals_reused += reused;
+        t->stats.integrals_computed += computed;
+    }
+    t->stats.refine_transfer_seconds += transfer_seconds;
+    t->solver_before = s->stats.solver;
+    pf_sim_sync_solver_stats(t);
+}
+
+/* The new simulator t (built) takes over s's state, time and energy bookkeeping. */
+static pf_status carry_over(pf_sim *t, const pf_sim *s, const pf_mesh_change *change, pf_error *err)
+{
+    double t0 = pf_time_seconds();
+    PF_TRY(t->ops->transfer(t->method, s->method, change, s->u, t->u, err));
+    PF_TRY(t->ops->transfer(t->method, s->method, change, s->v, t->v, err));
+    t->time = s->time;
+    t->frame = s->frame;
+    t->energy_started = s->energy_started;
+    t->kinetic0 = s->kinetic0;
+    t->work = s->work;
+    t->fixed_energy = s->fixed_energy;
+    t->energy_floor = s->energy_floor;
+    carry_stats(t, s, pf_time_seconds() - t0);
+    return PF_OK;
+}
+
+/* A simulator on the new mesh (moved into it) with s's scene, surface and penalty. */
+static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_mesh_change *change,
+                          const uint8_t *changed, pf_error *err)
+{
+    t->scene = s->scene;
+    t->surface = s->surface;
+    t->owned_mesh = pf_calloc(1, sizeof *t->owned_mesh);
+    PF_CHECK(t->owned_mesh, err, PF_ERR_NOMEM, "cannot allocate the new mesh");
+    *t->owned_mesh = *mesh;
+    memset(mesh, 0, sizeof *mesh);
+    PF_TRY(pf_mesh_derive(t->owned_mesh, err));
+    if (s->surface) {
+        t->owned_weights = pf_calloc(1, sizeof *t->owned_weights);
+        PF_CHECK(t->owned_weights, err, PF_ERR_NOMEM, "cannot allocate the surface's weights");
+        PF_TRY(pf_embed_compute(t->owned_mesh, s->surface, NULL, t->owned_weights, NULL, err));
+        t->weights = t->owned_weights;
+    }
+    /* same solid: neither a child nor a merged element (a neighbour whose faces were only
+     * subdivided or united is the same polyhedron) */
+    int32_t ne = t->owned_mesh->n_elems;
+    uint8_t *same = pf_calloc(2 * (size_t)ne + 1, 1);
+    PF_CHECK(same, err, PF_ERR_NOMEM, "cannot allocate %d element flags", (int)ne);
+    for (int32_t e = 0; e < ne; ++e) {
+        int32_t p = change->parent[e];
+        bool merged = change->merged_into && change->merged_into[p] >= 0;
+        bool child = change->split && change->split[p];
+        same[e] = !merged && !child;
+        same[ne + e] = same[e] && !changed[e];
+    }
+    pf_method_reuse reuse = {.old = s->method,
+                             .old_mesh = s->mesh,
+                             .parent = change->parent,
+                             .same_solid = same,
+                             .same_faces = same + ne};
+    pf_status st = pf_sim_build(t, t->owned_mesh, &reuse, s->stats.penalty, err);
+    pf_free(same);
+    return st;
+}
+
+pf_status pf_sim_change_mesh(pf_sim *s, pf_mesh *next, const pf_mesh_change *change,
+                             const uint8_t *changed, pf_sim **old, pf_error *err)
+{
+    *old = NULL;
+    pf_sim *t = pf_calloc(1, sizeof *t);
+    PF_CHECK(t, err, PF_ERR_NOMEM, "cannot allocate the simulator on the new mesh");
+    double t0 = pf_time_seconds();
+    pf_status st = build_on(t, s, next, change, changed, err);
+    double build_seconds = pf_time_seconds() - t0;
+    if (st >= 0)
+        st = carry_over(t, s, change, err);
+    if (st < 0) {
+        pf_sim_destroy(&t);
+        return st;
+    }
+    t->stats.refinements++;
+    t->stats.refine_method_seconds += t->method_seconds;
+    t->stats.refine_setup_seconds += build_seconds - t->method_seconds;
+    pf_sim swap = *s;
+    *s = *t;
+    *t = swap;
+    *old = t;
+    return PF_OK;
+}

@@ -1,0 +1,62 @@
+/* The simulator's state, shared by the driver (sim.c) and the mesh changes (sim_refine.c).
+ * Private to libcore/sim. */
+#ifndef PF_SIM_INTERNAL_H
+#define PF_SIM_INTERNAL_H
+
+#include <pf/sim.h>
+
+#include "contact.h"
+#include "method.h"
+
+struct pf_sim {
+    const pf_scene *scene;
+    const pf_mesh *mesh;       /* the caller's, or owned_mesh after a refinement */
+    pf_mesh *owned_mesh;       /* NULL until a refinement (on the heap: the method and contact
+                                  keep pointers to it) */
+    const pf_surface *surface; /* the embedded surface (the caller's), NULL without */
+    const pf_weights *weights; /* its weights on mesh: the caller's, or owned_weights */
+    pf_weights *owned_weights;
+    /* refinement bookkeeping (sim_refine.c), NULL until the first refinement or criterion:
+     * per element its depth, its family (the split that made it, an index into families, -1
+     * for the first mesh's elements) and the frames in a row it has been calm */
+    int32_t *level, *family, *calm;
+    pf_buffer families;
+    const pf_method_ops *ops;
+    void *method;
+    int64_t n;     /* unknowns */
+    double *f_ext; /* [n] loads and body forces, constant */
+    double *u, *v; /* state */
+    double *f, *ku, *rhs;
+    double *u_prev, *v_prev; /* the state before the frame, restored on failure */
+    double *dv;              /* the last step's velocity change (the warm start's trend) */
+    pf_block_matrix k;
+    pf_solver *solver;
+    bool assembled;      /* the system matrix has been assembled once (it changes afterwards only
+                            with corotation) */
+    pf_contact *contact; /* NULL without ground and obstacles, and in static scenes */
+    double model_size;
+    /* the energy check (energy_is_bounded): the kinetic energy when the first frame began, the
+     * work of the loads, body forces and moving obstacles since, the elastic energy the start
+     * can release, and a floor below which kinetic energy is noise */
+    bool energy_started;
+    double kinetic0, work, fixed_energy, energy_floor;
+    double time;
+    int32_t frame;
+    pf_sim_stats stats;
+    pf_solver_stats solver_before; /* the solves of the solvers of meshes before a change */
+    double method_seconds;         /* creating the method (pf_sim_build), wall */
+};
+
+/* Creates the discretisation of s->scene on mesh: the method (taking over what reuse allows; NULL:
+ * nothing), state vectors, pattern, contact, solver and constant forces, with the penalty given
+ * (> 0, DG) or searched (0). s->scene, s->surface and s->weights must be set. */
+pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *reuse, double penalty,
+                       pf_error *err);
+
+/* Frees what pf_sim_build made and the owned mesh and weights, but not s. */
+void pf_sim_release(pf_sim *s);
+
+/* The solver's statistics, with those of earlier meshes' solvers, into the simulator's. */
+void pf_sim_sync_solver_stats(pf_sim *s);
+
+#endif

@@ -24,8 +24,9 @@
  *                          method,mesh,level,elems,dofs,tip,error,cpu_s
  *   bench_adapt ... quick  smaller cases (a check that the program runs)
  *
- * Timings of a change are wall seconds (pf_sim_stats); steps per second are CPU seconds (the
- * process clock); the first line says what machine and load they were taken on. */
+ * Timings are CPU seconds of the process (pf_sim_stats' refinement parts, the first
+ * factorisation's CPU from the solver's statistics, steps per CPU second), so that a busy machine
+ * biases them little; the first line says what machine and load they were taken on. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -124,7 +125,8 @@ static int event_case(const char *name, const char *json, bool cg, pf_split_kind
     const pf_mesh *now = pf_sim_mesh(sim);
     double n_split = (double)(s1.elements_split > 0 ? s1.elements_split : 1);
     double ms = 1e3 / n_split;
-    double factor_ms = 1e3 * (s2.factor_seconds - s1.factor_seconds) / n_split;
+    double factor_ms =
+        1e3 * (s2.solver.factor_cpu_seconds - s1.solver.factor_cpu_seconds) / n_split;
     int64_t integrals = s1.integrals_reused + s1.integrals_computed;
     printf("%s,%s,%s,%d,%d,%d,%d,%d,%lld,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.1f,%.1f\n", name,
            cg ? "cg" : "dg", kind == PF_SPLIT_OCTS ? "octs" : "halves", (int)m.n_elems,

@@ -83,6 +83,10 @@ typedef struct pf_method_ops {
      * their values (through node_map), new ones take the parent's field at their position. */
     pf_status (*transfer)(const void *m, const void *old, const pf_mesh_change *change,
                           const double *u_old, double *u_new, pf_error *err);
+    /* The set-up's statistics into st (the fields the method knows: CG its closed-form and
+     * harmonic elements, MFS kernels and basis seconds; DG the integrals it copied from an old
+     * mesh's set-up and computed, added to the totals). */
+    void (*setup_stats)(const void *m, pf_sim_stats *st);
     void (*destroy)(void *m);
 } pf_method_ops;
 
@@ -125,16 +129,8 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                            const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
                            int32_t *loaded_faces, pf_error *err);
 
-/* The CG method (sim_cg.c), and its set-up statistics: elements with closed-form functions (MFS
- * skipped), harmonic elements, their MFS kernels, seconds spent building the shape functions. */
 pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
                            const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
                            int32_t *loaded_faces, pf_error *err);
-void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic, int64_t *kernels,
-                     double *basis_seconds);
-
-/* The DG method's reuse at its creation (pf_dg_create_reusing): element and face integrals
- * copied, and computed. */
-void pf_sim_dg_reuse_stats(const void *ctx, int64_t *reused, int64_t *computed);
 
 #endif

@@ -150,20 +150,28 @@ pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh
     return pf_sim_create_embedded(out, scene, mesh, NULL, NULL, err);
 }
 
+/* The methods, by the scene's method (method.h). */
+static const struct {
+    pf_method method;
+    pf_method_create_fn create;
+} METHODS[] = {{PF_METHOD_DG, pf_sim_dg_create}, {PF_METHOD_CG, pf_sim_cg_create}};
+
 pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *reuse, double penalty,
                        pf_error *err)
 {
     const pf_scene *scene = s->scene;
     s->mesh = mesh;
-    pf_method_create_fn create =
-        scene->method == PF_METHOD_CG ? pf_sim_cg_create : pf_sim_dg_create;
-    double t0 = pf_time_seconds();
+    pf_method_create_fn create = NULL;
+    for (size_t k = 0; k < sizeof METHODS / sizeof *METHODS; ++k)
+        if (METHODS[k].method == scene->method)
+            create = METHODS[k].create;
+    PF_CHECK(create, err, PF_ERR_INVALID, "unknown method %d", (int)scene->method);
+    double t0 = pf_cpu_seconds();
     pf_status st = create(scene, mesh, reuse, &s->ops, &s->method, &s->stats.fixed_faces,
                           &s->stats.loaded_faces, err);
-    s->method_seconds = pf_time_seconds() - t0;
-    if (st >= 0 && scene->method == PF_METHOD_CG)
-        pf_sim_cg_stats(s->method, &s->stats.closed_form_elems, &s->stats.harmonic_elems,
-                        &s->stats.kernels, &s->stats.basis_seconds);
+    s->method_seconds = pf_cpu_seconds() - t0;
+    if (st >= 0)
+        s->ops->setup_stats(s->method, &s->stats);
     if (st >= 0) {
         s->n = s->ops->n_dofs(s->method);
         st = allocate_state(s, err);

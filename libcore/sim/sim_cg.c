@@ -407,6 +407,19 @@ static pf_status transfer(const void *m, const void *old, const pf_mesh_change *
     return PF_OK;
 }
 
+/* Elements with closed-form functions (MFS skipped), harmonic elements, their MFS kernels,
+ * seconds spent building the shape functions (added: a changed mesh builds them again). */
+static void setup_stats(const void *m, pf_sim_stats *st)
+{
+    const cg_method *c = m;
+    st->closed_form_elems = c->cg.n_closed_form;
+    st->harmonic_elems = c->cg.n_elems - c->cg.n_closed_form;
+    st->kernels = 0;
+    for (int32_t e = 0; e < c->cg.basis.n_elems; ++e)
+        st->kernels += c->cg.basis.stats[e].n_kernels;
+    st->basis_seconds += c->cg.basis_seconds;
+}
+
 static void destroy(void *m)
 {
     cg_method *c = m;
@@ -448,6 +461,7 @@ static const pf_method_ops CG_OPS = {
     .max_node_jump = max_node_jump,
     .principal_stress = principal_stress,
     .transfer = transfer,
+    .setup_stats = setup_stats,
     .destroy = destroy,
 };
 
@@ -484,18 +498,6 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
     }
     (void)err;
     return PF_OK;
-}
-
-void pf_sim_cg_stats(const void *ctx, int32_t *closed_form, int32_t *harmonic, int64_t *kernels,
-                     double *basis_seconds)
-{
-    const cg_method *c = ctx;
-    *closed_form = c->cg.n_closed_form;
-    *harmonic = c->cg.n_elems - c->cg.n_closed_form;
-    *kernels = 0;
-    for (int32_t e = 0; e < c->cg.basis.n_elems; ++e)
-        *kernels += c->cg.basis.stats[e].n_kernels;
-    *basis_seconds = c->cg.basis_seconds;
 }
 
 pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,

@@ -39,12 +39,8 @@ static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
     t->stats.harmonic_elems = mesh_stats.harmonic_elems;
     t->stats.kernels = mesh_stats.kernels;
     t->stats.basis_seconds += mesh_stats.basis_seconds;
-    if (t->scene->method == PF_METHOD_DG) {
-        int64_t reused, computed;
-        pf_sim_dg_reuse_stats(t->method, &reused, &computed);
-        t->stats.integrals_reused += reused;
-        t->stats.integrals_computed += computed;
-    }
+    t->stats.integrals_reused += mesh_stats.integrals_reused;
+    t->stats.integrals_computed += mesh_stats.integrals_computed;
     t->stats.refine_transfer_seconds += transfer_seconds;
     t->solver_before = s->stats.solver;
     pf_sim_sync_solver_stats(t);
@@ -53,7 +49,7 @@ static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
 /* The new simulator t (built) takes over s's state, time and energy bookkeeping. */
 static pf_status carry_over(pf_sim *t, const pf_sim *s, const pf_mesh_change *change, pf_error *err)
 {
-    double t0 = pf_time_seconds();
+    double t0 = pf_cpu_seconds();
     PF_TRY(t->ops->transfer(t->method, s->method, change, s->u, t->u, err));
     PF_TRY(t->ops->transfer(t->method, s->method, change, s->v, t->v, err));
     t->time = s->time;
@@ -63,7 +59,7 @@ static pf_status carry_over(pf_sim *t, const pf_sim *s, const pf_mesh_change *ch
     t->work = s->work;
     t->fixed_energy = s->fixed_energy;
     t->energy_floor = s->energy_floor;
-    carry_stats(t, s, pf_time_seconds() - t0);
+    carry_stats(t, s, pf_cpu_seconds() - t0);
     return PF_OK;
 }
 
@@ -112,9 +108,9 @@ pf_status pf_sim_change_mesh(pf_sim *s, pf_mesh *next, const pf_mesh_change *cha
     *old = NULL;
     pf_sim *t = pf_calloc(1, sizeof *t);
     PF_CHECK(t, err, PF_ERR_NOMEM, "cannot allocate the simulator on the new mesh");
-    double t0 = pf_time_seconds();
+    double t0 = pf_cpu_seconds();
     pf_status st = build_on(t, s, next, change, changed, err);
-    double build_seconds = pf_time_seconds() - t0;
+    double build_seconds = pf_cpu_seconds() - t0;
     if (st >= 0)
         st = carry_over(t, s, change, err);
     if (st < 0) {

@@ -342,6 +342,15 @@ static pf_status transfer(const void *m, const void *old, const pf_mesh_change *
     return st;
 }
 
+/* The integrals copied from an old mesh's set-up (pf_dg_create_reusing) and computed. */
+static void setup_stats(const void *m, pf_sim_stats *st)
+{
+    const pf_dg *dg = &((const dg_method *)m)->dg;
+    int64_t reused = (int64_t)dg->reused_elems + dg->reused_faces;
+    st->integrals_reused += reused;
+    st->integrals_computed += (int64_t)dg->n_elems + dg->n_faces - reused;
+}
+
 static void destroy(void *m)
 {
     dg_method *d = m;
@@ -381,6 +390,7 @@ static const pf_method_ops DG_OPS = {
     .max_node_jump = max_node_jump,
     .principal_stress = principal_stress,
     .transfer = transfer,
+    .setup_stats = setup_stats,
     .destroy = destroy,
 };
 
@@ -462,11 +472,4 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     }
     *ctx = d;
     return PF_OK;
-}
-
-void pf_sim_dg_reuse_stats(const void *ctx, int64_t *reused, int64_t *computed)
-{
-    const pf_dg *dg = &((const dg_method *)ctx)->dg;
-    *reused = (int64_t)dg->reused_elems + dg->reused_faces;
-    *computed = (int64_t)dg->n_elems + dg->n_faces - *reused;
 }

@@ -44,7 +44,7 @@ struct pf_sim {
     int32_t frame;
     pf_sim_stats stats;
     pf_solver_stats solver_before; /* the solves of the solvers of meshes before a change */
-    double method_seconds;         /* creating the method (pf_sim_build), wall */
+    double method_seconds;         /* creating the method (pf_sim_build), CPU seconds */
 };
 
 /* Creates the discretisation of s->scene on mesh: the method (taking over what reuse allows; NULL:

@@ -124,13 +124,13 @@ static pf_status record_splits(pf_sim *s, const pf_sim *old, const int32_t *pare
 pf_status pf_sim_split(pf_sim *s, const pf_refine_request *req, int32_t n_req, int32_t *n_split,
                        pf_error *err)
 {
-    double t0 = pf_time_seconds();
+    double t0 = pf_cpu_seconds();
     if (n_split)
         *n_split = 0;
     pf_mesh next = {0};
     pf_refine_result res = {0};
     PF_TRY(pf_mesh_refine(s->mesh, req, n_req, &next, &res, err));
-    double mesh_seconds = pf_time_seconds() - t0;
+    double mesh_seconds = pf_cpu_seconds() - t0;
     int32_t n_old = s->mesh->n_elems, n_new = next.n_elems;
     int32_t *level = NULL, *fam = NULL, *calm = NULL;
     uint8_t *split = NULL;
@@ -150,7 +150,7 @@ pf_status pf_sim_split(pf_sim *s, const pf_refine_request *req, int32_t n_req, i
         level = fam = calm = NULL;
         st = record_splits(s, old, res.parent, split, s->level, s->family, err);
         s->stats.elements_split += res.n_split;
-        s->stats.refine_seconds += pf_time_seconds() - t0;
+        s->stats.refine_seconds += pf_cpu_seconds() - t0;
         s->stats.refine_mesh_seconds += mesh_seconds;
         if (n_split)
             *n_split = res.n_split;
@@ -169,13 +169,13 @@ pf_status pf_sim_split(pf_sim *s, const pf_refine_request *req, int32_t n_req, i
 
 pf_status pf_sim_merge(pf_sim *s, const int32_t *group, int32_t *n_merged, pf_error *err)
 {
-    double t0 = pf_time_seconds();
+    double t0 = pf_cpu_seconds();
     if (n_merged)
         *n_merged = 0;
     pf_mesh next = {0};
     pf_coarsen_result res = {0};
     PF_TRY(pf_mesh_coarsen(s->mesh, group, &next, &res, err));
-    double mesh_seconds = pf_time_seconds() - t0;
+    double mesh_seconds = pf_cpu_seconds() - t0;
     int32_t n_old = s->mesh->n_elems, n_new = next.n_elems;
     int32_t *merged_into = pf_alloc_array((size_t)n_old + 1, sizeof *merged_into);
     int32_t *level = NULL, *fam = NULL, *calm = NULL;
@@ -213,7 +213,7 @@ pf_status pf_sim_merge(pf_sim *s, const int32_t *group, int32_t *n_merged, pf_er
         install_bookkeeping(s, old, level, fam, calm);
         level = fam = calm = NULL;
         s->stats.elements_merged += res.n_merged;
-        s->stats.refine_seconds += pf_time_seconds() - t0;
+        s->stats.refine_seconds += pf_cpu_seconds() - t0;
         s->stats.refine_mesh_seconds += mesh_seconds;
         if (n_merged)
             *n_merged = res.n_merged;
@@ -311,7 +311,7 @@ pf_status pf_sim_refine(pf_sim *s, int32_t *n_changed, pf_error *err)
         *n_changed = 0;
     if (!p->enabled)
         return PF_OK;
-    double t0 = pf_time_seconds();
+    double t0 = pf_cpu_seconds();
     const pf_mesh *m = s->mesh;
     int32_t ne = m->n_elems;
     if (!s->calm) { /* the first mesh: its elements are roots */
@@ -337,7 +337,7 @@ pf_status pf_sim_refine(pf_sim *s, int32_t *n_changed, pf_error *err)
         if (stress > p->threshold && s->level[e] < p->max_level && !small)
             c[n++] = (candidate){e, stress, dir};
     }
-    double criterion_seconds = pf_time_seconds() - t0;
+    double criterion_seconds = pf_cpu_seconds() - t0;
     /* merging first; splits wait for the next frame (their stresses are the old mesh's) */
     int32_t n_groups = 0;
     pf_status st = p->coarsen_fraction > 0 ? calm_families(s, group, &n_groups, err) : PF_OK;

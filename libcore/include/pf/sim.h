@@ -263,14 +263,16 @@ typedef struct pf_sim_stats {
     int32_t refinements;     /* mesh changes */
     int64_t elements_split;  /* over all changes */
     int64_t elements_merged; /* groups of children merged back into their parent */
-    double refine_seconds;   /* criterion, new mesh, set-up on it and state transfer (wall) */
-    /* its parts (wall): the new mesh (pf_mesh_refine, pf_mesh_coarsen), the method on it
+    double refine_seconds;   /* criterion, new mesh, set-up on it and state transfer (CPU
+                                seconds of the process: a busy machine biases them little) */
+    /* its parts (CPU seconds): the new mesh (pf_mesh_refine, pf_mesh_coarsen), the method on it
      * (integrals, basis functions), the rest of the set-up (an embedded surface's weights,
      * pattern, contact, the solver's analysis), the state carried over; the first factorisation
      * on a new mesh is the solver's (reason "first") */
     double refine_mesh_seconds, refine_method_seconds, refine_setup_seconds,
         refine_transfer_seconds;
-    /* DG: element and face integrals of the new meshes copied from the old ones, and computed */
+    /* DG: element and face integrals copied from the set-up of the mesh before a change, and
+     * computed (by every set-up, the first included) */
     int64_t integrals_reused, integrals_computed;
 } pf_sim_stats;
 

@@ -420,6 +420,30 @@ static void test_plane_near_vertex(void **state)
     assert_int_equal(res.changed[2], 1);
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+
+    /* x + 2y - z = 1 contains the opposite corners (1, 0, 0) and (0, 1, 1) of the cube; tilted
+     * by 1e-13 it passes them at ~4e-14: they are on it, and only the edges whose ends lie
+     * strictly on opposite sides (counted here from the corners' signed distances) get a node. */
+    req.normal = pf_v3(1, 2, -1 + 1e-13);
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_children, 2);
+    pf_plane pl = pf_plane_from_point_normal(pf_v3(0.5, 0.5, 0.5), req.normal);
+    int crossed = 0;
+    for (int a = 0; a < 8; ++a)
+        for (int bit = 0; bit < 3; ++bit) {
+            int b = a | (1 << bit);
+            if (b == a)
+                continue;
+            double da = pf_plane_signed_distance(pl, pf_v3(a & 1, (a >> 1) & 1, a >> 2));
+            double db = pf_plane_signed_distance(pl, pf_v3(b & 1, (b >> 1) & 1, b >> 2));
+            crossed += (da < -1e-9 && db > 1e-9) || (da > 1e-9 && db < -1e-9);
+        }
+    assert_int_equal(crossed, 2);
+    assert_int_equal(dst.n_nodes, src.n_nodes + crossed);
+    for (int c = 0; c < 2; ++c)
+        assert_near(pf_mesh_elem_volume(&dst, c), 0.5, 1e-14);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
     pf_mesh_release(&src);
 }
 
@@ -472,6 +496,19 @@ static void test_l_shape(void **state)
     assert_near(pf_mesh_elem_volume(&dst, 1), 4.0 / 3, 1e-14);
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+    /* an L whose centroid lies on the plane of its inner face x = 1 (base 3 x 1 and arm 1 x 3,
+     * centroid x = (3 * 1.5 + 3 * 0.5) / 6 = 1): that face lies in the plane and stays a face of
+     * the left child, a rectangle 1 x 4; the right one is 2 x 1 */
+    const double xy2[] = {0, 0, 3, 0, 3, 1, 1, 1, 1, 4, 0, 4};
+    pf_mesh src2 = make_prism(xy2, 6);
+    refine_ok(&src2, &req, 1, &dst, &res);
+    assert_int_equal(dst.n_elems, 2);
+    assert_near(pf_mesh_elem_volume(&dst, 0), 4, 1e-14);
+    assert_near(pf_mesh_elem_volume(&dst, 1), 2, 1e-14);
+    assert_int_equal(dst.n_nodes, src2.n_nodes + 2); /* (1, 0, 0) and (1, 0, 1) */
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src2);
     /* octs: the L's principal axes are the diagonals; every piece's volume sums to 3 */
     req.kind = PF_SPLIT_OCTS;
     refine_ok(&src, &req, 1, &dst, &res);

@@ -526,7 +526,7 @@ static void test_u_shape_three_children(void **state)
 
 /* The sliver rule: a U whose right arm is a stub 0.1 x 0.3 (area 10 + 4 + 0.03, centroid
  * y = 17.0345 / 14.03 = 1.214): the plane y = 1.214 cuts 0.1 x 0.086 off the stub, 0.06 % of the
- * element, so the request is skipped and the mesh unchanged. */
+ * element, so the request is skipped and the mesh unchanged. Octs skip only such a plane. */
 static void test_sliver_skipped(void **state)
 {
     (void)state;
@@ -543,6 +543,23 @@ static void test_sliver_skipped(void **state)
     assert_true(same_polygons(&src, 0, &dst, 0));
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+    /* octs skip only the plane that makes slivers: a base 10 x 1 with a middle arm 2 x 4 and end
+     * stubs 0.1 x 0.8 (area 18.16, mirror-symmetric about x = 5, centroid y = 29.224 / 18.16 =
+     * 1.609): the principal axes are x, y and z; the plane y = 1.609 would cut 0.1 x 0.19 tips off
+     * the stubs (0.1 % each), so only x = 5 and z = 1/2 apply: four mirror-image children */
+    const double comb[] = {0, 0, 10, 0, 10, 1.8, 9.9, 1.8, 9.9, 1,   6, 1,
+                           6, 5, 4,  5, 4,  1,   0.1, 1,   0.1, 1.8, 0, 1.8};
+    pf_mesh src2 = make_prism(comb, 12);
+    pf_refine_request octs = {.elem = 0, .kind = PF_SPLIT_OCTS};
+    refine_ok(&src2, &octs, 1, &dst, &res);
+    assert_int_equal(res.n_split, 1);
+    assert_int_equal(res.n_planes_skipped, 1);
+    assert_int_equal(res.n_children, 4);
+    for (int c = 0; c < 4; ++c)
+        assert_near(pf_mesh_elem_volume(&dst, c), 18.16 / 4, 1e-12 * 18.16);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src2);
     /* the other direction makes no sliver */
     req.normal = pf_v3(1, 0, 0);
     refine_ok(&src, &req, 1, &dst, &res);

@@ -22,25 +22,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "test_check.h"
 #include "test_random.h"
 #include <pf/geom.h>
 #include <pf/mesh.h>
 #include <pf/refine.h>
-
-#define CHECKF(cond, ...)                                                                          \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            print_error(__VA_ARGS__);                                                              \
-            print_error("\n");                                                                     \
-            fail_msg("%s", #cond);                                                                 \
-        }                                                                                          \
-    } while (0)
-
-#define assert_near(a, b, tol)                                                                     \
-    do {                                                                                           \
-        double got_ = (a), want_ = (b);                                                            \
-        CHECKF(fabs(got_ - want_) <= (tol), "%s = %.17g, expected %.17g", #a, got_, want_);        \
-    } while (0)
 
 /* ---- helpers -----------------------------------------------------------------------------------
  */
@@ -420,6 +406,30 @@ static void test_plane_near_vertex(void **state)
     assert_int_equal(res.changed[2], 1);
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+
+    /* x + 2y - z = 1 contains the opposite corners (1, 0, 0) and (0, 1, 1) of the cube; tilted
+     * by 1e-13 it passes them at ~4e-14: they are on it, and only the edges whose ends lie
+     * strictly on opposite sides (counted here from the corners' signed distances) get a node. */
+    req.normal = pf_v3(1, 2, -1 + 1e-13);
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_children, 2);
+    pf_plane pl = pf_plane_from_point_normal(pf_v3(0.5, 0.5, 0.5), req.normal);
+    int crossed = 0;
+    for (int a = 0; a < 8; ++a)
+        for (int bit = 0; bit < 3; ++bit) {
+            int b = a | (1 << bit);
+            if (b == a)
+                continue;
+            double da = pf_plane_signed_distance(pl, pf_v3(a & 1, (a >> 1) & 1, a >> 2));
+            double db = pf_plane_signed_distance(pl, pf_v3(b & 1, (b >> 1) & 1, b >> 2));
+            crossed += (da < -1e-9 && db > 1e-9) || (da > 1e-9 && db < -1e-9);
+        }
+    assert_int_equal(crossed, 2);
+    assert_int_equal(dst.n_nodes, src.n_nodes + crossed);
+    for (int c = 0; c < 2; ++c)
+        assert_near(pf_mesh_elem_volume(&dst, c), 0.5, 1e-14);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
     pf_mesh_release(&src);
 }
 
@@ -472,6 +482,19 @@ static void test_l_shape(void **state)
     assert_near(pf_mesh_elem_volume(&dst, 1), 4.0 / 3, 1e-14);
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+    /* an L whose centroid lies on the plane of its inner face x = 1 (base 3 x 1 and arm 1 x 3,
+     * centroid x = (3 * 1.5 + 3 * 0.5) / 6 = 1): that face lies in the plane and stays a face of
+     * the left child, a rectangle 1 x 4; the right one is 2 x 1 */
+    const double xy2[] = {0, 0, 3, 0, 3, 1, 1, 1, 1, 4, 0, 4};
+    pf_mesh src2 = make_prism(xy2, 6);
+    refine_ok(&src2, &req, 1, &dst, &res);
+    assert_int_equal(dst.n_elems, 2);
+    assert_near(pf_mesh_elem_volume(&dst, 0), 4, 1e-14);
+    assert_near(pf_mesh_elem_volume(&dst, 1), 2, 1e-14);
+    assert_int_equal(dst.n_nodes, src2.n_nodes + 2); /* (1, 0, 0) and (1, 0, 1) */
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src2);
     /* octs: the L's principal axes are the diagonals; every piece's volume sums to 3 */
     req.kind = PF_SPLIT_OCTS;
     refine_ok(&src, &req, 1, &dst, &res);
@@ -503,7 +526,7 @@ static void test_u_shape_three_children(void **state)
 
 /* The sliver rule: a U whose right arm is a stub 0.1 x 0.3 (area 10 + 4 + 0.03, centroid
  * y = 17.0345 / 14.03 = 1.214): the plane y = 1.214 cuts 0.1 x 0.086 off the stub, 0.06 % of the
- * element, so the request is skipped and the mesh unchanged. */
+ * element, so the request is skipped and the mesh unchanged. Octs skip only such a plane. */
 static void test_sliver_skipped(void **state)
 {
     (void)state;
@@ -520,6 +543,23 @@ static void test_sliver_skipped(void **state)
     assert_true(same_polygons(&src, 0, &dst, 0));
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
+    /* octs skip only the plane that makes slivers: a base 10 x 1 with a middle arm 2 x 4 and end
+     * stubs 0.1 x 0.8 (area 18.16, mirror-symmetric about x = 5, centroid y = 29.224 / 18.16 =
+     * 1.609): the principal axes are x, y and z; the plane y = 1.609 would cut 0.1 x 0.19 tips off
+     * the stubs (0.1 % each), so only x = 5 and z = 1/2 apply: four mirror-image children */
+    const double comb[] = {0, 0, 10, 0, 10, 1.8, 9.9, 1.8, 9.9, 1,   6, 1,
+                           6, 5, 4,  5, 4,  1,   0.1, 1,   0.1, 1.8, 0, 1.8};
+    pf_mesh src2 = make_prism(comb, 12);
+    pf_refine_request octs = {.elem = 0, .kind = PF_SPLIT_OCTS};
+    refine_ok(&src2, &octs, 1, &dst, &res);
+    assert_int_equal(res.n_split, 1);
+    assert_int_equal(res.n_planes_skipped, 1);
+    assert_int_equal(res.n_children, 4);
+    for (int c = 0; c < 4; ++c)
+        assert_near(pf_mesh_elem_volume(&dst, c), 18.16 / 4, 1e-12 * 18.16);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src2);
     /* the other direction makes no sliver */
     req.normal = pf_v3(1, 0, 0);
     refine_ok(&src, &req, 1, &dst, &res);

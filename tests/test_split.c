@@ -25,25 +25,11 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "test_check.h"
 #include "test_random.h"
 #include <pf/geom.h>
 #include <pf/mesh.h>
 #include <pf/split.h>
-
-#define CHECKF(cond, ...)                                                                          \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            print_error(__VA_ARGS__);                                                              \
-            print_error("\n");                                                                     \
-            fail_msg("%s", #cond);                                                                 \
-        }                                                                                          \
-    } while (0)
-
-#define assert_near(a, b, tol)                                                                     \
-    do {                                                                                           \
-        double got_ = (a), want_ = (b);                                                            \
-        CHECKF(fabs(got_ - want_) <= (tol), "%s = %.17g, expected %.17g", #a, got_, want_);        \
-    } while (0)
 
 /* ---- random numbers -------------------------------------------------------------------------- */
 

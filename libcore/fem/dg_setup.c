@@ -235,13 +235,31 @@ static pf_status setup_face(pf_dg *dg, const pf_mesh *mesh, int32_t f, int32_t l
     return PF_OK;
 }
 
+/* Whether old face g has the old elements of left and right in the same roles. */
+static bool same_roles(const pf_dg_reuse *reuse, int32_t g, int32_t left, int32_t right)
+{
+    const pf_mesh *om = reuse->old_mesh;
+    int32_t a = om->face_elems[2 * g], b = om->face_elems[2 * g + 1];
+    int32_t old_left = a >= 0 ? a : b, old_right = a >= 0 ? b : -1;
+    return old_left == reuse->parent[left] && old_right == (right >= 0 ? reuse->parent[right] : -1);
+}
+
 /* The face of old with the same polygon and the same elements in the same roles as face f of
- * mesh, or -1: f's elements both have their parents' faces node for node (reuse->same_faces),
- * so f is, in its element's face list, where the old face is in the parent's. */
+ * mesh, or -1. With reuse->face_src (refinement): that face, when both elements are their
+ * parents' solids (their frames, so their basis functions, are the old ones). Without: when
+ * both elements have their parents' faces node for node (reuse->same_faces), f is, in its
+ * element's face list, where the old face is in the parent's. */
 static int32_t old_face_of(const pf_mesh *mesh, int32_t f, int32_t left, int32_t right,
                            const pf_dg_reuse *reuse)
 {
-    if (!reuse || !reuse->same_faces[left] || (right >= 0 && !reuse->same_faces[right]))
+    if (!reuse)
+        return -1;
+    if (reuse->face_src) {
+        int32_t g = reuse->face_src[f];
+        bool solids = reuse->same_solid[left] && (right < 0 || reuse->same_solid[right]);
+        return g >= 0 && solids && same_roles(reuse, g, left, right) ? g : -1;
+    }
+    if (!reuse->same_faces[left] || (right >= 0 && !reuse->same_faces[right]))
         return -1;
     const pf_mesh *om = reuse->old_mesh;
     int32_t p = reuse->parent[left];
@@ -250,10 +268,7 @@ static int32_t old_face_of(const pf_mesh *mesh, int32_t f, int32_t left, int32_t
         if (PF_FACE_INDEX(mesh->elem_faces[mesh->elem_offsets[left] + k]) != f)
             continue;
         int32_t g = PF_FACE_INDEX(om->elem_faces[om->elem_offsets[p] + k]);
-        int32_t a = om->face_elems[2 * g], b = om->face_elems[2 * g + 1];
-        int32_t old_left = a >= 0 ? a : b, old_right = a >= 0 ? b : -1;
-        bool same_roles = old_left == p && old_right == (right >= 0 ? reuse->parent[right] : -1);
-        return same_roles ? g : -1;
+        return same_roles(reuse, g, left, right) ? g : -1;
     }
     return -1;
 }

@@ -22,6 +22,8 @@ typedef struct pf_mesh_change {
                                    -1 for none; NULL when nothing merged */
     const int32_t *node_map;    /* [old nodes] the new index of each old node, -1 when removed;
                                    NULL: every old node keeps its index */
+    const int32_t *face_src;    /* [new faces] the old face each new face is, node for node, or
+                                   -1 (refinement); NULL: not known */
 } pf_mesh_change;
 
 typedef struct pf_method_ops {
@@ -115,6 +117,7 @@ typedef struct pf_method_reuse {
     const int32_t *parent;
     const uint8_t *same_solid;
     const uint8_t *same_faces;
+    const int32_t *face_src; /* [new faces] the old face each is, node for node, or -1; NULL */
 } pf_method_reuse;
 
 /* Creates a method for the scene on the mesh: *ops and *ctx; fixed_faces and loaded_faces count

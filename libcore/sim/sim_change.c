@@ -96,7 +96,8 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
                              .old_mesh = s->mesh,
                              .parent = change->parent,
                              .same_solid = same,
-                             .same_faces = same + ne};
+                             .same_faces = same + ne,
+                             .face_src = change->face_src};
     pf_status st = pf_sim_build(t, t->owned_mesh, &reuse, s->stats.penalty, err);
     pf_free(same);
     return st;

@@ -449,7 +449,8 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                                  .old_mesh = reuse->old_mesh,
                                  .parent = reuse->parent,
                                  .same_solid = reuse->same_solid,
-                                 .same_faces = reuse->same_faces};
+                                 .same_faces = reuse->same_faces,
+                                 .face_src = reuse->face_src};
     pf_status st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, scene->E, scene->nu,
                                         scene->density, reuse ? &dg_reuse : NULL, err);
     if (st >= 0) {

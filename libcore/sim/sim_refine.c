@@ -142,7 +142,8 @@ pf_status pf_sim_split(pf_sim *s, const pf_refine_request *req, int32_t n_req, i
                    : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                                   "cannot allocate %d split flags", (int)n_old);
     }
-    pf_mesh_change change = {.old_mesh = s->mesh, .parent = res.parent, .split = split};
+    pf_mesh_change change = {
+        .old_mesh = s->mesh, .parent = res.parent, .split = split, .face_src = res.face_src};
     if (res.n_split > 0 && st >= 0)
         st = pf_sim_change_mesh(s, &next, &change, res.changed, &old, err);
     if (old) {

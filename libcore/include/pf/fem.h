@@ -117,6 +117,9 @@ typedef struct pf_dg_reuse {
     const int32_t *parent;
     const uint8_t *same_solid;
     const uint8_t *same_faces;
+    const int32_t *face_src; /* [faces of m] the old face each face is, node for node, or -1
+                                (pf_refine_result.face_src); NULL: faces are matched by their
+                                position in same_faces elements */
 } pf_dg_reuse;
 
 /* pf_dg_create, copying what reuse allows (NULL: nothing); dg->reused_elems and

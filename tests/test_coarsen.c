@@ -615,7 +615,7 @@ static int32_t faces_with_point(const pf_mesh *m, int32_t e, pf_vec3 p)
 /* Conformity wins: cube A of a 2x1x1 row refined by octs, then its neighbour N by octs; merging
  * A's children keeps N's nodes on the shared face x = 1: that face stays 4 quarters, each shared
  * with one child of N, and the edge midpoints of x = 1 stay (corners of the quarters); A's other
- * 14 nodes go. Nodes: 12 + 19 of N's refinement. */
+ * 14 nodes go. Nodes: 12 + 19 of N's refinement. Merging N's children then gives the row back. */
 static void test_neighbour_refined_later(void **state)
 {
     (void)state;
@@ -656,6 +656,14 @@ static void test_neighbour_refined_later(void **state)
     assert_int_equal(faces_with_point(&dst, 0, pf_v3(0.5, 0, 0)), 0);
     for (int32_t d = 1; d < 9; ++d)
         assert_int_equal(res.changed[d], 0);
+    /* then N's children: the row of two cubes again */
+    int32_t g2[9] = {-1, 1, 1, 1, 1, 1, 1, 1, 1};
+    pf_mesh back = {0};
+    pf_coarsen_result r3;
+    coarsen_ok(&dst, g2, &back, &r3);
+    check_same_mesh(&src, &back);
+    pf_coarsen_result_release(&r3);
+    pf_mesh_release(&back);
     pf_coarsen_result_release(&res);
     pf_mesh_release(&dst);
     pf_refine_result_release(&r1);

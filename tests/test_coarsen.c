@@ -598,6 +598,53 @@ static void test_cycle_nested(void **state)
     pf_mesh_release(&src);
 }
 
+/* Three rounds of refinement of pseudo-random elements (a fixed linear congruential sequence:
+ * every third element, octs or halves along varied normals), undone in reverse order: each
+ * coarsening gives back the mesh before the matching refinement. */
+static void test_cycle_three_rounds(void **state)
+{
+    (void)state;
+    pf_mesh m[4] = {make_box(3, 2, 2, 3, 2, 2)};
+    pf_refine_result r[3];
+    uint32_t seed = 12345;
+    for (int round = 0; round < 3; ++round) {
+        int32_t n = m[round].n_elems, nr = 0;
+        pf_refine_request *req = calloc((size_t)n, sizeof *req);
+        assert_non_null(req);
+        for (int32_t e = 0; e < n; ++e) {
+            seed = seed * 1664525u + 1013904223u;
+            if ((seed >> 16) % 3 != 0)
+                continue;
+            double a = (double)(seed >> 8 & 0xff) / 40.0;
+            req[nr++] =
+                (pf_refine_request){.elem = e,
+                                    .kind = (seed >> 24) & 1 ? PF_SPLIT_HALVES : PF_SPLIT_OCTS,
+                                    .normal = {cos(a), sin(a), 0.5 * cos(3 * a)}};
+        }
+        m[round + 1] = (pf_mesh){0};
+        refine_ok(&m[round], req, nr, &m[round + 1], &r[round]);
+        assert_true(r[round].n_split > 0);
+        free(req);
+    }
+    pf_mesh cur = m[3];
+    for (int round = 2; round >= 0; --round) {
+        pf_mesh back = {0};
+        pf_coarsen_result cr;
+        coarsen_ok(&cur, r[round].parent, &back, &cr);
+        assert_int_equal(cr.n_merged, r[round].n_split);
+        check_same_mesh(&m[round], &back);
+        pf_coarsen_result_release(&cr);
+        if (round < 2)
+            pf_mesh_release(&cur);
+        cur = back;
+    }
+    pf_mesh_release(&cur);
+    for (int i = 0; i < 4; ++i)
+        pf_mesh_release(&m[i]);
+    for (int i = 0; i < 3; ++i)
+        pf_refine_result_release(&r[i]);
+}
+
 /* Whether element e of m has a node at p (exact coordinates) in n faces. */
 static int32_t faces_with_point(const pf_mesh *m, int32_t e, pf_vec3 p)
 {
@@ -714,11 +761,17 @@ static void test_deterministic(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_merge_box),        cmocka_unit_test(test_two_groups),
-        cmocka_unit_test(test_ring_not_simple),  cmocka_unit_test(test_not_connected),
-        cmocka_unit_test(test_cycle_boxes),      cmocka_unit_test(test_cycle_tets),
-        cmocka_unit_test(test_cycle_non_convex), cmocka_unit_test(test_cycle_sliced_sphere),
-        cmocka_unit_test(test_cycle_nested),     cmocka_unit_test(test_neighbour_refined_later),
+        cmocka_unit_test(test_merge_box),
+        cmocka_unit_test(test_two_groups),
+        cmocka_unit_test(test_ring_not_simple),
+        cmocka_unit_test(test_not_connected),
+        cmocka_unit_test(test_cycle_boxes),
+        cmocka_unit_test(test_cycle_tets),
+        cmocka_unit_test(test_cycle_non_convex),
+        cmocka_unit_test(test_cycle_sliced_sphere),
+        cmocka_unit_test(test_cycle_nested),
+        cmocka_unit_test(test_cycle_three_rounds),
+        cmocka_unit_test(test_neighbour_refined_later),
         cmocka_unit_test(test_deterministic),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -216,6 +216,25 @@ static void check_coarsened(const pf_mesh *src, const int32_t *group, const pf_m
     }
     free(near_group);
     assert_int_equal(d, dst->n_elems);
+    /* face_src: the src face with the same mapped node sequence, else -1 (by brute force) */
+    for (int32_t f = 0; f < dst->n_faces; ++f) {
+        int64_t n = dst->face_offsets[f + 1] - dst->face_offsets[f];
+        const uint32_t *q = dst->face_nodes + dst->face_offsets[f];
+        int32_t found = -1;
+        for (int32_t g = 0; g < src->n_faces && found < 0; ++g) {
+            const uint32_t *p = src->face_nodes + src->face_offsets[g];
+            if (src->face_offsets[g + 1] - src->face_offsets[g] != n ||
+                res->node_map[p[0]] != (int32_t)q[0])
+                continue;
+            bool same = true;
+            for (int64_t k = 1; k < n && same; ++k)
+                same = res->node_map[p[k]] == (int32_t)q[k];
+            if (same)
+                found = g;
+        }
+        CHECKF(res->face_src[f] == found, "face %d: face_src %d, expected %d", (int)f,
+               (int)res->face_src[f], (int)found);
+    }
     assert_int_equal(merged, res->n_merged);
     double vs = total_volume(src), vd = total_volume(dst);
     assert_near(vd, vs, 1e-12 * vs);
@@ -337,6 +356,38 @@ static void test_two_groups(void **state)
     pf_coarsen_result_release(&res);
     pf_mesh_release(&dst);
     pf_mesh_release(&src);
+}
+
+/* A ring: the 8 cubes of a 3x3x1 box around its centre as one group (an element with a hole).
+ * The tops (and bottoms) are coplanar and meet along removed faces' edges, but their union is an
+ * annulus, not one simple polygon: they stay 8 faces each. Each outer side's 3 squares become one
+ * 3x1 rectangle (its inner nodes are corners of the tops and bottoms, so they stay); the hole's
+ * sides are single squares already. Nothing is removed: 32 nodes, 8 + 8 + 4 + 4 faces. */
+static void test_ring_not_simple(void **state)
+{
+    (void)state;
+    pf_mesh sq = make_box(3, 3, 1, 3, 3, 1), ring = {0}, dst = {0};
+    pf_error err = {0};
+    uint8_t keep[9] = {1, 1, 1, 1, 0, 1, 1, 1, 1};
+    assert_int_equal(pf_mesh_select_elements(&ring, &sq, keep, NULL, &err), PF_OK);
+    int32_t group[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    pf_coarsen_result res;
+    coarsen_ok(&ring, group, &dst, &res);
+    assert_int_equal(dst.n_elems, 1);
+    assert_int_equal(dst.n_nodes, 32);
+    assert_int_equal(res.n_removed_nodes, 0);
+    assert_int_equal(dst.n_faces, 24);
+    assert_near(pf_mesh_elem_volume(&dst, 0), 8, 1e-14);
+    int32_t rect = 0;
+    for (int32_t f = 0; f < dst.n_faces; ++f)
+        rect += fabs(pf_polygon_area(dst.x, dst.face_nodes + dst.face_offsets[f],
+                                     dst.face_offsets[f + 1] - dst.face_offsets[f]) -
+                     3) < 1e-14;
+    assert_int_equal(rect, 4);
+    pf_coarsen_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&ring);
+    pf_mesh_release(&sq);
 }
 
 /* A group must be face-connected: elements 0 and 2 of a row of 3 (or 0 and 3 of a 2x2x1 box,
@@ -547,6 +598,53 @@ static void test_cycle_nested(void **state)
     pf_mesh_release(&src);
 }
 
+/* Three rounds of refinement of pseudo-random elements (a fixed linear congruential sequence:
+ * every third element, octs or halves along varied normals), undone in reverse order: each
+ * coarsening gives back the mesh before the matching refinement. */
+static void test_cycle_three_rounds(void **state)
+{
+    (void)state;
+    pf_mesh m[4] = {make_box(3, 2, 2, 3, 2, 2)};
+    pf_refine_result r[3];
+    uint32_t seed = 12345;
+    for (int round = 0; round < 3; ++round) {
+        int32_t n = m[round].n_elems, nr = 0;
+        pf_refine_request *req = calloc((size_t)n, sizeof *req);
+        assert_non_null(req);
+        for (int32_t e = 0; e < n; ++e) {
+            seed = seed * 1664525u + 1013904223u;
+            if ((seed >> 16) % 3 != 0)
+                continue;
+            double a = (double)(seed >> 8 & 0xff) / 40.0;
+            req[nr++] =
+                (pf_refine_request){.elem = e,
+                                    .kind = (seed >> 24) & 1 ? PF_SPLIT_HALVES : PF_SPLIT_OCTS,
+                                    .normal = {cos(a), sin(a), 0.5 * cos(3 * a)}};
+        }
+        m[round + 1] = (pf_mesh){0};
+        refine_ok(&m[round], req, nr, &m[round + 1], &r[round]);
+        assert_true(r[round].n_split > 0);
+        free(req);
+    }
+    pf_mesh cur = m[3];
+    for (int round = 2; round >= 0; --round) {
+        pf_mesh back = {0};
+        pf_coarsen_result cr;
+        coarsen_ok(&cur, r[round].parent, &back, &cr);
+        assert_int_equal(cr.n_merged, r[round].n_split);
+        check_same_mesh(&m[round], &back);
+        pf_coarsen_result_release(&cr);
+        if (round < 2)
+            pf_mesh_release(&cur);
+        cur = back;
+    }
+    pf_mesh_release(&cur);
+    for (int i = 0; i < 4; ++i)
+        pf_mesh_release(&m[i]);
+    for (int i = 0; i < 3; ++i)
+        pf_refine_result_release(&r[i]);
+}
+
 /* Whether element e of m has a node at p (exact coordinates) in n faces. */
 static int32_t faces_with_point(const pf_mesh *m, int32_t e, pf_vec3 p)
 {
@@ -564,7 +662,7 @@ static int32_t faces_with_point(const pf_mesh *m, int32_t e, pf_vec3 p)
 /* Conformity wins: cube A of a 2x1x1 row refined by octs, then its neighbour N by octs; merging
  * A's children keeps N's nodes on the shared face x = 1: that face stays 4 quarters, each shared
  * with one child of N, and the edge midpoints of x = 1 stay (corners of the quarters); A's other
- * 14 nodes go. Nodes: 12 + 19 of N's refinement. */
+ * 14 nodes go. Nodes: 12 + 19 of N's refinement. Merging N's children then gives the row back. */
 static void test_neighbour_refined_later(void **state)
 {
     (void)state;
@@ -605,6 +703,14 @@ static void test_neighbour_refined_later(void **state)
     assert_int_equal(faces_with_point(&dst, 0, pf_v3(0.5, 0, 0)), 0);
     for (int32_t d = 1; d < 9; ++d)
         assert_int_equal(res.changed[d], 0);
+    /* then N's children: the row of two cubes again */
+    int32_t g2[9] = {-1, 1, 1, 1, 1, 1, 1, 1, 1};
+    pf_mesh back = {0};
+    pf_coarsen_result r3;
+    coarsen_ok(&dst, g2, &back, &r3);
+    check_same_mesh(&src, &back);
+    pf_coarsen_result_release(&r3);
+    pf_mesh_release(&back);
     pf_coarsen_result_release(&res);
     pf_mesh_release(&dst);
     pf_refine_result_release(&r1);
@@ -657,12 +763,14 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_merge_box),
         cmocka_unit_test(test_two_groups),
+        cmocka_unit_test(test_ring_not_simple),
         cmocka_unit_test(test_not_connected),
         cmocka_unit_test(test_cycle_boxes),
         cmocka_unit_test(test_cycle_tets),
         cmocka_unit_test(test_cycle_non_convex),
         cmocka_unit_test(test_cycle_sliced_sphere),
         cmocka_unit_test(test_cycle_nested),
+        cmocka_unit_test(test_cycle_three_rounds),
         cmocka_unit_test(test_neighbour_refined_later),
         cmocka_unit_test(test_deterministic),
     };

@@ -295,7 +295,7 @@ static pf_status build_output(coarsen *c, pf_mesh *dst, pf_coarsen_result *res, 
     }
     pf_status st = pf_mesh_alloc(dst, n_nodes, n_faces, nfn, n_elems, nef, err);
     if (st >= 0 && (!PF_ALLOC_N(res->parent, n_elems) || !PF_ALLOC_N(res->changed, n_elems) ||
-                    !PF_ALLOC_N(res->node_map, m->n_nodes)))
+                    !PF_ALLOC_N(res->node_map, m->n_nodes) || !PF_ALLOC_N(res->face_src, n_faces)))
         st = NOMEM(err);
     if (st < 0) {
         pf_free(face_map);
@@ -315,6 +315,7 @@ static pf_status build_output(coarsen *c, pf_mesh *dst, pf_coarsen_result *res, 
         for (int32_t k = 0; k < n; ++k)
             dst->face_nodes[at + k] = (uint32_t)c->node_map[p[k]];
         dst->face_offsets[g + 1] = at + n;
+        res->face_src[g] = c->face_state[f] == FACE_SRC ? f : -1;
     }
     int32_t d = 0;
     for (int32_t e = 0; e < m->n_elems; ++e) {
@@ -345,6 +346,7 @@ void pf_coarsen_result_release(pf_coarsen_result *r)
     pf_free(r->parent);
     pf_free(r->node_map);
     pf_free(r->changed);
+    pf_free(r->face_src);
     memset(r, 0, sizeof *r);
 }
 

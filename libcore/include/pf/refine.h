@@ -148,6 +148,9 @@ typedef struct pf_coarsen_result {
                           neighbours whose faces were united or lost nodes */
     int32_t n_merged;  /* groups of two or more elements merged */
     int32_t n_removed_nodes;
+    int32_t *face_src; /* [dst->n_faces] the src face each dst face is, node for node through
+                          node_map (same order, same orientation), or -1 for a face that was
+                          united or lost nodes */
 } pf_coarsen_result;
 
 /* Merges the groups of src into dst (zeroed or released first; written derived) and describes

@@ -113,11 +113,11 @@ void pf_cholesky_destroy(pf_cholesky **c);
  * steps; A's values may change between solves). Methods:
  *   direct  the reference: factorise whenever the caller says the matrix changed.
  *   pcg     conjugate gradients on the current A, preconditioned by the most recent factor,
- *           warm-started from x's value on entry. A new factorisation happens when the
- *           iterations spent since the last one, beyond what a fresh factor needs, cost more
- *           than a factorisation (both counted in flops from CHOLMOD's analysis, so the decision
- *           is deterministic), when the matrix gained or lost terms (PF_MATRIX_NEW: a contact
- *           set that changed), or when PCG fails.
+ *           warm-started from x's value on entry. A new factorisation happens when the last
+ *           solve cost more than the average solve since the last factorisation, that
+ *           factorisation included (costs counted in flops from CHOLMOD's analysis, so the
+ *           decision is deterministic), when the matrix gained or lost terms (PF_MATRIX_NEW: a
+ *           contact set that changed), or when PCG fails.
  *   auto    direct when the matrix never changes or a factorisation costs at most ten
  *           iterations; pcg otherwise.
  * Every decision depends on the inputs only: the same sequence of systems gives the same bits. */

@@ -331,7 +331,7 @@ pf_status pf_cg_pattern(const pf_cg *cg, const uint8_t *fixed, pf_block_matrix *
                         pf_error *err);
 void pf_cg_map_release(pf_cg_map *map);
 
-/* Doubles of scratch the assembly needs: (3 max_nodes)^2 + 9 max_nodes. */
+/* Doubles of scratch the assembly needs: 6 max_nodes. */
 size_t pf_cg_scratch_size(const pf_cg *cg);
 
 /* Element rotations by shape matching (sec. 6, stiffness warping): R_e the rotation of the polar

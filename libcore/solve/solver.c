@@ -227,7 +227,7 @@ static pcg_result pcg(pf_solver *s, const pf_block_matrix *a, const double *b, d
     while (rnorm > goal) {
         if (!isfinite(rnorm) || *iterations >= s->iteration_limit)
             break;
-        if (pf_cholesky_solve(s->chol, s->r, s->z, err) < 0)
+        if (pf_cholesky_precondition(s->chol, s->r, s->z, err) < 0)
             return PCG_BREAKDOWN;
         memcpy(s->d, s->z, (size_t)n * sizeof *s->d);
         double rz = dot(s->r, s->z, n);
@@ -245,7 +245,7 @@ static pcg_result pcg(pf_solver *s, const pf_block_matrix *a, const double *b, d
             rnorm = sqrt(dot(s->r, s->r, n));
             if (rnorm <= goal || !isfinite(rnorm))
                 break;
-            if (pf_cholesky_solve(s->chol, s->r, s->z, err) < 0)
+            if (pf_cholesky_precondition(s->chol, s->r, s->z, err) < 0)
                 return PCG_BREAKDOWN;
             double rz_next = dot(s->r, s->z, n), beta = rz_next / rz;
             rz = rz_next;

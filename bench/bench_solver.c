@@ -13,6 +13,8 @@
  *                           MLS-embedded surface and at the mesh nodes, CPU per step:
  *                           contact,steps,contacts_per_step,factorisations,step_cpu_ms,ratio
  *   bench_solver ... quick  smaller cases (a check that the program runs)
+ *   bench_solver beam ROW   only the beam rows that begin with ROW (e.g. "39x7x7,cg,pcg"), for a
+ *                           profiler
  *
  * CPU seconds (the process clock), so that a busy machine biases the figures little; the first
  * line says what machine and load they were taken on. */
@@ -64,7 +66,7 @@ static double pcg_mean(const pf_sim_stats *st)
                                  : 0;
 }
 
-static int beams(bool quick)
+static int beams(bool quick, const char *only)
 {
     static const int cells[][3] = {{39, 7, 7}, {79, 15, 15}};
     printf("case,method,solver,elements,dofs,steps,factorisations,factor_cpu_ms,step_cpu_ms,"
@@ -75,12 +77,17 @@ static int beams(bool quick)
                 if (c == 1 && method == 0)
                     continue; /* DG on the large beam: not one of the targets, and slow */
                 const int *n = cells[c];
+                char row[64];
+                snprintf(row, sizeof row, "%dx%dx%d,%s,%s", n[0], n[1], n[2], method ? "cg" : "dg1",
+                         pf_solver_method_name((pf_solver_method)solver));
+                if (only && strncmp(row, only, strlen(only)) != 0)
+                    continue;
                 pf_error err = {0};
                 pf_mesh m = {0};
                 double h = 0.1;
-                pf_status st = pf_mesh_make_box(&m, pf_v3(0, 0, 0),
-                                                pf_v3(n[0] * h, n[1] * h, n[2] * h), n[0], n[1],
-                                                n[2], &err);
+                pf_status st =
+                    pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(n[0] * h, n[1] * h, n[2] * h), n[0],
+                                     n[1], n[2], &err);
                 pf_scene sc;
                 if (st >= 0)
                     st = parse(&sc,
@@ -104,9 +111,7 @@ static int beams(bool quick)
                                    (double)(s.factorisations > 0 ? s.factorisations : 1);
                 /* the step's cost without the first factorisation (every policy pays it) */
                 double step_ms = 1e3 * (cpu - factor_ms / 1e3) / steps;
-                printf("%dx%dx%d,%s,%s,%d,%lld,%lld,%lld,%.1f,%.1f,%.3f,%.2f,%.2f,%d\n", n[0],
-                       n[1], n[2], method ? "cg" : "dg1",
-                       pf_solver_method_name((pf_solver_method)solver), (int)m.n_elems,
+                printf("%s,%d,%lld,%lld,%lld,%.1f,%.1f,%.3f,%.2f,%.2f,%d\n", row, (int)m.n_elems,
                        (long long)s.dofs, (long long)s.steps, (long long)s.factorisations,
                        factor_ms, step_ms, step_ms / factor_ms, 1e3 / step_ms, pcg_mean(&s),
                        (int)s.solver.max_iterations);
@@ -128,14 +133,15 @@ static int spins(bool quick)
         pf_status st = pf_mesh_make_box(&m, pf_v3(0, 0, 0), pf_v3(2, 1, 1), quick ? 8 : 16,
                                         quick ? 4 : 8, quick ? 4 : 8, &err);
         if (st >= 0)
-            st = parse(&sc, "{\"gravity\": [0, 0, 0], \"ground\": false, \"material\": {\"E\": 1e6},"
-                            " \"solver\": \"pcg\"}",
+            st = parse(&sc,
+                       "{\"gravity\": [0, 0, 0], \"ground\": false, \"material\": {\"E\": 1e6},"
+                       " \"solver\": \"pcg\"}",
                        &err);
         double cpu;
         pf_sim_stats s;
         if (st >= 0)
-            st = run(&sc, &m, NULL, NULL, pf_v3(0.2 * omega[k], 0.3 * omega[k], omega[k]), 10,
-                     &cpu, &s, &err);
+            st = run(&sc, &m, NULL, NULL, pf_v3(0.2 * omega[k], 0.3 * omega[k], omega[k]), 10, &cpu,
+                     &s, &err);
         if (st < 0)
             return fail(&err);
         printf("%g,%.1f,%.2f,%d\n", omega[k], 100.0 * (double)s.factorisations / (double)s.steps,
@@ -170,8 +176,8 @@ static int contacts(bool quick)
             return fail(&err);
         double cpu;
         pf_sim_stats stats;
-        if (run(&sc, &m, embedded ? &s : NULL, embedded ? &w : NULL, pf_v3(0, 0, 0),
-                quick ? 3 : 30, &cpu, &stats, &err) < 0)
+        if (run(&sc, &m, embedded ? &s : NULL, embedded ? &w : NULL, pf_v3(0, 0, 0), quick ? 3 : 30,
+                &cpu, &stats, &err) < 0)
             return fail(&err);
         double ms = 1e3 * cpu / (double)stats.steps;
         if (!embedded)
@@ -192,15 +198,16 @@ int main(int argc, char **argv)
 {
     const char *mode = argc > 1 ? argv[1] : "beam";
     bool quick = argc > 2 && strcmp(argv[2], "quick") == 0;
+    const char *only = argc > 2 && !quick ? argv[2] : NULL;
     char machine[512];
     bench_describe_machine(machine, sizeof machine);
     printf("# %s\n", machine);
     if (!strcmp(mode, "beam"))
-        return beams(quick);
+        return beams(quick, only);
     if (!strcmp(mode, "spin"))
         return spins(quick);
     if (!strcmp(mode, "contact"))
         return contacts(quick);
-    fprintf(stderr, "usage: bench_solver [beam|spin|contact] [quick]\n");
+    fprintf(stderr, "usage: bench_solver [beam|spin|contact] [quick], bench_solver beam ROW\n");
     return 2;
 }

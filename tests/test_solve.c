@@ -17,6 +17,7 @@
 
 #include <math.h>
 #include <stdbool.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -226,6 +227,93 @@ static void cholesky_solves_and_refactors(void **state)
     assert_null(c);
 }
 
+/* The 3 x 3 node blocks of a g x g x g grid, each node coupled with its 26 neighbours: symmetric,
+ * strictly diagonally dominant (so definite), values in (-1, 1) off the diagonal times scale. */
+static void grid_matrix(pf_block_matrix *a, int g, double scale, rng *r)
+{
+    int32_t nb = g * g * g, *size = malloc((size_t)nb * sizeof *size);
+    int32_t *pairs = malloc((size_t)nb * 26 * 2 * sizeof *pairs);
+    int64_t np = 0;
+    for (int32_t b = 0; b < nb; ++b) {
+        size[b] = 3;
+        int x = b % g, y = (b / g) % g, z = b / (g * g);
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    int u = x + dx, v = y + dy, w = z + dz;
+                    int32_t o = (w * g + v) * g + u;
+                    if (u < 0 || v < 0 || w < 0 || u >= g || v >= g || w >= g || o <= b)
+                        continue;
+                    pairs[2 * np] = b, pairs[2 * np + 1] = o, ++np;
+                }
+    }
+    pf_error err = {0};
+    assert_int_equal(pf_block_matrix_create(a, nb, size, np, pairs, &err), PF_OK);
+    double *row_sum = calloc((size_t)a->n, sizeof *row_sum);
+    for (int64_t k = 0; k < np; ++k) {
+        double m[9];
+        for (int q = 0; q < 9; ++q) {
+            m[q] = scale * (2 * uniform(r) - 1);
+            row_sum[3 * pairs[2 * k] + q / 3] += fabs(m[q]);
+            row_sum[3 * pairs[2 * k + 1] + q % 3] += fabs(m[q]);
+        }
+        pf_block_matrix_add(a, pf_block_matrix_slot(a, pairs[2 * k], pairs[2 * k + 1]),
+                            pairs[2 * k], pairs[2 * k + 1], m, 3);
+    }
+    for (int64_t k = 0; k < a->n; ++k)
+        row_sum[k] += scale * (1 + uniform(r));
+    pf_block_matrix_add_diagonal(a, row_sum);
+    free(row_sum);
+    free(size);
+    free(pairs);
+}
+
+/* The single-precision solve against the double one on a factor with real supernodes (panels of
+ * four columns and their tails): relative difference of single's rounding, a few times 6e-8
+ * times the condition (below 10 for this diagonally dominant matrix), so at most 1e-6 (8e-8
+ * measured) and clearly not zero (it is the single path). Values too large for single
+ * precision (the matrix scaled by 1e80) make it the double solve itself, bit for bit. */
+static void single_precision_solve_matches(void **state)
+{
+    (void)state;
+    rng r = {31337};
+    for (int pass = 0; pass < 2; ++pass) {
+        pf_block_matrix a;
+        grid_matrix(&a, 9, pass == 0 ? 1 : 1e80, &r);
+        int64_t n = a.n;
+        pf_error err = {0};
+        pf_cholesky *c = NULL;
+        assert_int_equal(pf_cholesky_create(&c, &a, &err), PF_OK);
+        double *b = malloc((size_t)n * sizeof *b), *x = malloc((size_t)n * sizeof *x);
+        double *y = malloc((size_t)n * sizeof *y);
+        for (int64_t k = 0; k < n; ++k)
+            b[k] = 2 * uniform(&r) - 1;
+        assert_int_equal(pf_cholesky_precondition(c, b, y, &err), PF_ERR_INVALID);
+        assert_int_equal(pf_cholesky_factor(c, &a, NULL, &err), PF_OK);
+        assert_int_equal(pf_cholesky_solve(c, b, x, &err), PF_OK);
+        memcpy(y, b, (size_t)n * sizeof *y);
+        assert_int_equal(pf_cholesky_precondition(c, y, y, &err), PF_OK); /* in place */
+        double diff = 0, largest = 0;
+        for (int64_t k = 0; k < n; ++k) {
+            diff = fmax(diff, fabs(y[k] - x[k]));
+            largest = fmax(largest, fabs(x[k]));
+        }
+        printf("single-precision solve, scale %g: %lld unknowns, relative difference %.2e\n",
+               pass == 0 ? 1 : 1e80, (long long)n, diff / largest);
+        if (pass == 0) {
+            assert_true(diff <= 1e-6 * largest);
+            assert_true(diff > 1e-12 * largest);
+        } else {
+            assert_true(diff == 0);
+        }
+        free(b);
+        free(x);
+        free(y);
+        pf_cholesky_destroy(&c);
+        pf_block_matrix_release(&a);
+    }
+}
+
 /* A diagonal matrix with one negative entry: the failure names that unknown whatever the
  * ordering did. */
 static void cholesky_reports_indefinite_column(void **state)
@@ -430,6 +518,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(cholesky_solves_and_refactors, setup, teardown),
         cmocka_unit_test(blas_threads_restore),
         cmocka_unit_test(cholesky_reports_indefinite_column),
+        cmocka_unit_test(single_precision_solve_matches),
         cmocka_unit_test(invalid_patterns_are_refused),
         cmocka_unit_test(cholesky_is_independent_of_threads),
     };

@@ -1,6 +1,7 @@
 /* CG assembly over the free nodes: element matrices warped by per-element rotations (harmonic
  * paper sec. 6, stiffness warping after Mueller and Gross 2004) and scattered into 3 x 3 node
- * blocks at slots looked up once (pf_cg_pattern).
+ * blocks at slots looked up once (pf_cg_pattern). Each 3 x 3 block is warped and added where it
+ * belongs at once, the blocks on and above the diagonal only (K' is symmetric).
  *
  * Corotated element force, for nodal positions x = X + u and the element rotation R:
  *   f_e = -R K_e (R^T x - X) = -(R K_e R^T) u + R K_e (I - R^T) X,
@@ -22,8 +23,7 @@ void pf_cg_map_release(pf_cg_map *map)
 
 size_t pf_cg_scratch_size(const pf_cg *cg)
 {
-    size_t n = 3 * (size_t)cg->max_nodes;
-    return n * n + 3 * n;
+    return 6 * (size_t)cg->max_nodes;
 }
 
 static pf_status count_pairs(const pf_cg *cg, const pf_cg_map *map, int64_t *pairs)
@@ -152,25 +152,38 @@ void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double 
 
 /* ---- stiffness ---------------------------------------------------------------------------- */
 
-/* out = R K R^T per 3 x 3 block of the symmetric n x n matrix K (R row-major): the blocks on and
- * above the diagonal, each block below the transpose of its mirror (half the products). */
-static void warp(const double *r, const double *kk, int32_t n, double *out)
+/* out = R K_ac R^T for the 3 x 3 block at (a, c) of K (row stride n; R row-major). */
+static void warp_block(const double *r, const double *kk, int32_t n, double out[9])
 {
-    for (int32_t a = 0; a < n; a += 3)
-        for (int32_t c = a; c < n; c += 3) {
-            double t[3][3];
-            for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j)
-                    t[i][j] = r[3 * i] * kk[(size_t)a * n + c + j] +
-                              r[3 * i + 1] * kk[(size_t)(a + 1) * n + c + j] +
-                              r[3 * i + 2] * kk[(size_t)(a + 2) * n + c + j];
-            for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) {
-                    double v = t[i][0] * r[3 * j] + t[i][1] * r[3 * j + 1] + t[i][2] * r[3 * j + 2];
-                    out[(size_t)(a + i) * n + c + j] = v;
-                    out[(size_t)(c + j) * n + a + i] = v;
-                }
-        }
+    double t[3][3]; /* R K_ac */
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            t[i][j] = r[3 * i] * kk[j] + r[3 * i + 1] * kk[n + j] + r[3 * i + 2] * kk[2 * n + j];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            out[3 * i + j] = t[i][0] * r[3 * j] + t[i][1] * r[3 * j + 1] + t[i][2] * r[3 * j + 2];
+}
+
+/* Adds the 3 x 3 block m at node blocks (i, j), i <= j (only the upper triangle of the matrix is
+ * stored: the block's three columns are contiguous rows of m^T). For i = j, m's upper triangle. */
+static void add_node_block(pf_block_matrix *k, int64_t slot, int32_t i, int32_t j,
+                           const double m[9])
+{
+    int64_t row0 = k->adj_row[slot];
+    for (int c = 0; c < 3; ++c) {
+        double *v = k->val + k->col_ptr[3 * (int64_t)j + c] + row0;
+        for (int r = 0; r < 3; ++r)
+            if (i != j || r <= c)
+                v[r] += m[3 * r + c];
+    }
+}
+
+/* y_rows -= m g (transpose: m^T g). */
+static void subtract_times(const double m[9], bool transpose, const double *g, double *y)
+{
+    for (int p = 0; p < 3; ++p)
+        for (int q = 0; q < 3; ++q)
+            y[p] -= (transpose ? m[3 * q + p] : m[3 * p + q]) * g[q];
 }
 
 void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const double *rot,
@@ -180,18 +193,14 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
     pf_block_matrix_zero(k);
     const pf_basis *b = &cg->basis;
     size_t nmax = 3 * (size_t)cg->max_nodes;
-    double *kw = scratch, *y = scratch + nmax * nmax, *z = y + nmax;
+    double *y = scratch, *z = y + nmax;
     for (int32_t e = 0; e < cg->n_elems; ++e) {
         const int32_t *nodes;
         int32_t kn = pf_basis_elem_nodes(b, e, &nodes), n = 3 * kn;
         const double *ke = pf_cg_elem_stiffness(cg, e);
         const double *r = rot ? rot + 9 * (size_t)e : NULL;
-        if (r)
-            warp(r, ke, n, kw);
-        else
-            memcpy(kw, ke, (size_t)n * n * sizeof *kw);
         /* Constant force of the free rows: R K (I - R^T) X - K' g_c (K' = R K R^T). */
-        bool any = false;
+        bool any = r != NULL;
         if (r) {
             for (int32_t a = 0; a < kn; ++a) {
                 const double *xa = x0 + 3 * (size_t)nodes[a];
@@ -208,50 +217,70 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
                 for (int i = 0; i < 3; ++i)
                     y[3 * a + i] = r[3 * i] * z[3 * a] + r[3 * i + 1] * z[3 * a + 1] +
                                    r[3 * i + 2] * z[3 * a + 2];
-            any = true;
         } else {
             memset(y, 0, (size_t)n * sizeof *y);
         }
-        if (g)
-            for (int32_t c = 0; c < kn; ++c) {
-                if (map->node_block[nodes[c]] >= 0)
-                    continue;
-                const double *gc = g + 3 * (size_t)nodes[c];
-                for (int32_t p = 0; p < n; ++p)
-                    y[p] -= kw[(size_t)p * n + 3 * c] * gc[0] +
-                            kw[(size_t)p * n + 3 * c + 1] * gc[1] +
-                            kw[(size_t)p * n + 3 * c + 2] * gc[2];
-                any = true;
-            }
+        /* the blocks (a, c), c >= a, warped and scattered at once; a pair of a free and a fixed
+         * node adds its term of -K'_fc g_c instead */
         const int64_t *slot = map->slot + cg->me_offsets[e];
         for (int32_t a = 0; a < kn; ++a) {
             int32_t i = map->node_block[nodes[a]];
-            if (i < 0)
-                continue;
-            if (any)
-                for (int c = 0; c < 3; ++c)
-                    f[3 * (size_t)i + c] += y[3 * a + c];
             for (int32_t c = a; c < kn; ++c) {
                 int32_t j = map->node_block[nodes[c]];
-                if (j >= 0)
-                    pf_block_matrix_add(k, slot[a * kn + c], i, j, kw + (size_t)3 * a * n + 3 * c,
-                                        n);
+                if ((i < 0 && j < 0) || (i < 0 && !g) || (j < 0 && !g))
+                    continue;
+                const double *kac = ke + (size_t)3 * a * n + 3 * c;
+                double m[9];
+                if (r) {
+                    warp_block(r, kac, n, m);
+                } else {
+                    for (int p = 0; p < 3; ++p)
+                        for (int q = 0; q < 3; ++q)
+                            m[3 * p + q] = kac[(size_t)p * n + q];
+                }
+                if (i >= 0 && j >= 0) {
+                    if (i <= j) {
+                        add_node_block(k, slot[a * kn + c], i, j, m);
+                    } else {
+                        const double mt[9] = {m[0], m[3], m[6], m[1], m[4], m[7], m[2], m[5], m[8]};
+                        add_node_block(k, slot[a * kn + c], j, i, mt);
+                    }
+                } else if (i >= 0) {
+                    subtract_times(m, false, g + 3 * (size_t)nodes[c], y + 3 * a);
+                    any = true;
+                } else {
+                    subtract_times(m, true, g + 3 * (size_t)nodes[a], y + 3 * c);
+                    any = true;
+                }
             }
         }
+        if (any)
+            for (int32_t a = 0; a < kn; ++a) {
+                int32_t i = map->node_block[nodes[a]];
+                if (i >= 0)
+                    for (int c = 0; c < 3; ++c)
+                        f[3 * (size_t)i + c] += y[3 * a + c];
+            }
     }
 }
 
 /* ---- mass --------------------------------------------------------------------------------- */
 
+/* Adds m I to a 3 x 3 node block of the stored (upper) triangle: slot in block column j. */
+static void add_scaled_identity(pf_block_matrix *k, int64_t slot, int32_t j, double m)
+{
+    int64_t row0 = k->adj_row[slot];
+    for (int c = 0; c < 3; ++c)
+        k->val[k->col_ptr[3 * (int64_t)j + c] + row0 + c] += m;
+}
+
 void pf_cg_add_mass(const pf_cg *cg, const pf_cg_map *map, bool lumped, double alpha,
                     pf_block_matrix *k)
 {
     if (lumped) {
-        for (int32_t i = 0; i < map->n_free; ++i) {
-            double m = alpha * cg->lumped[map->block_node[i]];
-            const double block[9] = {m, 0, 0, 0, m, 0, 0, 0, m};
-            pf_block_matrix_add(k, pf_block_matrix_slot(k, i, i), i, i, block, 3);
-        }
+        for (int32_t i = 0; i < map->n_free; ++i)
+            add_scaled_identity(k, k->adj_offsets[i + 1] - 1, i,
+                                alpha * cg->lumped[map->block_node[i]]);
         return;
     }
     const pf_basis *b = &cg->basis;
@@ -268,9 +297,7 @@ void pf_cg_add_mass(const pf_cg *cg, const pf_cg_map *map, bool lumped, double a
                 int32_t j = map->node_block[nodes[c]];
                 if (j < 0)
                     continue;
-                double m = alpha * me[a * kn + c];
-                const double block[9] = {m, 0, 0, 0, m, 0, 0, 0, m};
-                pf_block_matrix_add(k, slot[a * kn + c], i, j, block, 3);
+                add_scaled_identity(k, slot[a * kn + c], i > j ? i : j, alpha * me[a * kn + c]);
             }
         }
     }

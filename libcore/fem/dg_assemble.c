@@ -11,7 +11,12 @@
  *   K3[(s a i), (t b k)] = eta eta_f sign_s sign_t S[s][t][a][b] (2 mu delta_ik + lambda n_i n_k)
  *     (eq. 26, with the Hansbo-Larson weighting of pf/fem.h).
  * With corotation, K1's part with strain on side t is warped with R_t (K_f1^+- of sec. 6.1) and
- * K3 is not warped. */
+ * K3 is not warped. Warping a 3 x 3 block of K1 needs no product with R on either side: with
+ * n' = R n and G' = R G, R (lambda n G^T + mu ((n.G) I + G n^T)) R^T
+ *   = lambda n' G'^T + mu ((n'.G') I + G' n'^T),
+ * so a step rotates the face's normal and G vectors (9 flops each) and builds the warped blocks
+ * directly, and the warping force R B (I - R^T) x0 is B' (R x0 - x0), B' = R B R^T the block
+ * just built. The penalty terms K3 do not rotate: a step copies them (pf_dg_penalty_values). */
 #include <pf/fem.h>
 
 #include <string.h>
@@ -69,25 +74,37 @@ static void warp_block(const double *r, const double *b, int n, double *out)
         }
 }
 
-/* f_rows += R b (I - R^T) x0_cols: the constant part of a warped term (sec. 6.3); with
- * transpose, b^T is used. */
-static void add_warp_force(const double *r, const double *b, int n, bool transpose,
-                           const double *x0_cols, double *f_rows)
+/* z = R x0 - x0 per 3-vector of an element's coefficients (n of them). */
+static void rotation_offset(const double *r, const double *x0, int n, double *z)
 {
-    double y[MAX_N], z[MAX_N];
-    for (int a = 0; a < n; a += 3)
-        for (int i = 0; i < 3; ++i) /* y = x0 - R^T x0, per 3-vector */
-            y[a + i] = x0_cols[a + i] -
-                       (r[i] * x0_cols[a] + r[3 + i] * x0_cols[a + 1] + r[6 + i] * x0_cols[a + 2]);
-    for (int p = 0; p < n; ++p) {
-        double s = 0;
-        for (int q = 0; q < n; ++q)
-            s += (transpose ? b[q * n + p] : b[p * n + q]) * y[q];
-        z[p] = s;
-    }
     for (int a = 0; a < n; a += 3)
         for (int i = 0; i < 3; ++i)
-            f_rows[a + i] += r[3 * i] * z[a] + r[3 * i + 1] * z[a + 1] + r[3 * i + 2] * z[a + 2];
+            z[a + i] =
+                r[3 * i] * x0[a] + r[3 * i + 1] * x0[a + 1] + r[3 * i + 2] * x0[a + 2] - x0[a + i];
+}
+
+/* f_rows += B' z (transpose: B'^T z), B' = R b R^T a warped block and z = R x0 - x0 of the
+ * columns' element: R b (I - R^T) x0 = B' (R - I) x0, the constant part of a warped term
+ * (sec. 6.3). */
+static void add_warp_force(const double *warped, int n, bool transpose, const double *z,
+                           double *f_rows)
+{
+    if (transpose) {
+        for (int q = 0; q < n; ++q) {
+            double zq = z[q];
+            const double *row = warped + q * n;
+            for (int p = 0; p < n; ++p)
+                f_rows[p] += row[p] * zq;
+        }
+        return;
+    }
+    for (int p = 0; p < n; ++p) {
+        const double *row = warped + p * n;
+        double sum = 0;
+        for (int q = 0; q < n; ++q)
+            sum += row[q] * z[q];
+        f_rows[p] += sum;
+    }
 }
 
 /* The slot of the diagonal block (e, e): it closes its block column. */
@@ -102,13 +119,27 @@ void pf_dg_face_slots(const pf_dg *dg, const pf_block_matrix *k, int64_t *slot)
         slot[q] = pf_block_matrix_slot(k, dg->faces[q].elem[0], dg->faces[q].elem[1]);
 }
 
+/* Adds the symmetric n x n block b to element e's diagonal block: its upper triangle, read as
+ * the lower one (b's rows are the stored columns: contiguous reads). */
+static void add_diagonal(pf_block_matrix *k, int32_t e, const double *b, int n)
+{
+    int64_t first = k->block_start[e], row0 = k->adj_row[diagonal_slot(k, e)];
+    for (int c = 0; c < n; ++c) {
+        double *v = k->val + k->col_ptr[first + c] + row0;
+        const double *bc = b + c * n;
+        for (int r = 0; r <= c; ++r)
+            v[r] += bc[r];
+    }
+}
+
+/* Adds b + b^T to element e's diagonal block. */
 static void add_symmetric_part(pf_block_matrix *k, int32_t e, const double *b, int n)
 {
     double sym[MAX_N * MAX_N];
     for (int p = 0; p < n; ++p)
         for (int q = 0; q < n; ++q)
             sym[p * n + q] = b[p * n + q] + b[q * n + p];
-    pf_block_matrix_add(k, diagonal_slot(k, e), e, e, sym, n);
+    add_diagonal(k, e, sym, n);
 }
 
 /* ---- face blocks ------------------------------------------------------------------------- */
@@ -125,21 +156,34 @@ static double s_entry(const pf_dg *dg, const pf_dg_face *f, int s, int t, int a,
     return f->S[(size_t)((s * 2 + t) * nb + a) * nb + b];
 }
 
+/* K1's block (s, t) of face f warped with the rotation r (row-major; NULL: none), as above. */
 static void consistency_block(const pf_dg *dg, const pf_dg_face *f, int s, int t, double w,
-                              double *out)
+                              const double *r, double *out)
 {
     int nb = dg->nb, n = 3 * nb;
     double sign = s == 0 ? 1 : -1;
-    const double nv[3] = {f->normal.x, f->normal.y, f->normal.z};
+    double nv[3] = {f->normal.x, f->normal.y, f->normal.z};
+    if (r) {
+        const double n0[3] = {nv[0], nv[1], nv[2]};
+        for (int i = 0; i < 3; ++i)
+            nv[i] = r[3 * i] * n0[0] + r[3 * i + 1] * n0[1] + r[3 * i + 2] * n0[2];
+    }
+    double lam = -w * sign * dg->lambda, mu = -w * sign * dg->mu;
     for (int a = 0; a < nb; ++a)
         for (int b = 0; b < nb; ++b) {
-            const double *g = g_entry(dg, f, s, t, a, b);
-            double ng = nv[0] * g[0] + nv[1] * g[1] + nv[2] * g[2];
-            for (int i = 0; i < 3; ++i)
+            const double *g0 = g_entry(dg, f, s, t, a, b);
+            double g[3] = {g0[0], g0[1], g0[2]};
+            if (r)
+                for (int i = 0; i < 3; ++i)
+                    g[i] = r[3 * i] * g0[0] + r[3 * i + 1] * g0[1] + r[3 * i + 2] * g0[2];
+            double ng = mu * (nv[0] * g[0] + nv[1] * g[1] + nv[2] * g[2]);
+            double *row = out + (3 * a) * n + 3 * b;
+            for (int i = 0; i < 3; ++i, row += n) {
+                double li = lam * nv[i], mi = mu * g[i];
                 for (int k = 0; k < 3; ++k)
-                    out[(3 * a + i) * n + 3 * b + k] =
-                        -w * sign *
-                        (dg->lambda * nv[i] * g[k] + dg->mu * ((i == k ? ng : 0) + nv[k] * g[i]));
+                    row[k] = li * g[k] + mi * nv[k];
+                row[i] += ng;
+            }
         }
 }
 
@@ -166,31 +210,46 @@ static const double *rotation_of(const double *rot, int32_t e)
 }
 
 /* The consistency terms of a face (IP): for each strain side t and row side s, K1 warped with
- * R_t at (s, t) and its transpose at (t, s). */
+ * R_t at (s, t) and its transpose at (t, s). The off-diagonal pair's two terms go in as one
+ * block. */
 static void assemble_consistency(const pf_dg *dg, const pf_dg_face *f, int sides, double w,
                                  const double *rot, const double *x0, int64_t slot,
                                  pf_block_matrix *k, double *rhs)
 {
     int n = 3 * dg->nb;
-    double b[MAX_N * MAX_N], warped[MAX_N * MAX_N];
+    double b[MAX_N * MAX_N], pair[MAX_N * MAX_N], z[2][2][MAX_N];
+    if (sides == 2)
+        memset(pair, 0, (size_t)n * n * sizeof *pair);
+    for (int t = 0; t < sides && rot; ++t) /* z[t][s] = R_t x0_s - x0_s */
+        for (int s = 0; s < sides; ++s)
+            rotation_offset(rotation_of(rot, f->elem[t]), x0 + (size_t)f->elem[s] * n, n, z[t][s]);
     for (int t = 0; t < sides; ++t) {
         int32_t et = f->elem[t];
-        const double *r = rotation_of(rot, et);
+        const double *r = rot ? rotation_of(rot, et) : NULL;
         for (int s = 0; s < sides; ++s) {
             int32_t es = f->elem[s];
-            consistency_block(dg, f, s, t, w, b);
-            const double *use = b;
+            consistency_block(dg, f, s, t, w, r, b);
             if (rot) {
-                warp_block(r, b, n, warped);
-                use = warped;
-                add_warp_force(r, b, n, false, x0 + (size_t)et * n, rhs + (size_t)es * n);
-                add_warp_force(r, b, n, true, x0 + (size_t)es * n, rhs + (size_t)et * n);
+                add_warp_force(b, n, false, z[t][t], rhs + (size_t)es * n);
+                add_warp_force(b, n, true, z[t][s], rhs + (size_t)et * n);
             }
-            if (es == et)
-                add_symmetric_part(k, es, use, n);
-            else
-                pf_block_matrix_add(k, slot, es, et, use, n);
+            if (s == t) {
+                add_symmetric_part(k, es, b, n);
+            } else if (es > et) { /* b is (es, et): as pair is built */
+                for (int p = 0; p < n * n; ++p)
+                    pair[p] += b[p];
+            } else { /* pair takes its transpose */
+                for (int p = 0; p < n; ++p)
+                    for (int q = 0; q < n; ++q)
+                        pair[p * n + q] += b[q * n + p];
+            }
         }
+    }
+    if (sides == 2) { /* pair is the block (hi, lo) of the two elements: its rows are stored
+                         contiguously */
+        int32_t hi = f->elem[0] > f->elem[1] ? f->elem[0] : f->elem[1];
+        int32_t lo = f->elem[0] + f->elem[1] - hi;
+        pf_block_matrix_add(k, slot, hi, lo, pair, n);
     }
 }
 
@@ -228,7 +287,7 @@ static void add_dirichlet_force(const pf_dg *dg, const pf_dg_face *f, bool ip, d
     double *fe = rhs + (size_t)e * n;
     for (int term = ip ? 0 : 1; term < 2; ++term) {
         if (term == 0)
-            consistency_block(dg, f, 0, 0, 1, blk);
+            consistency_block(dg, f, 0, 0, 1, NULL, blk);
         else
             penalty_block(dg, f, 0, 0, weight, blk);
         for (int row = 0; row < 12; ++row) /* only the affine coefficients are non-zero */
@@ -238,40 +297,72 @@ static void add_dirichlet_force(const pf_dg *dg, const pf_dg_face *f, bool ip, d
     }
 }
 
+/* The slot of an interior face's element pair, -1 for a boundary face. */
+static int64_t face_pair_slot(const pf_dg *dg, const pf_dg_terms *terms, const pf_block_matrix *k,
+                              int32_t q)
+{
+    if (q >= dg->n_interior)
+        return -1;
+    return terms->face_slot ? terms->face_slot[q]
+                            : pf_block_matrix_slot(k, dg->faces[q].elem[0], dg->faces[q].elem[1]);
+}
+
+/* The faces with terms: the interior ones and the fixed boundary ones. */
+static bool face_has_terms(const pf_dg *dg, const pf_dg_terms *terms, int32_t q)
+{
+    return q < dg->n_interior || (terms->face_fixed && terms->face_fixed[dg->faces[q].face] >= 0);
+}
+
+static void add_penalties(const pf_dg *dg, const pf_dg_terms *terms, pf_block_matrix *k)
+{
+    for (int32_t q = 0; q < dg->n_faces; ++q)
+        if (face_has_terms(dg, terms, q))
+            assemble_penalty(dg, &dg->faces[q], q < dg->n_interior ? 2 : 1,
+                             pf_dg_face_penalty(terms, &dg->faces[q]),
+                             face_pair_slot(dg, terms, k, q), k);
+}
+
+void pf_dg_penalty_values(const pf_dg *dg, const pf_dg_terms *terms, pf_block_matrix *k,
+                          double *values)
+{
+    pf_block_matrix_zero(k);
+    add_penalties(dg, terms, k);
+    memcpy(values, k->val, (size_t)k->col_ptr[k->n] * sizeof *values);
+}
+
 void pf_dg_assemble_stiffness(const pf_dg *dg, const pf_dg_terms *terms, const double *rot,
                               const double *x0, pf_block_matrix *k, double *f)
 {
     int n = 3 * dg->nb;
-    double warped[MAX_N * MAX_N];
-    pf_block_matrix_zero(k);
+    double warped[MAX_N * MAX_N], z[MAX_N];
+    if (terms->penalty_values) {
+        memcpy(k->val, terms->penalty_values, (size_t)k->col_ptr[k->n] * sizeof *k->val);
+    } else {
+        pf_block_matrix_zero(k);
+        add_penalties(dg, terms, k);
+    }
     for (int32_t e = 0; e < dg->n_elems; ++e) {
         const double *ke = dg->ke + (size_t)e * n * n;
         const double *use = ke;
         if (rot) {
             warp_block(rot + 9 * (size_t)e, ke, n, warped);
-            add_warp_force(rot + 9 * (size_t)e, ke, n, false, x0 + (size_t)e * n,
-                           f + (size_t)e * n);
+            rotation_offset(rot + 9 * (size_t)e, x0 + (size_t)e * n, n, z);
+            add_warp_force(warped, n, false, z, f + (size_t)e * n);
             use = warped;
         }
-        pf_block_matrix_add(k, diagonal_slot(k, e), e, e, use, n);
+        add_diagonal(k, e, use, n);
     }
     for (int32_t q = 0; q < dg->n_faces; ++q) {
+        if (!face_has_terms(dg, terms, q))
+            continue; /* a free boundary: natural condition, no term */
         const pf_dg_face *face = &dg->faces[q];
         bool interior = q < dg->n_interior;
-        int32_t fixed = terms->face_fixed ? terms->face_fixed[face->face] : -1;
-        if (!interior && fixed < 0)
-            continue; /* a free boundary: natural condition, no term */
-        int sides = interior ? 2 : 1;
-        double w = interior ? 0.5 : 1;
-        double weight = pf_dg_face_penalty(terms, face);
-        int64_t slot = !interior          ? -1
-                       : terms->face_slot ? terms->face_slot[q]
-                                          : pf_block_matrix_slot(k, face->elem[0], face->elem[1]);
         if (terms->ip)
-            assemble_consistency(dg, face, sides, w, rot, x0, slot, k, f);
-        assemble_penalty(dg, face, sides, weight, slot, k);
+            assemble_consistency(dg, face, interior ? 2 : 1, interior ? 0.5 : 1, rot, x0,
+                                 face_pair_slot(dg, terms, k, q), k, f);
         if (!interior)
-            add_dirichlet_force(dg, face, terms->ip, weight, terms->fixed_disp + 12 * fixed, f);
+            add_dirichlet_force(dg, face, terms->ip, pf_dg_face_penalty(terms, face),
+                                terms->fixed_disp + 12 * terms->face_fixed[face->face], f);
     }
 }
 

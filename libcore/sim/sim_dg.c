@@ -20,6 +20,9 @@ typedef struct dg_method {
     double *x0;           /* rest coefficients */
     double *rot;          /* [9 n_elems] */
     int64_t *face_slot; /* [n_interior] scatter map of the matrix (filled at the first assembly) */
+    double *penalty_values; /* [nnz] the penalty terms for terms.eta (pf_dg_penalty_values), made
+                               at the first assembly after eta is set; NULL when unaffordable */
+    bool penalty_current;
     /* the stitching as a matrix (method.h, nodal_map) */
     int64_t *map_offsets; /* [n_nodes + 1] */
     int64_t *map_triple;  /* [map_offsets[n_nodes]] */
@@ -59,6 +62,16 @@ static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *
     if (!d->terms.face_slot && d->face_slot) { /* the scatter map, once: the pattern is fixed */
         pf_dg_face_slots(&d->dg, k, d->face_slot);
         d->terms.face_slot = d->face_slot;
+    }
+    if (!d->penalty_current) { /* without the array, every assembly adds the terms itself */
+        if (!d->penalty_values)
+            d->penalty_values = pf_alloc_array((size_t)k->col_ptr[k->n] + 1, sizeof(double));
+        d->terms.penalty_values = NULL;
+        if (d->penalty_values) {
+            pf_dg_penalty_values(&d->dg, &d->terms, k, d->penalty_values);
+            d->terms.penalty_values = d->penalty_values;
+        }
+        d->penalty_current = true;
     }
     if (corotate)
         update_rotations(d, u);
@@ -104,7 +117,10 @@ static double ground_stiffness(const void *m)
 
 static void set_penalty(void *m, double eta)
 {
-    ((dg_method *)m)->terms.eta = eta;
+    dg_method *d = m;
+    d->terms.eta = eta;
+    d->terms.penalty_values = NULL;
+    d->penalty_current = false;
 }
 
 /* 1e-6 of the stiffest element's K/M ratio (lambda + 2 mu) / (rho h^2): lifts the six rigid
@@ -365,6 +381,7 @@ static void destroy(void *m)
     pf_free(d->map_triple);
     pf_free(d->map_w);
     pf_free(d->face_slot);
+    pf_free(d->penalty_values);
     pf_free(d);
 }
 

@@ -10,12 +10,20 @@
  * 4 nnz(L) + 4 nnz(A) flops; a factorisation what CHOLMOD's analysis counted, divided by
  * FACTOR_RATE (its supernodal dense blocks run that much faster per flop than the
  * memory-bound triangular solves and products: measured 2.6 on an embedded CG bunny, 3.0 and 5.7
- * on the CG and DG beams of 1,911 hexes, CPU seconds of pf-sim's summary against its flops). A
- * fresh factor solves exactly, as one iteration would; the iterations a solve spends beyond one are
- * charged to the factor's age, and when they add up to one factorisation, the next solve
- * refactorises. One solve stops iterating when it has spent a factorisation's worth, and
- * refactorises: a factor that needs more is worse than a new one. Flops, not seconds: the same
- * inputs make the same decisions, and so the same bits, on any machine and under any load. */
+ * on the CG and DG beams of 1,911 hexes, CPU seconds of pf-sim's summary against its flops).
+ *
+ * When to refactorise: a factor and the solves on it until the next one form a cycle, whose cost
+ * per solve is (factorisation + solves) / solves. While the solves cost less than that average,
+ * keeping the factor lowers it; once the last solve cost more, the factor has aged past its best
+ * and the next solve refactorises (the renewal rule: with costs that grow with age, the average
+ * is smallest where the latest cost first exceeds it). A fresh factor solves exactly (one
+ * iteration's cost); on an older one, PCG needs a few iterations to the tight tolerance however
+ * young the factor is (3-4 on the beams from the second solve on), so while that count stays flat
+ * the factor is kept: the earlier rule, which refactorised once the iterations beyond one added up
+ * to a factorisation, renewed the CG beam's factor every 6 steps for no fewer iterations.
+ * One solve stops iterating when it has spent a factorisation's worth, and refactorises: a factor
+ * that needs more is worse than a new one. Flops, not seconds: the same inputs make the same
+ * decisions, and so the same bits, on any machine and under any load. */
 #include <pf/solve.h>
 
 #include <math.h>
@@ -35,7 +43,8 @@ struct pf_solver {
     double *r, *z, *d, *q;
     bool have_factor;        /* the factor is of a system matrix, not of pf_solver_factor's */
     bool factor_current;     /* ... of the current one */
-    double extra_flops;      /* iterations beyond one per solve since the factorisation */
+    double cycle_flops;      /* the factorisation and the solves since, in iteration flops */
+    int64_t cycle_solves;    /* solves since the factorisation */
     double factor_cost;      /* a factorisation in iteration flops (the cost model above) */
     int32_t iteration_limit; /* per solve: max_iterations, or a factorisation's worth */
     bool refactor_due;
@@ -161,7 +170,8 @@ static pf_status factor_system(pf_solver *s, const pf_block_matrix *a, pf_refact
     s->have_factor = s->factor_current = false;
     PF_TRY(factor_timed(s, a, why, failed, err));
     s->have_factor = s->factor_current = true;
-    s->extra_flops = 0;
+    s->cycle_flops = s->factor_cost;
+    s->cycle_solves = 0;
     s->refactor_due = false;
     return PF_OK;
 }
@@ -217,7 +227,7 @@ static pcg_result pcg(pf_solver *s, const pf_block_matrix *a, const double *b, d
     while (rnorm > goal) {
         if (!isfinite(rnorm) || *iterations >= s->iteration_limit)
             break;
-        if (pf_cholesky_solve(s->chol, s->r, s->z, err) < 0)
+        if (pf_cholesky_precondition(s->chol, s->r, s->z, err) < 0)
             return PCG_BREAKDOWN;
         memcpy(s->d, s->z, (size_t)n * sizeof *s->d);
         double rz = dot(s->r, s->z, n);
@@ -235,7 +245,7 @@ static pcg_result pcg(pf_solver *s, const pf_block_matrix *a, const double *b, d
             rnorm = sqrt(dot(s->r, s->r, n));
             if (rnorm <= goal || !isfinite(rnorm))
                 break;
-            if (pf_cholesky_solve(s->chol, s->r, s->z, err) < 0)
+            if (pf_cholesky_precondition(s->chol, s->r, s->z, err) < 0)
                 return PCG_BREAKDOWN;
             double rz_next = dot(s->r, s->z, n), beta = rz_next / rz;
             rz = rz_next;
@@ -250,17 +260,24 @@ static pcg_result pcg(pf_solver *s, const pf_block_matrix *a, const double *b, d
     return rnorm <= goal ? PCG_CONVERGED : PCG_NOT_CONVERGED;
 }
 
-/* Charges a solve's iterations to the factor's age (the cost model above). */
+/* Adds a solve of the given cost to the factor's cycle and decides whether the next solve
+ * refactorises (the renewal rule above). */
+static void charge(pf_solver *s, double flops)
+{
+    s->cycle_flops += flops;
+    s->cycle_solves++;
+    if (s->params.method == PF_SOLVER_PCG && flops * (double)s->cycle_solves > s->cycle_flops)
+        s->refactor_due = true;
+}
+
+/* Counts a PCG solve's iterations and charges them to the factor's cycle. */
 static void account(pf_solver *s, int32_t iterations)
 {
     s->stats.iterations += iterations;
     s->stats.pcg_solves++;
     if (iterations > s->stats.max_iterations)
         s->stats.max_iterations = iterations;
-    if (iterations > 1)
-        s->extra_flops += (double)(iterations - 1) * s->stats.iteration_flops;
-    if (s->params.method == PF_SOLVER_PCG && s->extra_flops >= s->factor_cost)
-        s->refactor_due = true;
+    charge(s, (double)iterations * s->stats.iteration_flops);
 }
 
 /* x = A^-1 b with the factor of exactly A. */
@@ -288,7 +305,9 @@ static pf_status iterate(pf_solver *s, const pf_block_matrix *a, const double *b
     }
     s->stats.iterations += its;
     PF_TRY(factor_system(s, a, PF_REFACTOR_FAILED, failed, err));
-    return solve_exact(s, a, b, x, err);
+    PF_TRY(solve_exact(s, a, b, x, err));
+    charge(s, s->stats.iteration_flops);
+    return PF_OK;
 }
 
 pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_change change,
@@ -312,9 +331,12 @@ pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_chan
                                                    : PF_REFACTOR_NEW;
         st = factor_system(s, a, why, failed_column, err);
     }
-    if (st >= 0)
-        st = s->factor_current ? solve_exact(s, a, b, x, err)
-                               : iterate(s, a, b, x, failed_column, err);
+    if (st >= 0 && s->factor_current) {
+        st = solve_exact(s, a, b, x, err);
+        charge(s, s->stats.iteration_flops);
+    } else if (st >= 0) {
+        st = iterate(s, a, b, x, failed_column, err);
+    }
     /* solve time excludes the factorisations made on the way */
     s->stats.solve_seconds += pf_time_seconds() - t0 - (s->stats.factor_seconds - f0);
     s->stats.solve_cpu_seconds += pf_cpu_seconds() - c0 - (s->stats.factor_cpu_seconds - fc0);

@@ -173,6 +173,9 @@ typedef struct pf_dg_terms {
     const int64_t *face_slot;   /* [n_interior] the block slot of each interior face's element
                                    pair in the matrix assembled into (pf_dg_face_slots), or NULL:
                                    looked up each time */
+    const double *penalty_values; /* the penalty terms as the matrix's values
+                                     (pf_dg_penalty_values, for this ip and eta), or NULL:
+                                     assembled each time */
 } pf_dg_terms;
 
 /* The weight of the penalty term on face f, the factor of int_f (2 mu [u].[v] + lambda
@@ -191,6 +194,14 @@ pf_status pf_dg_pattern(const pf_dg *dg, pf_block_matrix *k, pf_error *err);
 /* The scatter map of k (from pf_dg_pattern): the slot of each interior face's element pair,
  * slot [n_interior], so that a step's assembly looks nothing up. */
 void pf_dg_face_slots(const pf_dg *dg, const pf_block_matrix *k, int64_t *slot);
+
+/* The penalty terms of every interior and fixed face (those that corotation does not warp) as
+ * the values of k, which they overwrite: values [nnz of k] = k's values afterwards. A corotated
+ * step then starts from a copy of them (pf_dg_terms.penalty_values): the array costs as much as
+ * the matrix (7 MB on the 1,911-hex beam at degree 1, 44 MB at degree 2), a few percent of the
+ * factor's memory. terms->penalty_values is not read. */
+void pf_dg_penalty_values(const pf_dg *dg, const pf_dg_terms *terms, pf_block_matrix *k,
+                          double *values);
 
 /* Assembles the stiffness into k (zeroed first; k from pf_dg_pattern) and adds its constant
  * right-hand side terms to f [n_dofs] (prescribed displacements; with rotations, the warping
@@ -365,7 +376,7 @@ pf_status pf_cg_pattern(const pf_cg *cg, const uint8_t *fixed, pf_block_matrix *
                         pf_error *err);
 void pf_cg_map_release(pf_cg_map *map);
 
-/* Doubles of scratch the assembly needs: (3 max_nodes)^2 + 9 max_nodes. */
+/* Doubles of scratch the assembly needs: 6 max_nodes. */
 size_t pf_cg_scratch_size(const pf_cg *cg);
 
 /* Element rotations by shape matching (sec. 6, stiffness warping): R_e the rotation of the polar

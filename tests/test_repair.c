@@ -88,6 +88,37 @@ static void sphere_missing_a_face(void **state)
     pf_surface_release(&s);
 }
 
+/* Two faces sharing one corner removed: two holes touching at a vertex, whose boundary walk may
+ * pass that vertex twice; each is filled by its face again. */
+static void holes_touching_at_a_vertex(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 12, 24, &err), PF_OK);
+    double full = volume_of(&s, NULL);
+    const uint32_t *a = s.tri + 3 * 100;
+    int32_t other = -1;
+    for (int32_t t = 101; t < s.n_tris && other < 0; ++t) {
+        int shared = 0;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                shared += a[i] == s.tri[3 * (size_t)t + j];
+        if (shared == 1)
+            other = t;
+    }
+    assert_true(other > 100);
+    remove_triangle(&s, other);
+    remove_triangle(&s, 100);
+    pf_surface_repair_report r = repair(&s, -1);
+    assert_int_equal(r.holes, 2);
+    assert_int_equal(r.holes_filled, 2);
+    assert_int_equal(r.fill_triangles, 2);
+    assert_true(r.closed);
+    assert_true(fabs(volume_of(&s, NULL) / full - 1) < 1e-14);
+    pf_surface_release(&s);
+}
+
 /* The triangles with every corner above z0 removed from a 16 x 32 sphere: a hole of 32 edges on
  * the latitude circle, planar and convex. */
 static void sphere_missing_a_cap(void **state)
@@ -245,9 +276,9 @@ static void rejects_bad_parameters(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(sphere_missing_a_face),  cmocka_unit_test(sphere_missing_a_cap),
-        cmocka_unit_test(cube_with_duplicates),   cmocka_unit_test(cubes_sharing_a_face),
-        cmocka_unit_test(rejects_bad_parameters),
+        cmocka_unit_test(sphere_missing_a_face), cmocka_unit_test(holes_touching_at_a_vertex),
+        cmocka_unit_test(sphere_missing_a_cap),  cmocka_unit_test(cube_with_duplicates),
+        cmocka_unit_test(cubes_sharing_a_face),  cmocka_unit_test(rejects_bad_parameters),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

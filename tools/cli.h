@@ -121,16 +121,30 @@ const char *pf_cli_progress_times(const pf_cli_progress *p, char *buf, size_t si
 /* The post-import options every tool reading a surface takes: --up AXIS, --scale S, --keep-orientation. */
 typedef struct pf_cli_import {
     pf_surface_fix_params fix;
-    bool up_given;    /* --up given: else the file's convention (glTF, Collada: +y) */
+    bool up_given;    /* --up given (not auto): else the axis the file declares */
     bool scale_given;
     bool applied;     /* set by pf_cli_read_surface: the fix ran, report valid */
     pf_surface_import_info how; /* set by pf_cli_read_surface for a file: the reader it used */
     pf_surface_fix_report report;
+    bool repair; /* --repair[=F] (pf-slice, pf-octree): pf_surface_repair after the fix */
+    pf_surface_repair_params repair_params;
+    pf_surface_repair_report repair_report; /* set when repair ran */
 } pf_cli_import;
 
+#define PF_CLI_REPAIR_USAGE                                                                       \
+    "  --repair[=F]   first weld coincident vertices, remove degenerate and duplicate triangles,\n" \
+    "                 orient, and fill holes whose perimeter is at most F times the bounding\n"    \
+    "                 box's diagonal (default 0.5) by their least-area triangulation\n"
+
+/* --repair[=F]: sets imp->repair and the largest hole (usage error unless F is a number >= 0). */
+void pf_cli_repair_option(const pf_cli *cli, const char *value, pf_cli_import *imp);
+/* What --repair did, one line into buf (NULL when it did not run). */
+const char *pf_cli_repair_summary(const pf_cli_import *imp, char *buf, size_t size);
+
 #define PF_CLI_IMPORT_USAGE                                                                     \
-    "  --up AXIS      the file's up axis, turned onto pf's +z: x, y, z, -x, -y, -z (default: y\n" \
-    "                 for glTF and Collada, whose convention it is, else z)\n"                    \
+    "  --up AXIS      the file's up axis, turned onto pf's +z: x, y, z, -x, -y, -z or auto\n"  \
+    "                 (default auto: the axis the file declares, FBX's UpAxis, +y for glTF and\n" \
+    "                 Collada; z for formats that declare none, such as OBJ, PLY, STL, OFF)\n"  \
     "  --scale S      multiply coordinates by S > 0 after the turn (units; default 1)\n"          \
     "  --keep-orientation  do not make triangle orientation consistent and outward\n"
 

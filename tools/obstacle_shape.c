@@ -6,6 +6,15 @@
 
 #include <pf/io.h>
 
+pf_status pf_obstacle_read_file(const pf_obstacle *o, pf_surface *out, pf_error *err)
+{
+    pf_surface_fix_params fix = pf_surface_fix_params_default();
+    fix.up = o->up;
+    fix.scale = o->scale > 0 ? o->scale : 1;
+    fix.orient = false;
+    return pf_import_surface_fixed(o->file, &fix, out, NULL, NULL, err);
+}
+
 /* The triangles of obstacle o at rest: a sphere of 16 x 32 bands, a box, the mesh's file, a plane
  * as a square of side 4 size centred under the body's centre c. */
 pf_status pf_obstacle_shape(const pf_obstacle *o, pf_vec3 c, double size, pf_surface *out,
@@ -14,7 +23,7 @@ pf_status pf_obstacle_shape(const pf_obstacle *o, pf_vec3 c, double size, pf_sur
     if (o->kind == PF_OBSTACLE_BOX)
         return pf_surface_make_box(out, o->lo, o->hi, err);
     if (o->kind == PF_OBSTACLE_MESH)
-        return pf_import_surface(o->file, out, err);
+        return pf_obstacle_read_file(o, out, err);
     if (o->kind == PF_OBSTACLE_SPHERE) {
         PF_TRY(pf_surface_make_sphere(out, o->radius, 16, 32, err));
         for (int32_t i = 0; i < out->n_verts; ++i)
@@ -28,7 +37,8 @@ pf_status pf_obstacle_shape(const pf_obstacle *o, pf_vec3 c, double size, pf_sur
     PF_TRY(pf_surface_alloc(out, 4, 2, err));
     for (int q = 0; q < 4; ++q) {
         double s1 = (q == 1 || q == 2) ? 2 * size : -2 * size, s2 = q >= 2 ? 2 * size : -2 * size;
-        pf_v3_store(pf_v3_add(m, pf_v3_add(pf_v3_scale(e1, s1), pf_v3_scale(e2, s2))), out->x + 3 * q);
+        pf_v3_store(pf_v3_add(m, pf_v3_add(pf_v3_scale(e1, s1), pf_v3_scale(e2, s2))),
+                    out->x + 3 * q);
     }
     const uint32_t tri[6] = {0, 1, 2, 0, 2, 3}; /* e1 x e2 = n: counter-clockwise seen from n */
     memcpy(out->tri, tri, sizeof tri);

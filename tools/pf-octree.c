@@ -8,7 +8,7 @@
 static const char USAGE[] =
     "Usage: pf-octree [SURFACE | -] [--depth D] [--min-depth d] [--slice] [--merge F] [--exact]\n"
     "                 [--refine N] [--up AXIS] [--scale S] [--keep-orientation] [--quiet]\n"
-    "                 [--progress[=SECONDS]]\n"
+    "                 [--repair[=F]] [--progress[=SECONDS]]\n"
     "\n"
     "Writes a pf stream with the surface (SURF, for embedding and rendering later) and a mesh\n"
     "(MESH) of an adaptive octree over the surface's bounding cube (harmonic paper sec. 7): every\n"
@@ -31,8 +31,8 @@ static const char USAGE[] =
     "  --merge F       with --slice: merge pieces below F times a finest cell's volume into the\n"
     "                  neighbour they share the most face area with (default 0.05; 0: never)\n"
     "  --exact         with --slice: refuse a surface that is not closed, manifold and outward\n"
-    "  --refine N      lattice edges per finest cell edge for that boundary, 1..8 (default 2)\n"
-    PF_CLI_IMPORT_USAGE
+    "  --refine N      lattice edges per finest cell edge for that boundary, 1..8 (default "
+    "2)\n" PF_CLI_REPAIR_USAGE PF_CLI_IMPORT_USAGE
     "  --quiet, -q     no progress and no report on stderr\n"
     "  --progress[=S]  a plain progress line every S seconds (default 5); without it, one\n"
     "                  line updated in place with the ETA on a terminal, a line every 5 s\n"
@@ -58,16 +58,23 @@ enum {
     OPT_EXACT,
     OPT_REFINE,
     OPT_PROGRESS,
+    OPT_REPAIR,
     OPT_IMPORT /* and the next two: PF_CLI_IMPORT_OPTIONS */
 };
 
 int main(int argc, char **argv)
 {
-    static const pf_cli_option options[] = {
-        {"depth", true, OPT_DEPTH}, {"min-depth", true, OPT_MIN_DEPTH}, {"slice", false, OPT_SLICE},
-        {"merge", true, OPT_MERGE}, {"quiet", false, OPT_QUIET},        {"exact", false, OPT_EXACT},
-        {"refine", true, OPT_REFINE}, {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROGRESS},
-        PF_CLI_IMPORT_OPTIONS(OPT_IMPORT), {NULL, false, 0}};
+    static const pf_cli_option options[] = {{"depth", true, OPT_DEPTH},
+                                            {"min-depth", true, OPT_MIN_DEPTH},
+                                            {"slice", false, OPT_SLICE},
+                                            {"merge", true, OPT_MERGE},
+                                            {"quiet", false, OPT_QUIET},
+                                            {"exact", false, OPT_EXACT},
+                                            {"refine", true, OPT_REFINE},
+                                            {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROGRESS},
+                                            {"repair", PF_CLI_OPTIONAL_VALUE, OPT_REPAIR},
+                                            PF_CLI_IMPORT_OPTIONS(OPT_IMPORT),
+                                            {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-octree", USAGE, argc, argv);
     pf_octree_params p = pf_octree_params_default();
@@ -97,13 +104,20 @@ int main(int argc, char **argv)
         case OPT_QUIET:
             quiet = true;
             break;
-        case OPT_EXACT: p.robust = false; break;
+        case OPT_EXACT:
+            p.robust = false;
+            break;
         case OPT_REFINE:
             p.contour_refine = (int32_t)pf_cli_parse_long(&cli, "refine", value, 1, 8);
             break;
+        case OPT_REPAIR:
+            pf_cli_repair_option(&cli, value, &imp);
+            break;
         case OPT_IMPORT:
         case OPT_IMPORT + 1:
-        case OPT_IMPORT + 2: pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp); break;
+        case OPT_IMPORT + 2:
+            pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp);
+            break;
         case OPT_PROGRESS:
             plain = pf_cli_parse_progress(&cli, value);
             break;
@@ -180,6 +194,9 @@ int main(int argc, char **argv)
         char line[320];
         if (pf_cli_import_summary(&imp, line, sizeof line))
             fprintf(stderr, "pf-octree: import: %s\n", line);
+        char repaired[512];
+        if (pf_cli_repair_summary(&imp, repaired, sizeof repaired))
+            fprintf(stderr, "pf-octree: repair: %s\n", repaired);
         if (stats.robust_used)
             fprintf(stderr,
                     "pf-octree: robust: the surface was not closed, manifold and outward; %s "

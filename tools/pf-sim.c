@@ -7,6 +7,7 @@
 #include <pf/sim.h>
 
 #include "cli.h"
+#include "obstacle_shape.h"
 
 static const char USAGE[] =
     "Usage: pf-sim [SCENE.json] [options] < mesh.pfs > out.pfs\n"
@@ -327,7 +328,7 @@ static pf_status load_obstacles(pf_scene *sc, pf_error *err)
         if (sc->obstacles[i].kind != PF_OBSTACLE_MESH)
             continue;
         pf_surface s = {0};
-        pf_status st = pf_import_surface(sc->obstacles[i].file, &s, err);
+        pf_status st = pf_obstacle_read_file(&sc->obstacles[i], &s, err);
         if (st < 0)
             pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
         else
@@ -361,15 +362,27 @@ static pf_status simulate(run *r, pf_error *err)
             st = write_frame(r, sim, 0, err);
     } else {
         st = write_frame(r, sim, 0, err);
+        double kinetic = 0, peak = 0;
+        int32_t peak_frame = 0;
         for (int32_t k = 1; st >= 0 && k <= r->scene.frames; ++k) {
             st = pf_sim_frame(sim, err);
             if (st >= 0)
                 st = write_frame(r, sim, k, err);
             if (progress)
                 fprintf(stderr, "\rpf-sim: frame %d / %d", (int)k, (int)r->scene.frames);
+            pf_vec3 linear, angular;
+            pf_sim_momentum(sim, &kinetic, &linear, &angular);
+            if (kinetic > peak)
+                peak = kinetic, peak_frame = k;
         }
         if (progress)
             fputc('\n', stderr);
+        /* whether the body came to rest: the last frame's kinetic energy against the largest */
+        if (st >= 0 && !r->quiet && r->scene.frames > 0)
+            fprintf(stderr,
+                    "pf-sim: kinetic energy %.6g at the last frame, %.3g of its peak %.6g "
+                    "(frame %d)\n",
+                    kinetic, peak > 0 ? kinetic / peak : 0.0, peak, (int)peak_frame);
     }
     if (!r->quiet)
         print_summary(r, sim);

@@ -8,7 +8,7 @@
 static const char USAGE[] =
     "Usage: pf-slice [SURFACE | -] [--res N | --cell H] [--origin X,Y,Z] [--merge F] [--exact]\n"
     "                [--refine N] [--up AXIS] [--scale S] [--keep-orientation] [--quiet]\n"
-    "                [--progress[=SECONDS]]\n"
+    "                [--repair[=F]] [--progress[=SECONDS]]\n"
     "\n"
     "Writes a pf stream with the surface (SURF) and a mesh (MESH) of the solid it bounds,\n"
     "intersected with a grid of cubes (DG paper sec. 9.2): cells inside are hexes, every cell the\n"
@@ -21,7 +21,8 @@ static const char USAGE[] =
     "surface is first oriented consistently and outward; if it is still not closed and manifold,\n"
     "the solid sliced is the one its generalised winding number defines (inside where it is at\n"
     "least 1/2): its boundary is rebuilt on a lattice --refine times finer than the grid, lying\n"
-    "on the surface where the surface is a clean boundary and spanning holes smoothly, so the mesh\n"
+    "on the surface where the surface is a clean boundary and spanning holes smoothly, so the "
+    "mesh\n"
     "is watertight and every element valid. Details smaller than the lattice are lost there. A\n"
     "closed, manifold, outward surface is sliced as it is.\n"
     "\n"
@@ -32,8 +33,8 @@ static const char USAGE[] =
     "  --origin X,Y,Z a grid point (default: the grid is centred on the bounding box)\n"
     "  --merge F      merge pieces below F times a cell's volume (default 0.05; 0: never)\n"
     "  --exact        refuse a surface that is not closed, manifold and outward\n"
-    "  --refine N     lattice edges per cell edge for the winding-number boundary, 1..8 (default 2)\n"
-    PF_CLI_IMPORT_USAGE
+    "  --refine N     lattice edges per cell edge for the winding-number boundary, 1..8 (default "
+    "2)\n" PF_CLI_REPAIR_USAGE PF_CLI_IMPORT_USAGE
     "  --quiet, -q    no progress and no report on stderr\n"
     "  --progress[=S] a plain progress line every S seconds (default 5); without it, one\n"
     "                 line updated in place with the ETA on a terminal, a line every 5 s\n"
@@ -51,16 +52,21 @@ enum {
     OPT_EXACT,
     OPT_REFINE,
     OPT_PROGRESS,
+    OPT_REPAIR,
     OPT_IMPORT /* and the next two: PF_CLI_IMPORT_OPTIONS */
 };
 
 int main(int argc, char **argv)
 {
-    static const pf_cli_option options[] = {{"res", true, OPT_RES},       {"cell", true, OPT_CELL},
-                                            {"origin", true, OPT_ORIGIN}, {"merge", true, OPT_MERGE},
-                                            {"quiet", false, OPT_QUIET},  {"exact", false, OPT_EXACT},
+    static const pf_cli_option options[] = {{"res", true, OPT_RES},
+                                            {"cell", true, OPT_CELL},
+                                            {"origin", true, OPT_ORIGIN},
+                                            {"merge", true, OPT_MERGE},
+                                            {"quiet", false, OPT_QUIET},
+                                            {"exact", false, OPT_EXACT},
                                             {"refine", true, OPT_REFINE},
                                             {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROGRESS},
+                                            {"repair", PF_CLI_OPTIONAL_VALUE, OPT_REPAIR},
                                             PF_CLI_IMPORT_OPTIONS(OPT_IMPORT),
                                             {NULL, false, 0}};
     pf_cli cli;
@@ -72,21 +78,40 @@ int main(int argc, char **argv)
     bool quiet = false;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         switch (id) {
-        case OPT_RES: pf_cli_grid_option(&cli, 'r', value, &p.grid); break;
-        case OPT_CELL: pf_cli_grid_option(&cli, 'c', value, &p.grid); break;
-        case OPT_ORIGIN: pf_cli_grid_option(&cli, 'o', value, &p.grid); break;
+        case OPT_RES:
+            pf_cli_grid_option(&cli, 'r', value, &p.grid);
+            break;
+        case OPT_CELL:
+            pf_cli_grid_option(&cli, 'c', value, &p.grid);
+            break;
+        case OPT_ORIGIN:
+            pf_cli_grid_option(&cli, 'o', value, &p.grid);
+            break;
         case OPT_MERGE:
             p.merge = pf_cli_parse_double(&cli, "merge", value);
             if (!(p.merge >= 0 && p.merge < 1))
                 pf_cli_usage_error(&cli, "--merge must be in [0, 1)");
             break;
-        case OPT_QUIET: quiet = true; break;
-        case OPT_EXACT: p.robust = false; break;
-        case OPT_REFINE: p.contour_refine = (int32_t)pf_cli_parse_long(&cli, "refine", value, 1, 8); break;
-        case OPT_PROGRESS: plain = pf_cli_parse_progress(&cli, value); break;
+        case OPT_QUIET:
+            quiet = true;
+            break;
+        case OPT_EXACT:
+            p.robust = false;
+            break;
+        case OPT_REFINE:
+            p.contour_refine = (int32_t)pf_cli_parse_long(&cli, "refine", value, 1, 8);
+            break;
+        case OPT_PROGRESS:
+            plain = pf_cli_parse_progress(&cli, value);
+            break;
+        case OPT_REPAIR:
+            pf_cli_repair_option(&cli, value, &imp);
+            break;
         case OPT_IMPORT:
         case OPT_IMPORT + 1:
-        case OPT_IMPORT + 2: pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp); break;
+        case OPT_IMPORT + 2:
+            pf_cli_import_apply(&cli, id - OPT_IMPORT, value, &imp);
+            break;
         default:
             if (path)
                 pf_cli_usage_error(&cli, "one input only (got '%s' and '%s')", path, value);
@@ -136,6 +161,9 @@ int main(int argc, char **argv)
     char line[320];
     if (st >= 0 && !quiet && pf_cli_import_summary(&imp, line, sizeof line))
         fprintf(stderr, "pf-slice: import: %s\n", line);
+    char repaired[512];
+    if (st >= 0 && !quiet && pf_cli_repair_summary(&imp, repaired, sizeof repaired))
+        fprintf(stderr, "pf-slice: repair: %s\n", repaired);
     if (st >= 0 && !quiet && stats.robust_used)
         fprintf(stderr,
                 "pf-slice: robust: the surface was not closed, manifold and outward; oriented "

@@ -43,8 +43,8 @@ static const struct aiScene *read_scene(const char *path, pf_error *err)
     /* No JoinIdenticalVertices: it joins within an absolute distance (1e-5), which collapses a
      * surface scaled small; the soup joins exactly equal positions instead. */
     const unsigned flags = aiProcess_Triangulate | aiProcess_PreTransformVertices |
-                           aiProcess_FindDegenerates |
-                           aiProcess_SortByPType | aiProcess_ValidateDataStructure;
+                           aiProcess_FindDegenerates | aiProcess_SortByPType |
+                           aiProcess_ValidateDataStructure;
     const struct aiScene *scene = aiImportFileExWithProperties(path, flags, NULL, props);
     aiReleasePropertyStore(props);
     if (!scene)
@@ -86,11 +86,50 @@ static pf_status scene_to_soup(const char *path, const struct aiScene *scene, su
     return PF_OK;
 }
 
-static pf_status read_with_assimp(const char *path, surface_soup *soup, pf_error *err)
+/* The up axis the file declares, as assimp reports it: FBX's UpAxis and UpAxisSign metadata
+ * (assimp leaves the coordinates as the file has them); glTF is +y up by its specification, and
+ * assimp turns every Collada file to +y whatever its <up_axis> says. Other formats say nothing:
+ * +z, pf's own, with source NULL. */
+static pf_up_axis scene_up_axis(const struct aiScene *scene, const char **source)
+{
+    *source = NULL;
+    const struct aiMetadata *md = scene->mMetaData;
+    int32_t axis = -1, sign = 1;
+    const char *format = "";
+    for (unsigned i = 0; md && i < md->mNumProperties; ++i) {
+        const struct aiMetadataEntry *e = &md->mValues[i];
+        const char *key = md->mKeys[i].data;
+        if (e->mType == AI_INT32 && strcmp(key, "UpAxis") == 0)
+            axis = *(const int32_t *)e->mData;
+        else if (e->mType == AI_INT32 && strcmp(key, "UpAxisSign") == 0)
+            sign = *(const int32_t *)e->mData;
+        else if (e->mType == AI_AISTRING && strcmp(key, "SourceAsset_Format") == 0)
+            format = ((const struct aiString *)e->mData)->data;
+    }
+    if (axis >= 0 && axis <= 2) {
+        static const pf_up_axis pos[3] = {PF_UP_X, PF_UP_Y, PF_UP_Z};
+        static const pf_up_axis neg[3] = {PF_UP_NEG_X, PF_UP_NEG_Y, PF_UP_NEG_Z};
+        *source = "the file's UpAxis";
+        return sign < 0 ? neg[axis] : pos[axis];
+    }
+    if (strstr(format, "glTF")) {
+        *source = "glTF's convention";
+        return PF_UP_Y;
+    }
+    if (strstr(format, "Collada")) {
+        *source = "Collada as assimp turns it";
+        return PF_UP_Y;
+    }
+    return PF_UP_Z;
+}
+
+static pf_status read_with_assimp(const char *path, surface_soup *soup,
+                                  pf_surface_import_info *info, pf_error *err)
 {
     const struct aiScene *scene = read_scene(path, err);
     if (!scene)
         return err ? err->status : PF_ERR_FORMAT;
+    info->up = scene_up_axis(scene, &info->up_source);
     pf_status st = scene_to_soup(path, scene, soup, err);
     aiReleaseImport(scene);
     return st;
@@ -126,26 +165,46 @@ pf_status pf_import_surface_ex(const char *path, pf_surface *s, pf_surface_impor
                                pf_error *err)
 {
     memset(s, 0, sizeof *s);
-    if (info)
-        *info = (pf_surface_import_info){"assimp", true};
+    pf_surface_import_info local;
+    if (!info)
+        info = &local;
+    *info = (pf_surface_import_info){"assimp", true, PF_UP_Z, NULL};
     /* A missing file is an I/O error, not a format one: checked before any reader guesses. */
     FILE *f = fopen(path, "rb");
     PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     fclose(f);
-    surface_reader read = read_with_assimp;
+    surface_reader read = NULL;
     for (size_t i = 0; i < sizeof OWN_READERS / sizeof OWN_READERS[0]; ++i)
         if (has_extension(path, OWN_READERS[i].ext)) {
             read = OWN_READERS[i].read;
-            if (info)
-                *info = (pf_surface_import_info){OWN_READERS[i].ext, false};
+            *info = (pf_surface_import_info){OWN_READERS[i].ext, false, PF_UP_Z, NULL};
         }
     surface_soup soup = {0};
-    pf_status st = read(path, &soup, err);
+    pf_status st = read ? read(path, &soup, err) : read_with_assimp(path, &soup, info, err);
     if (st == PF_OK)
         st = pf_surface_soup_finish(&soup, path, s, err);
     pf_surface_soup_release(&soup);
     if (st < 0)
         pf_surface_release(s);
+    return st;
+}
+
+pf_status pf_import_surface_fixed(const char *path, const pf_surface_fix_params *fix, pf_surface *s,
+                                  pf_surface_import_info *info, pf_surface_fix_report *report,
+                                  pf_error *err)
+{
+    pf_surface_import_info local;
+    if (!info)
+        info = &local;
+    PF_TRY(pf_import_surface_ex(path, s, info, err));
+    pf_surface_fix_params p = fix ? *fix : pf_surface_fix_params_default();
+    if (p.up == PF_UP_AUTO)
+        p.up = info->up;
+    pf_status st = pf_surface_fix(s, &p, report, err);
+    if (st < 0) {
+        pf_error_prefix(err, "%s", path);
+        pf_surface_release(s);
+    }
     return st;
 }
 

@@ -19,15 +19,15 @@ pf_surface_fix_params pf_surface_fix_params_default(void)
 
 const char *pf_up_axis_name(pf_up_axis up)
 {
-    static const char *names[] = {"z", "x", "y", "-x", "-y", "-z"};
-    return (unsigned)up < 6 ? names[up] : "?";
+    static const char *names[] = {"z", "x", "y", "-x", "-y", "-z", "auto"};
+    return (unsigned)up < 7 ? names[up] : "?";
 }
 
 bool pf_up_axis_parse(const char *text, pf_up_axis *out)
 {
-    for (int a = 0; a < 6; ++a) {
+    for (int a = 0; a < 7; ++a) {
         const char *name = pf_up_axis_name((pf_up_axis)a);
-        if (strcmp(text, name) == 0 || (text[0] == '+' && strcmp(text + 1, name) == 0)) {
+        if (strcmp(text, name) == 0 || (a < 6 && text[0] == '+' && strcmp(text + 1, name) == 0)) {
             *out = (pf_up_axis)a;
             return true;
         }
@@ -279,7 +279,7 @@ pf_status pf_surface_fix(pf_surface *s, const pf_surface_fix_params *params,
     pf_surface_fix_report local;
     pf_surface_fix_report *r = report ? report : &local;
     memset(r, 0, sizeof *r);
-    PF_CHECK((unsigned)p.up < 6, err, PF_ERR_INVALID, "unknown up axis %d", (int)p.up);
+    PF_CHECK((unsigned)p.up < 7, err, PF_ERR_INVALID, "unknown up axis %d", (int)p.up);
     PF_CHECK(isfinite(p.scale) && p.scale > 0, err, PF_ERR_INVALID,
              "scale must be finite and > 0, got %g", p.scale);
     pf_surface_stats before;

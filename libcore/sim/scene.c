@@ -659,17 +659,24 @@ static pf_status resolve_file(reader *r, const char *file, char **out)
     return PF_OK;
 }
 
-/* {"file": "name", "depth": d >= 0}: file required. */
+/* {"file": "name", "depth": d >= 0, "up": axis, "scale": s > 0}: file required. */
 static pf_status read_obstacle_mesh(reader *r, const cJSON *v, pf_obstacle *o)
 {
-    static const char *const keys[] = {"file", "depth", NULL};
+    static const char *const keys[] = {"file", "depth", "up", "scale", NULL};
     PF_TRY(begin_object(r, v, keys));
+    o->up = PF_UP_AUTO;
+    o->scale = 1;
     for (const cJSON *it = v->child; it; it = it->next) {
         size_t mark = push_key(r, it->string);
         if (!strcmp(it->string, "file")) {
             if (!cJSON_IsString(it) || !it->valuestring[0])
                 return fail_type(r, it, "a non-empty file name");
             PF_TRY(resolve_file(r, it->valuestring, &o->file));
+        } else if (!strcmp(it->string, "up")) {
+            if (!cJSON_IsString(it) || !pf_up_axis_parse(it->valuestring, &o->up))
+                return fail_type(r, it, "\"x\", \"y\", \"z\", \"-x\", \"-y\", \"-z\" or \"auto\"");
+        } else if (!strcmp(it->string, "scale")) {
+            PF_TRY(read_number(r, it, RANGE_POSITIVE, &o->scale));
         } else {
             PF_TRY(read_number(r, it, RANGE_NONNEG, &o->depth));
         }

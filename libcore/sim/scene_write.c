@@ -72,6 +72,8 @@ static cJSON *obstacle(const pf_obstacle *o)
         cJSON *mesh = cJSON_AddObjectToObject(j, "mesh");
         cJSON_AddStringToObject(mesh, "file", o->file ? o->file : "");
         add_number(mesh, "depth", o->depth);
+        cJSON_AddStringToObject(mesh, "up", pf_up_axis_name(o->up));
+        add_number(mesh, "scale", o->scale > 0 ? o->scale : 1);
     }
     add_number(j, "stiffness", o->stiffness);
     if (o->n_keys > 0) {

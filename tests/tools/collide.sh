@@ -79,4 +79,52 @@ expect 1 "obstacles[0].sphere.radius: must be > 0" "$bin/pf-sim" "$tmp/bad.json"
 echo '{"obstacles": [{"mesh": {"file": "missing.obj"}}]}' >"$tmp/missing.json"
 expect 1 "obstacles[0].mesh" "$bin/pf-sim" "$tmp/missing.json" --input "$tmp/cube.pfs"
 expect 1 "missing.obj" "$bin/pf-sim" "$tmp/missing.json" --input "$tmp/cube.pfs"
+echo '{"obstacles": [{"mesh": {"file": "missing.obj", "up": "w"}}]}' >"$tmp/badup.json"
+expect 1 "obstacles[0].mesh.up: must be" "$bin/pf-sim" "$tmp/badup.json" --input "$tmp/cube.pfs"
+
+# A mesh obstacle's up and scale, as the tools' --up and --scale: a slab 6 x 0.1 x 6 whose top is
+# at y = 0.2 in its file, +y up. Turned (y onto z) it is a floor with its top at z = 0.2 (0.4
+# scaled by 2) that a unit cube at z 0.5 .. 1.5 falls 0.3 (0.1) onto; as the file lies (+z up)
+# it is a wall beside the cube, which falls past it (1.5 in 20 frames). The largest displacement
+# is the fall plus the penalty's penetration (under 0.04 here).
+cat >"$tmp/slab.obj" <<'OBJ'
+v -3 0.1 -3
+v 3 0.1 -3
+v 3 0.2 -3
+v -3 0.2 -3
+v -3 0.1 3
+v 3 0.1 3
+v 3 0.2 3
+v -3 0.2 3
+f 1 3 2
+f 1 4 3
+f 5 6 7
+f 5 7 8
+f 1 2 6
+f 1 6 5
+f 4 8 7
+f 4 7 3
+f 1 5 8
+f 1 8 4
+f 2 3 7
+f 2 7 6
+OBJ
+"$bin/pf-shape" box --extent 1,1,1 --origin -0.5,0.5,0.5 --cells 2,2,2 >"$tmp/above.pfs"
+for case in 'z 1 1.2 2' 'y 1 0.3 0.34' 'y 2 0.1 0.14'; do
+  set -- $case
+  cat >"$tmp/slab.json" <<JSON
+{"material": {"E": 1e6, "nu": 0.3, "density": 1000}, "damping": {"alpha": 2, "beta": 0.01},
+ "ground": false, "obstacles": [{"mesh": {"file": "slab.obj", "up": "$1", "scale": $2}}],
+ "time": {"dt": 0.03333333333333333, "frames": 20, "substeps": 4}}
+JSON
+  u=$("$bin/pf-sim" "$tmp/slab.json" --quiet <"$tmp/above.pfs" | "$bin/pf-info" --json - |
+      grep -o '"max_displacement":[^,]*' | cut -d: -f2)
+  check "slab up $1 scale $2: fall $u in [$3, $4]" \
+    awk -v u="${u:-0}" -v a="$3" -v b="$4" 'BEGIN { exit !(u >= a && u <= b) }'
+done
+"$bin/pf-sim" "$tmp/slab.json" --frames 0 --quiet <"$tmp/above.pfs" | "$bin/pf-info" --scene >"$tmp/slab_scene.json"
+check "the stream's scene keeps the obstacle's up and scale" python3 -c "
+import json, sys
+m = json.load(open(sys.argv[1]))['obstacles'][0]['mesh']
+sys.exit(0 if m['up'] == 'y' and m['scale'] == 2 else 1)" "$tmp/slab_scene.json"
 finish

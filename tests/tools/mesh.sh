@@ -57,6 +57,18 @@ if [ -f "$duck" ]; then
   expect 0 "import: up y" "$bin/pf-slice" --res 6 "$duck"
   expect 0 "import: up z" "$bin/pf-slice" --res 6 --up z "$duck"
 fi
+# --repair: the open box's missing top (perimeter 4, 2.3 times the diagonal) is filled when the
+# limit allows it, and the closed box then slices exactly, volume 1; within the default limit it
+# stays open and the robust mode takes over.
+expect 0 "1 of 1 holes filled with 2 triangles: closed and manifold" \
+  "$bin/pf-slice" --res 4 --exact --repair=3 "$data/open_box.obj"
+"$bin/pf-octree" --depth 2 --slice --exact --repair=3 --quiet "$data/open_box.obj" |
+  "$bin/pf-info" --json - >"$tmp/repaired.json"
+check "the repaired box's octree mesh has volume 1" \
+  grep -q '"chunk":"MESH".*"volume":1,' "$tmp/repaired.json"
+expect 0 "0 of 1 holes filled" "$bin/pf-slice" --res 4 --repair "$data/open_box.obj"
+expect 0 "winding-number solid was sliced" "$bin/pf-slice" --res 4 --repair "$data/open_box.obj"
+expect 2 "--repair" "$bin/pf-slice" --repair=-1 "$data/cube.obj"
 expect 2 "--scale" "$bin/pf-slice" --scale 0 "$data/cube.obj"
 expect 2 "--refine" "$bin/pf-slice" --refine 9 "$data/cube.obj"
 expect 0 "winding" "$bin/pf-voxelize" --res 4 "$data/open_box.obj"

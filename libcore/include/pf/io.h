@@ -325,11 +325,24 @@ pf_status pf_import_surface(const char *path, pf_surface *s, pf_error *err);
 typedef struct pf_surface_import_info {
     const char *reader;    /* static: "obj", "off", "ply", "stl" (pf's own) or "assimp" */
     bool single_precision; /* the coordinates went through float (assimp): about 7 digits */
+    /* The up axis the file declares where assimp reports one: FBX's UpAxis / UpAxisSign
+     * metadata, +y for glTF (its specification) and Collada (assimp turns every Collada file to
+     * +y, whatever its <up_axis>); PF_UP_Z with up_source NULL for every other file (OBJ, PLY,
+     * STL, OFF and most others carry no up axis). up_source (static) says where it came from. */
+    pf_up_axis up;
+    const char *up_source;
 } pf_surface_import_info;
 
 /* pf_import_surface, also saying which reader it used in *info (may be NULL). */
 pf_status pf_import_surface_ex(const char *path, pf_surface *s, pf_surface_import_info *info,
                                pf_error *err);
+
+/* pf_import_surface_ex followed by pf_surface_fix with fix (NULL: the defaults), where
+ * fix->up == PF_UP_AUTO takes the file's own up axis (info->up). What every pf tool does to a
+ * surface file. info and report may be NULL; s is released on failure; errors name path. */
+pf_status pf_import_surface_fixed(const char *path, const pf_surface_fix_params *fix,
+                                  pf_surface *s, pf_surface_import_info *info,
+                                  pf_surface_fix_report *report, pf_error *err);
 
 /* A mesh (and optionally one frame) as a VTK unstructured grid (.vtu, XML, ASCII data): every
  * element a VTK_POLYHEDRON cell (tets as VTK_TETRA and hexes as VTK_HEXAHEDRON where the face

@@ -163,15 +163,18 @@ typedef enum pf_up_axis {
     PF_UP_NEG_X = 3,
     PF_UP_NEG_Y = 4,
     PF_UP_NEG_Z = 5,
+    PF_UP_AUTO = 6, /* the up axis the file declares (pf_import_surface_fixed); for a surface
+                       already in memory (pf_surface_fix), +z: no turn */
 } pf_up_axis;
 
-/* "z", "x", "y", "-x", "-y", "-z" ("?" for another value). */
+/* "z", "x", "y", "-x", "-y", "-z", "auto" ("?" for another value). */
 const char *pf_up_axis_name(pf_up_axis up);
-/* Parses those names (a leading '+' allowed); false for anything else. */
+/* Parses those names (a leading '+' allowed on an axis); false for anything else. */
 bool pf_up_axis_parse(const char *text, pf_up_axis *out);
 
 typedef struct pf_surface_fix_params {
-    pf_up_axis up; /* the file's up axis, turned onto +z (default PF_UP_Z: no turn) */
+    pf_up_axis up; /* the file's up axis, turned onto +z (default PF_UP_Z: no turn; PF_UP_AUTO:
+                      the file's own, see pf_import_surface_fixed) */
     double scale;  /* uniform factor applied after the turn, > 0 (default 1) */
     bool orient;   /* make the orientation consistent and outward (default true) */
 } pf_surface_fix_params;
@@ -204,6 +207,43 @@ pf_status pf_surface_parts_overlap(const pf_surface *s, bool *overlap, pf_error 
  * that is not finite and > 0, an index out of range or a non-finite coordinate. */
 pf_status pf_surface_fix(pf_surface *s, const pf_surface_fix_params *params,
                          pf_surface_fix_report *report, pf_error *err);
+
+/* ---- repair (pf-slice and pf-octree --repair) -------------------------------------------------
+ * In place: vertices at exactly one position welded; triangles with a repeated corner removed
+ * (degenerate); of triangles on the same three corners, one per orientation kept (duplicates),
+ * and a pair facing opposite ways removed both (it bounds nothing: two closed parts touching at
+ * a face become their union); orientation made consistent and outward (pf_surface_orient); then
+ * every hole (loop of edges used by one triangle) whose perimeter is at most max_hole times the
+ * bounding-box diagonal and which has at most max_hole_edges edges is closed by its
+ * triangulation of least area, using no diagonal that is an edge already; unused vertices are
+ * dropped. Zero-area triangles with three distinct corners are kept (they may join T-junctions). */
+typedef struct pf_surface_repair_params {
+    double max_hole;        /* largest hole perimeter filled, fraction of the bounding-box
+                               diagonal, >= 0 (default 0.5) */
+    int32_t max_hole_edges; /* largest hole filled, in edges, 3 .. 4096 (default 600: the
+                               O(n^3) triangulation of such a hole takes about 0.1 s) */
+} pf_surface_repair_params;
+
+pf_surface_repair_params pf_surface_repair_params_default(void);
+
+typedef struct pf_surface_repair_report {
+    int32_t tris_before;
+    int32_t welded;         /* vertices merged into another at the same position */
+    int32_t degenerate;     /* triangles removed for a repeated corner */
+    int32_t duplicates;     /* triangles removed repeating another the same way round */
+    int32_t opposite_pairs; /* pairs removed: same corners, opposite orientation */
+    pf_surface_fix_report orient;
+    int32_t holes;          /* boundary loops found (after the removals) */
+    int32_t holes_filled;
+    int32_t fill_triangles;
+    double largest_left;    /* perimeter of the largest hole left open, over the diagonal */
+    bool closed;            /* the result is closed and manifold */
+} pf_surface_repair_report;
+
+/* params NULL: the defaults; report may be NULL. PF_ERR_INVALID for parameters out of range,
+ * an index out of range or a non-finite coordinate, or when no triangle is left; PF_ERR_NOMEM. */
+pf_status pf_surface_repair(pf_surface *s, const pf_surface_repair_params *params,
+                            pf_surface_repair_report *report, pf_error *err);
 
 /* Unit vertex normals normals [3 n_verts] of s at positions x [3 n_verts] (NULL: s->x): the
  * area-weighted average of the normals of the triangles around each vertex (outward for an

@@ -75,6 +75,10 @@ typedef struct pf_obstacle {
                               directory when the file names a relative path (pf_alloc) */
     double depth;          /* mesh: the deepest penetration looked for, model units; 0 =
                               automatic (a tenth of the body's bounding-box diagonal) */
+    pf_up_axis up;         /* mesh: the file's up axis, turned onto +z as the tools turn surfaces
+                              (PF_UP_AUTO: the axis the file declares; the parser's default) */
+    double scale;          /* mesh: factor after the turn, > 0 (the parser's default 1; 0 is
+                              taken as 1) */
     double stiffness;      /* penalty, force per unit length per contact point; 0 = automatic
                               (the ground's automatic stiffness) */
     int32_t n_keys;

@@ -15,6 +15,7 @@
  * The pattern is set once (MatSetPreallocationCOO, both triangles of pf's upper-triangle storage
  * expanded); a solve whose matrix changed sends the values again (MatSetValuesCOO), which makes
  * PETSc rebuild GAMG on the next KSPSolve. */
+#define _DEFAULT_SOURCE /* on_exit: the exit code for the serving ranks */
 #include "solve_petsc.h"
 
 #include <math.h>
@@ -346,11 +347,20 @@ bool pf_petsc_available(void)
     return true;
 }
 
-/* Rank 0 left without pf_petsc_finalize (an error ended the program): the others stop too. */
+/* Rank 0 left without pf_petsc_finalize (an error ended the program): the others stop too, with
+ * rank 0's exit code where the C library tells it (glibc's on_exit), else 1. */
+#ifdef __GLIBC__
+static void exit_handler(int code, void *unused)
+{
+    (void)unused;
+    pf_petsc_finalize(code);
+}
+#else
 static void exit_handler(void)
 {
     pf_petsc_finalize(1);
 }
+#endif
 
 pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_error *err)
 {
@@ -361,8 +371,13 @@ pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_
             argc && argv ? PetscInitialize(argc, argv, NULL, NULL) : PetscInitializeNoArguments();
         PF_CHECK(pe == 0, err, PF_ERR_INVALID, "PETSc failed to initialise (error %d)", (int)pe);
         PETSC_STDOUT = stderr; /* stdout carries the pf stream */
-        if (comm_rank() == 0)
+        if (comm_rank() == 0) {
+#ifdef __GLIBC__
+            on_exit(exit_handler, NULL);
+#else
             atexit(exit_handler);
+#endif
+        }
     }
     if (rank)
         *rank = comm_rank();

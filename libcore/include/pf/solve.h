@@ -242,7 +242,7 @@ bool pf_petsc_available(void);
 /* Initialises MPI and PETSc once per process (argc and argv may be NULL; PETSc reads its
  * options from them and from PETSC_OPTIONS) and gives this process's rank and the number of
  * ranks. PETSc's standard output goes to stderr (stdout carries pf streams). Rank 0 registers
- * an exit handler that stops the other ranks with exit code 1 if the process exits before
+ * an exit handler that stops the other ranks with its exit code if the process exits before
  * pf_petsc_finalize. Without PETSc: rank 0 of 1, nothing else. PF_ERR_INVALID when PETSc
  * cannot start. */
 pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_error *err);

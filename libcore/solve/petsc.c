@@ -60,6 +60,7 @@ struct pf_petsc_solver {
     engine e;
     PetscCount n_coo;
     PetscScalar *coo_values; /* [n_coo] */
+    bool values_pending;     /* changed values not yet sent (a solve with b = 0 skipped them) */
 };
 
 static int comm_rank(void)
@@ -323,6 +324,14 @@ pf_status pf_petsc_solver_solve(pf_petsc_solver *p, const pf_block_matrix *a, bo
     double bnorm = 0;
     for (int64_t k = 0; k < a->n; ++k)
         bnorm += b[k] * b[k];
+    if (bnorm == 0) { /* x = 0 exactly, without PETSc */
+        memset(x, 0, (size_t)a->n * sizeof *x);
+        *residual = 0;
+        p->values_pending |= values_changed;
+        return PF_OK;
+    }
+    values_changed |= p->values_pending;
+    p->values_pending = false;
     if (values_changed)
         coo_values(a, p->coo_values);
     announce((message){.command = CMD_SOLVE, .id = p->e.id, .changed = values_changed});

@@ -203,7 +203,8 @@ static void gamg_iterations_flat(void **state)
     assert_true(2 * its[2] < 3 * its[0]);
 }
 
-/* Errors: dependent near-null vectors; a tolerance out of range. */
+/* A 6 x 6 diagonal system: dependent near-null vectors refused, a right-hand side of zero, a
+ * matrix changed during a skipped solve, a tolerance out of range. */
 static void errors(void **state)
 {
     (void)state;
@@ -224,6 +225,16 @@ static void errors(void **state)
     assert_int_equal(pf_solver_solve(s, &a, PF_MATRIX_NEW, b, x, NULL, &err), PF_OK);
     for (int k = 0; k < 6; ++k)
         assert_true(fabs(x[k] - (k + 1)) < 1e-12);
+    /* b = 0: x = 0 exactly, whatever the guess; the next solve still sees the new values */
+    double zero[6] = {0};
+    assert_int_equal(pf_solver_solve(s, &a, PF_MATRIX_NEW, zero, x, NULL, &err), PF_OK);
+    for (int k = 0; k < 6; ++k)
+        assert_true(x[k] == 0);
+    pf_block_matrix_add_diagonal(&a, d); /* A = 8 I */
+    assert_int_equal(pf_solver_solve(s, &a, PF_MATRIX_DRIFTED, zero, x, NULL, &err), PF_OK);
+    assert_int_equal(pf_solver_solve(s, &a, PF_MATRIX_SAME, b, x, NULL, &err), PF_OK);
+    for (int k = 0; k < 6; ++k)
+        assert_true(fabs(x[k] - 0.5 * (k + 1)) < 1e-12);
     pf_solver_destroy(&s);
     p.tolerance = 2;
     assert_int_equal(pf_solver_create(&s, &a, &p, false, &err), PF_ERR_INVALID);

@@ -323,6 +323,7 @@ static pf_status iterate(pf_solver *s, const pf_block_matrix *a, const double *b
 static pf_status solve_petsc(pf_solver *s, const pf_block_matrix *a, pf_matrix_change change,
                              const double *b, double *x, pf_error *err)
 {
+    pf_cholesky_destroy(&s->chol); /* the definiteness tests' factor, not needed any more */
     double t0 = pf_time_seconds(), c0 = pf_cpu_seconds();
     int32_t its = 0;
     pf_status st = pf_petsc_solver_solve(s->petsc, a, change != PF_MATRIX_SAME || !s->have_factor,

@@ -1,7 +1,9 @@
 /* pf-sim: the simulator. A stream with a MESH in, the same stream out with SCEN, one FRAM (and
  * STRS) per frame, flushed as each frame is made. */
+#define _POSIX_C_SOURCE 200809L /* getpid */
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <pf/io.h>
 #include <pf/sim.h>
@@ -34,14 +36,24 @@ static const char USAGE[] =
     "                     needs a 'fixed' region that holds boundary faces)\n"
     "  --corotation[=BOOL]  stiffness warping, on by default; --corotation=false (or\n"
     "                     --no-corotation) for linear elasticity\n"
-    "  --solver auto|direct|pcg   linear solves: direct refactorises whenever the matrix\n"
-    "                     changes; pcg iterates on the last factor and refactorises when that\n"
-    "                     pays; auto (default) picks pcg where the matrix changes\n"
-    "  --tolerance TOL    pcg: residual relative to the right-hand side (default 1e-10)\n"
+    "  --solver auto|direct|pcg|petsc   linear solves: direct refactorises whenever the\n"
+    "                     matrix changes; pcg iterates on the last factor and refactorises when\n"
+    "                     that pays; auto (default) picks pcg where the matrix changes; petsc:\n"
+    "                     PETSc's CG + GAMG over the MPI ranks (builds with -DPF_PETSC=ON)\n"
+    "  --tolerance TOL    pcg, petsc: residual relative to the right-hand side (default 1e-10)\n"
     "Other options:\n"
     "  --input FILE       read the stream from FILE instead of stdin\n"
+    "  --output FILE      write the stream to FILE (through a temporary file renamed at the\n"
+    "                     end) instead of stdout; needed under mpirun\n"
     "  --quiet            no progress or summary on stderr\n"
     "  --help, --version\n"
+    "\n"
+    "\n"
+    "MPI (builds with -DPF_PETSC=ON): mpirun -n N pf-sim SCENE.json --solver petsc\n"
+    "--input in.pfs --output out.pfs (mpirun's forwarding of stdout is not byte-exact);\n"
+    "rank 0 reads, simulates and writes, all ranks share the linear solves. Options of one dash\n"
+    "(-ksp_monitor, -pc_type lu, each with its value if it takes one) go to PETSc, best last;\n"
+    "so does the environment variable PETSC_OPTIONS.\n"
     "\n"
     "Exit 0 ok; 1 bad input or a simulation that diverged (the frames before it are written and\n"
     "the stream is closed properly); 2 bad usage.\n";
@@ -65,6 +77,7 @@ enum {
     OPT_TOLERANCE,
     OPT_COROTATION,
     OPT_INPUT,
+    OPT_OUTPUT,
     OPT_QUIET
 };
 
@@ -73,6 +86,7 @@ typedef struct run {
     pf_scene scene;
     const char *scene_path;
     const char *input_path;
+    const char *output_path;
     bool quiet;
     pf_mesh mesh; /* the input's latest MESH, moved out of input */
     bool have_mesh;
@@ -145,6 +159,7 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"solver", true, OPT_SOLVER},
                                             {"tolerance", true, OPT_TOLERANCE},
                                             {"input", true, OPT_INPUT},
+                                            {"output", true, OPT_OUTPUT},
                                             {"quiet", false, OPT_QUIET},
                                             {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
@@ -161,6 +176,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->scene_path = value;
         } else if (id == OPT_INPUT) {
             r->input_path = value;
+        } else if (id == OPT_OUTPUT) {
+            r->output_path = value;
         } else if (id == OPT_QUIET) {
             r->quiet = true;
         } else if (n < 64) {
@@ -265,6 +282,20 @@ static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error 
 /* The solver line: method, factorisations by reason, PCG iterations, CPU beside wall seconds. */
 static void print_solver_summary(const pf_solver_stats *ss)
 {
+    if (ss->method == PF_SOLVER_PETSC) {
+        int ranks = 1;
+        pf_error ignored = {0};
+        pf_petsc_initialize(NULL, NULL, NULL, &ranks, &ignored); /* initialised: the size */
+        fprintf(stderr,
+                "pf-sim: solver petsc on %d ranks: %lld solves, %.1f iterations mean, %d max; "
+                "solves %.3f s wall / %.3f s cpu (rank 0); %lld factorisations on rank 0 "
+                "(definiteness tests), %.3f s\n",
+                ranks, (long long)ss->solves,
+                ss->solves ? (double)ss->iterations / (double)ss->solves : 0.0,
+                (int)ss->max_iterations, ss->solve_seconds, ss->solve_cpu_seconds,
+                (long long)ss->factorisations, ss->factor_seconds);
+        return;
+    }
     fprintf(stderr, "pf-sim: solver %s: %lld solves, %lld factorisations (",
             pf_solver_method_name(ss->method), (long long)ss->solves,
             (long long)ss->factorisations);
@@ -401,22 +432,106 @@ static pf_status prepare_mesh(run *r, const char *input_name, pf_error *err)
     return st;
 }
 
+/* PETSc's options (one dash and a letter: -ksp_rtol 1e-12, -ksp_monitor) are PETSc's to read;
+ * pf-sim's parser sees the rest. A word after such an option that does not start with a dash
+ * is its value. */
+static int without_petsc_options(int argc, char **argv, char **kept)
+{
+    int n = 0;
+    for (int k = 0; k < argc; ++k) {
+        const char *a = argv[k];
+        bool petsc = k > 0 && a[0] == '-' && ((a[1] >= 'a' && a[1] <= 'z') || a[1] == '_') &&
+                     strcmp(a, "-h") != 0;
+        if (!petsc) {
+            kept[n++] = argv[k];
+            continue;
+        }
+        if (k + 1 < argc && argv[k + 1][0] != '-')
+            ++k;
+    }
+    kept[n] = NULL;
+    return n;
+}
+
+/* The rank of this process as an MPI launcher set it (-1: not launched by one). */
+static int launcher_rank(void)
+{
+    static const char *const names[] = {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"};
+    for (size_t k = 0; k < sizeof names / sizeof *names; ++k) {
+        const char *v = getenv(names[k]);
+        if (v && *v)
+            return atoi(v);
+    }
+    return -1;
+}
+
+/* Under mpirun every rank starts here: PETSc and MPI come up, ranks > 0 serve rank 0's solves
+ * until it finalises (pf/solve.h), and rank 0 runs pf-sim. An error on rank 0 ends it with the
+ * message and exit 1, and its exit handler stops the serving ranks. */
+static void start_mpi(int *argc, char ***argv)
+{
+    int launched = launcher_rank();
+    if (launched < 0)
+        return;
+    if (!pf_petsc_available()) {
+        if (launched == 0)
+            fprintf(stderr, "pf-sim: started by mpirun, but this pf was built without PETSc "
+                            "(configure with -DPF_PETSC=ON after scripts/setup --petsc)\n");
+        exit(PF_EXIT_INPUT);
+    }
+    pf_error err = {0};
+    int rank = 0;
+    if (pf_petsc_initialize(argc, argv, &rank, NULL, &err) < 0) {
+        fprintf(stderr, "pf-sim: %s\n", err.msg);
+        exit(PF_EXIT_INPUT);
+    }
+    if (rank > 0) {
+        int code = PF_EXIT_INPUT;
+        if (pf_petsc_serve(&code, &err) < 0)
+            fprintf(stderr, "pf-sim: rank %d: %s\n", rank, err.msg);
+        exit(code);
+    }
+}
+
 int main(int argc, char **argv)
 {
+    start_mpi(&argc, &argv);
+    char **args = pf_calloc((size_t)argc + 1, sizeof *args);
+    if (!args) {
+        fprintf(stderr, "pf-sim: out of memory\n");
+        return PF_EXIT_INPUT;
+    }
+    int n_args = without_petsc_options(argc, argv, args);
     run r;
     memset(&r, 0, sizeof r);
-    parse_arguments(&r, argc, argv);
+    parse_arguments(&r, n_args, args);
     pf_error *err = &r.err;
     FILE *in_file = NULL;
     const char *in_name = NULL;
     if (pf_cli_open_input(r.input_path, &in_file, &in_name, err) < 0)
         pf_cli_fail(&r.cli, err);
-    FILE *out = pf_cli_binary_stdout(&r.cli);
+    /* --output: a temporary file beside it, renamed when the stream is complete */
+    char *out_tmp = NULL;
+    FILE *out = NULL;
+    if (r.output_path) {
+        size_t len = strlen(r.output_path) + 32;
+        out_tmp = pf_alloc(len);
+        if (out_tmp)
+            snprintf(out_tmp, len, "%s.tmp%ld", r.output_path, (long)getpid());
+        out = out_tmp ? fopen(out_tmp, "wb") : NULL;
+        if (!out)
+            pf_cli_usage_error(&r.cli, "cannot write '%s'", r.output_path);
+    } else {
+        if (launcher_rank() >= 0)
+            pf_cli_usage_error(&r.cli, "under mpirun, write the stream with --output FILE "
+                                       "(mpirun's forwarding of stdout is not byte-exact)");
+        out = pf_cli_binary_stdout(&r.cli);
+    }
     pf_stream_reader *in = NULL;
     char *command = pf_cli_command_line(&r.cli);
     pf_status st = pf_stream_reader_create(&in, in_file, in_name, err);
     if (st >= 0)
-        st = pf_stream_writer_create(&r.out, out, "stdout", err);
+        st = pf_stream_writer_create(&r.out, out, r.output_path ? r.output_path : "stdout", err);
     if (st >= 0)
         st = copy_input(&r, in, err);
     take_input_mesh(&r);
@@ -434,7 +549,21 @@ int main(int argc, char **argv)
         *err = finish_err;
         st = finish_err.status;
     }
+    /* --output: kept when it holds a closed stream (frames before a failure stay usable) */
+    bool streamed = r.out != NULL;
     pf_stream_writer_destroy(&r.out);
+    if (out_tmp) {
+        bool closed = fclose(out) == 0;
+        if (!streamed)
+            remove(out_tmp);
+        else if (!closed || rename(out_tmp, r.output_path) != 0) {
+            remove(out_tmp);
+            if (st >= 0)
+                st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "cannot write '%s'",
+                                  r.output_path);
+        }
+        pf_free(out_tmp);
+    }
     pf_stream_reader_destroy(&in);
     pf_cli_close_input(in_file);
     pf_free(command);
@@ -444,5 +573,7 @@ int main(int argc, char **argv)
     if (st < 0)
         pf_cli_fail(&r.cli, err);
     pf_cli_close_stdout(r.cli.tool);
+    pf_free(args);
+    pf_petsc_finalize(PF_EXIT_OK);
     return PF_EXIT_OK;
 }

@@ -331,7 +331,7 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
 static pf_status read_solver_name(reader *r, const cJSON *v, pf_solver_method *out)
 {
     if (!cJSON_IsString(v) || !pf_scene_parse_solver_name(v->valuestring, out))
-        return fail_type(r, v, "\"auto\", \"direct\" or \"pcg\"");
+        return fail_type(r, v, "\"auto\", \"direct\", \"pcg\" or \"petsc\"");
     return PF_OK;
 }
 
@@ -340,7 +340,7 @@ static pf_status read_solver(reader *r, const cJSON *v, pf_solver_params *p)
     if (cJSON_IsString(v))
         return read_solver_name(r, v, &p->method);
     if (!cJSON_IsObject(v))
-        return fail_type(r, v, "\"auto\", \"direct\", \"pcg\" or an object");
+        return fail_type(r, v, "\"auto\", \"direct\", \"pcg\", \"petsc\" or an object");
     static const char *const keys[] = {"method", "tolerance", "max_iterations", NULL};
     PF_TRY(begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {

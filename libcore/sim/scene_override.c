@@ -94,7 +94,7 @@ pf_status pf_scene_override(pf_scene *s, const char *key, const char *value, pf_
     }
     if (!strcmp(key, "solver")) {
         if (!value || !pf_scene_parse_solver_name(value, &s->solver.method))
-            return override_fail(err, key, value, "must be auto, direct or pcg");
+            return override_fail(err, key, value, "must be auto, direct, pcg or petsc");
         return PF_OK;
     }
     if (!strcmp(key, "tolerance"))

@@ -145,6 +145,38 @@ static pf_status setup_contact(pf_sim *s, pf_error *err)
     return PF_OK;
 }
 
+/* The petsc solver's multigrid wants the rigid modes in the method's unknowns: the three
+ * translations and the three rotations about the mesh's centre, each an affine field the method
+ * represents exactly (DG: an element's constant and linear monomial coefficients; CG: the free
+ * nodes' displacements). */
+static pf_status set_rigid_modes(pf_sim *s, pf_error *err)
+{
+    if (pf_solver_get_stats(s->solver)->method != PF_SOLVER_PETSC)
+        return PF_OK;
+    double *modes = pf_alloc_array(6 * (size_t)s->n + 1, sizeof *modes);
+    PF_CHECK(modes, err, PF_ERR_NOMEM, "cannot allocate the rigid modes of %lld unknowns",
+             (long long)s->n);
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(s->mesh, &lo, &hi);
+    double c[3] = {0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y), 0.5 * (lo.z + hi.z)};
+    for (int k = 0; k < 3; ++k) {
+        double zero[9] = {0}, t[3] = {0};
+        t[k] = 1;
+        s->ops->affine(s->method, zero, t, modes + (size_t)k * (size_t)s->n);
+        /* u = e_k x (x - c): A = [e_k]_x, b = -A c */
+        double a[9] = {0}, b[3];
+        int i = (k + 1) % 3, j = (k + 2) % 3;
+        a[3 * j + i] = 1;
+        a[3 * i + j] = -1;
+        for (int r = 0; r < 3; ++r)
+            b[r] = -(a[3 * r] * c[0] + a[3 * r + 1] * c[1] + a[3 * r + 2] * c[2]);
+        s->ops->affine(s->method, a, b, modes + (size_t)(3 + k) * (size_t)s->n);
+    }
+    pf_status st = pf_solver_set_near_null_space(s->solver, 6, modes, err);
+    pf_free(modes);
+    return st;
+}
+
 pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh, pf_error *err)
 {
     return pf_sim_create_embedded(out, scene, mesh, NULL, NULL, err);
@@ -191,6 +223,8 @@ pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *re
         bool changes = !scene->is_static && (scene->corotation || s->contact);
         st = pf_solver_create(&s->solver, &s->k, &scene->solver, changes, err);
     }
+    if (st >= 0)
+        st = set_rigid_modes(s, err);
     if (st >= 0)
         st = choose_penalty(s, penalty, err);
     if (st < 0)

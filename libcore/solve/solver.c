@@ -29,6 +29,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "solve_petsc.h"
+
 enum { FACTOR_RATE = 4 };
 
 /* auto takes direct when a factorisation costs at most this many iterations: a solve on an old
@@ -38,7 +40,8 @@ enum { AUTO_DIRECT = 10 };
 
 struct pf_solver {
     pf_solver_params params;
-    pf_cholesky *chol;
+    pf_cholesky *chol;      /* NULL for petsc until pf_solver_factor needs one */
+    pf_petsc_solver *petsc; /* the petsc method */
     int64_t n, nnz;
     double *r, *z, *d, *q;
     bool have_factor;        /* the factor is of a system matrix, not of pf_solver_factor's */
@@ -52,18 +55,19 @@ struct pf_solver {
     pf_solver_stats stats;
 };
 
-static const char *const METHOD_NAMES[] = {"auto", "direct", "pcg"};
+static const char *const METHOD_NAMES[] = {"auto", "direct", "pcg", "petsc"};
+enum { METHODS = 4 };
 static const char *const REASON_NAMES[] = {"first",      "changed", "cost",
                                            "pcg-failed", "other",   "new-terms"};
 
 const char *pf_solver_method_name(pf_solver_method m)
 {
-    return (unsigned)m < 3 ? METHOD_NAMES[m] : "?";
+    return (unsigned)m < METHODS ? METHOD_NAMES[m] : "?";
 }
 
 bool pf_solver_method_parse(const char *name, pf_solver_method *m)
 {
-    for (int k = 0; k < 3; ++k)
+    for (int k = 0; k < METHODS; ++k)
         if (name && strcmp(name, METHOD_NAMES[k]) == 0) {
             *m = (pf_solver_method)k;
             return true;
@@ -85,6 +89,22 @@ pf_solver_params pf_solver_params_default(void)
     return (pf_solver_params){.method = PF_SOLVER_AUTO, .tolerance = 1e-10, .max_iterations = 200};
 }
 
+/* The petsc method: PETSc's KSP instead of the factor; a factor only when pf_solver_factor
+ * asks for one. */
+static pf_status create_petsc(pf_solver **out, pf_solver *s, const pf_block_matrix *a,
+                              pf_error *err)
+{
+    s->stats.method = PF_SOLVER_PETSC;
+    s->stats.matrix_nnz = s->nnz;
+    pf_status st = pf_petsc_solver_create(&s->petsc, a, s->params.tolerance, err);
+    if (st < 0) {
+        pf_solver_destroy(&s);
+        return st;
+    }
+    *out = s;
+    return PF_OK;
+}
+
 pf_status pf_solver_create(pf_solver **out, const pf_block_matrix *a,
                            const pf_solver_params *params, bool matrix_changes, pf_error *err)
 {
@@ -94,13 +114,18 @@ pf_status pf_solver_create(pf_solver **out, const pf_block_matrix *a,
              "solver tolerance must lie in (0, 1), got %g", pr.tolerance);
     PF_CHECK(pr.max_iterations >= 1, err, PF_ERR_INVALID,
              "solver max_iterations must be at least 1, got %d", (int)pr.max_iterations);
-    PF_CHECK((unsigned)pr.method < 3, err, PF_ERR_INVALID, "unknown solver method %d",
+    PF_CHECK((unsigned)pr.method < METHODS, err, PF_ERR_INVALID, "unknown solver method %d",
              (int)pr.method);
+    PF_CHECK(pr.method != PF_SOLVER_PETSC || pf_petsc_available(), err, PF_ERR_INVALID,
+             "solver method petsc: this pf was built without PETSc (configure with "
+             "-DPF_PETSC=ON after scripts/setup --petsc)");
     pf_solver *s = pf_calloc(1, sizeof *s);
     PF_CHECK(s, err, PF_ERR_NOMEM, "cannot allocate a solver");
     s->params = pr;
     s->n = a->n;
     s->nnz = a->col_ptr[a->n];
+    if (pr.method == PF_SOLVER_PETSC)
+        return create_petsc(out, s, a, err);
     pf_status st = pf_cholesky_create(&s->chol, a, err);
     if (st >= 0) {
         size_t n = (size_t)s->n + 1;
@@ -143,6 +168,7 @@ void pf_solver_destroy(pf_solver **sp)
     if (!s)
         return;
     pf_cholesky_destroy(&s->chol);
+    pf_petsc_solver_destroy(&s->petsc);
     void *arrays[] = {s->r, s->z, s->d, s->q};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
@@ -179,6 +205,8 @@ static pf_status factor_system(pf_solver *s, const pf_block_matrix *a, pf_refact
 pf_status pf_solver_factor(pf_solver *s, const pf_block_matrix *a, int64_t *failed_column,
                            pf_error *err)
 {
+    if (!s->chol) /* petsc: a definiteness test factorises on this rank */
+        PF_TRY(pf_cholesky_create(&s->chol, a, err));
     s->have_factor = s->factor_current = false;
     return factor_timed(s, a, PF_REFACTOR_OTHER, failed_column, err);
 }
@@ -310,12 +338,42 @@ static pf_status iterate(pf_solver *s, const pf_block_matrix *a, const double *b
     return PF_OK;
 }
 
+/* The petsc method: every solve iterates (GAMG rebuilt when the values changed). */
+static pf_status solve_petsc(pf_solver *s, const pf_block_matrix *a, pf_matrix_change change,
+                             const double *b, double *x, pf_error *err)
+{
+    pf_cholesky_destroy(&s->chol); /* the definiteness tests' factor, not needed any more */
+    double t0 = pf_time_seconds(), c0 = pf_cpu_seconds();
+    int32_t its = 0;
+    pf_status st = pf_petsc_solver_solve(s->petsc, a, change != PF_MATRIX_SAME || !s->have_factor,
+                                         b, x, &its, &s->last_residual, err);
+    s->have_factor = st >= 0;
+    s->stats.solves++;
+    s->stats.pcg_solves++;
+    s->stats.iterations += its;
+    if (its > s->stats.max_iterations)
+        s->stats.max_iterations = its;
+    s->stats.solve_seconds += pf_time_seconds() - t0;
+    s->stats.solve_cpu_seconds += pf_cpu_seconds() - c0;
+    return st;
+}
+
+pf_status pf_solver_set_near_null_space(pf_solver *s, int32_t k, const double *vectors,
+                                        pf_error *err)
+{
+    PF_CHECK(k >= 0 && (k == 0 || vectors), err, PF_ERR_INVALID, "a near-null space of %d vectors",
+             (int)k);
+    return s->petsc ? pf_petsc_solver_near_null_space(s->petsc, k, vectors, err) : PF_OK;
+}
+
 pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_change change,
                           const double *b, double *x, int64_t *failed_column, pf_error *err)
 {
     PF_CHECK(a->n == s->n && a->col_ptr[a->n] == s->nnz, err, PF_ERR_INVALID,
              "matrix pattern changed since the analysis (%lld unknowns, was %lld)", (long long)a->n,
              (long long)s->n);
+    if (s->petsc)
+        return solve_petsc(s, a, change, b, x, err);
     double t0 = pf_time_seconds(), c0 = pf_cpu_seconds();
     double f0 = s->stats.factor_seconds, fc0 = s->stats.factor_cpu_seconds;
     s->stats.solves++;

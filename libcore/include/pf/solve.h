@@ -128,21 +128,30 @@ void pf_cholesky_destroy(pf_cholesky **c);
  *           contact set that changed), or when PCG fails.
  *   auto    direct when the matrix never changes or a factorisation costs at most ten
  *           iterations; pcg otherwise.
+ *   petsc   PETSc (builds with -DPF_PETSC=ON): conjugate gradients preconditioned by smoothed-
+ *           aggregation algebraic multigrid (KSPCG + PCGAMG) on a matrix distributed over the
+ *           MPI ranks, given the near-null space pf_solver_set_near_null_space sets (the rigid
+ *           modes); PETSc's options database (-ksp_*, -pc_*, PETSC_OPTIONS) tunes or replaces
+ *           it (-pc_type lu -pc_factor_mat_solver_type mumps). The matrix and vectors live on
+ *           rank 0 of the caller and are handed to PETSc whole (see pf_petsc_serve).
  * Every decision depends on the inputs only: the same sequence of systems gives the same bits. */
 
 typedef enum pf_solver_method {
     PF_SOLVER_AUTO = 0,
     PF_SOLVER_DIRECT = 1,
     PF_SOLVER_PCG = 2,
+    PF_SOLVER_PETSC = 3,
 } pf_solver_method;
 
-/* "auto", "direct", "pcg"; pf_solver_method_parse returns false for another name. */
+/* "auto", "direct", "pcg", "petsc"; pf_solver_method_parse returns false for another name
+ * (petsc parses in every build; pf_solver_create refuses it without PETSc). */
 const char *pf_solver_method_name(pf_solver_method m);
 bool pf_solver_method_parse(const char *name, pf_solver_method *m);
 
 typedef struct pf_solver_params {
     pf_solver_method method; /* default auto */
-    double tolerance;        /* PCG stops at ||b - A x|| <= tolerance ||b|| (default 1e-10) */
+    double tolerance;        /* PCG (and petsc's CG) stops at ||b - A x|| <= tolerance ||b||
+                                (default 1e-10) */
     int32_t max_iterations;  /* PCG iterations of one solve before it gives up on a factor and
                                 refactorises (default 200; fewer when a factorisation costs
                                 less than that many iterations) */
@@ -213,6 +222,13 @@ pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_chan
 pf_status pf_solver_factor(pf_solver *s, const pf_block_matrix *a, int64_t *failed_column,
                            pf_error *err);
 
+/* The near-null space of the systems to come: k vectors [k][n] (row-major; copied), for the
+ * petsc method's multigrid (the simulator gives the six rigid modes of its unknowns); ignored by
+ * the others. Any k >= 0 linearly independent vectors; they are orthonormalised. PF_ERR_INVALID
+ * for k < 0 or dependent vectors, PETSc's failures as PF_ERR_NUMERIC. */
+pf_status pf_solver_set_near_null_space(pf_solver *s, int32_t k, const double *vectors,
+                                        pf_error *err);
+
 /* Forgets the factor (the next solve factorises): after a failed step whose state was undone. */
 void pf_solver_reset(pf_solver *s);
 
@@ -220,6 +236,34 @@ void pf_solver_reset(pf_solver *s);
 double pf_solver_last_residual(const pf_solver *s);
 
 const pf_solver_stats *pf_solver_get_stats(const pf_solver *s);
+
+/* ==== PETSc and MPI ==========================================================================
+ * An MPI run (mpirun -n N prog) where one process, rank 0, does everything but the linear
+ * algebra: it reads, assembles and writes as a one-process run does, and its petsc solvers hand
+ * each matrix and right-hand side to PETSc, which distributes them over all ranks (contiguous
+ * blocks of unknown triples) and solves there. The other ranks only serve: pf_petsc_serve runs
+ * the collective half of every solver call rank 0 makes, until rank 0 finalises. */
+
+/* Whether this libpf was built with PETSc (-DPF_PETSC=ON). */
+bool pf_petsc_available(void);
+
+/* Initialises MPI and PETSc once per process (argc and argv may be NULL; PETSc reads its
+ * options from them and from PETSC_OPTIONS) and gives this process's rank and the number of
+ * ranks. PETSc's standard output goes to stderr (stdout carries pf streams). Rank 0 registers
+ * an exit handler that stops the other ranks with its exit code if the process exits before
+ * pf_petsc_finalize. Without PETSc: rank 0 of 1, nothing else. PF_ERR_INVALID when PETSc
+ * cannot start. */
+pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_error *err);
+
+/* Ranks > 0: serves rank 0's petsc solvers until rank 0 calls pf_petsc_finalize (or exits),
+ * then finalises PETSc and returns with *exit_code the code rank 0 gave. PF_ERR_INVALID on
+ * rank 0, or without PETSc. */
+pf_status pf_petsc_serve(int *exit_code, pf_error *err);
+
+/* Rank 0 (or a one-process run): tells the serving ranks to stop with exit_code and finalises
+ * PETSc and MPI. Every petsc solver must be destroyed first. Nothing when PETSc was not
+ * initialised. */
+void pf_petsc_finalize(int exit_code);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,532 @@
+/* The petsc method (pf/solve.h): pf's block matrix handed to PETSc as a distributed AIJ matrix
+ * and solved by conjugate gradients preconditioned with smoothed-aggregation algebraic multigrid
+ * (KSPCG + PCGAMG), GAMG given the rigid modes as its near-null space, as PETSc recommends for
+ * elasticity.
+ *
+ * Who does what. Rank 0 owns the simulation and the whole block matrix; every other rank only
+ * serves (pf_petsc_serve). Each solver operation on rank 0 first broadcasts a command (what,
+ * which solver, sizes), then both sides run the same collective body: rank 0 supplies all the
+ * data (matrix entries in COO form, whose off-process entries PETSc's MatSetValuesCOO moves to
+ * their owners; vectors scattered from rank 0's whole copy with the scatter of
+ * VecScatterCreateToZero run in reverse), the others none. Rows are split in contiguous blocks of
+ * whole unknown triples (a triple is one node's, or one DG monomial's, three components), which
+ * for both methods keeps an element's unknowns together on one rank.
+ *
+ * The pattern is set once (MatSetPreallocationCOO, both triangles of pf's upper-triangle storage
+ * expanded); a solve whose matrix changed sends the values again (MatSetValuesCOO), which makes
+ * PETSc rebuild GAMG on the next KSPSolve. */
+#define _DEFAULT_SOURCE /* on_exit: the exit code for the serving ranks */
+#include "solve_petsc.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifdef PF_HAVE_PETSC
+
+#include <petscksp.h>
+
+#define PETSC_TRY(call)                                                                            \
+    do {                                                                                           \
+        PetscErrorCode pe_ = (call);                                                               \
+        if (pe_)                                                                                   \
+            return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc error %d in %s",   \
+                                (int)pe_, #call);                                                  \
+    } while (0)
+
+enum command { CMD_EXIT = 0, CMD_CREATE, CMD_NULL_SPACE, CMD_SOLVE, CMD_DESTROY };
+
+/* What rank 0 broadcasts before each collective body. */
+typedef struct message {
+    int64_t command, id;
+    int64_t n;        /* CMD_CREATE: unknowns; CMD_NULL_SPACE: vectors; CMD_EXIT: exit code */
+    int64_t changed;  /* CMD_SOLVE: new values come */
+    double tolerance; /* CMD_CREATE */
+} message;
+
+/* One solver's PETSc objects, the same on every rank. */
+typedef struct engine {
+    int64_t id;
+    PetscInt n;
+    Mat a;
+    KSP ksp;
+    Vec x, b;           /* distributed */
+    Vec whole;          /* rank 0: all n entries; elsewhere empty */
+    VecScatter to_zero; /* distributed -> whole (reverse: whole -> distributed) */
+    struct engine *next;
+} engine;
+
+struct pf_petsc_solver {
+    engine e;
+    PetscCount n_coo;
+    PetscScalar *coo_values; /* [n_coo] */
+    bool values_pending;     /* changed values not yet sent (a solve with b = 0 skipped them) */
+};
+
+static int comm_rank(void)
+{
+    int r = 0;
+    MPI_Comm_rank(PETSC_COMM_WORLD, &r);
+    return r;
+}
+
+static int comm_size(void)
+{
+    int s = 1;
+    MPI_Comm_size(PETSC_COMM_WORLD, &s);
+    return s;
+}
+
+/* Rank 0 tells the serving ranks what comes. */
+static void announce(message m)
+{
+    if (comm_size() > 1)
+        MPI_Bcast(&m, (int)sizeof m, MPI_BYTE, 0, PETSC_COMM_WORLD);
+}
+
+/* ---- the collective bodies --------------------------------------------------------------- */
+
+/* This rank's rows: whole triples (block size 3) when n is a multiple of 3. */
+static PetscInt local_rows(PetscInt n, PetscInt bs)
+{
+    PetscInt blocks = n / bs, size = comm_size(), rank = comm_rank();
+    return bs * (blocks / size + (rank < blocks % size ? 1 : 0));
+}
+
+static pf_status create_body(engine *e, PetscInt n, double tolerance, PetscCount n_coo,
+                             PetscInt *coo_i, PetscInt *coo_j, pf_error *err)
+{
+    PetscInt bs = n % 3 == 0 ? 3 : 1, local = local_rows(n, bs);
+    e->n = n;
+    PETSC_TRY(MatCreate(PETSC_COMM_WORLD, &e->a));
+    PETSC_TRY(MatSetSizes(e->a, local, local, n, n));
+    PETSC_TRY(MatSetType(e->a, MATAIJ));
+    PETSC_TRY(MatSetBlockSize(e->a, bs));
+    PETSC_TRY(MatSetFromOptions(e->a));
+    PETSC_TRY(MatSetPreallocationCOO(e->a, n_coo, coo_i, coo_j));
+    PETSC_TRY(MatCreateVecs(e->a, &e->x, &e->b));
+    PETSC_TRY(VecScatterCreateToZero(e->x, &e->to_zero, &e->whole));
+    PETSC_TRY(KSPCreate(PETSC_COMM_WORLD, &e->ksp));
+    PETSC_TRY(KSPSetOperators(e->ksp, e->a, e->a));
+    PETSC_TRY(KSPSetType(e->ksp, KSPCG));
+    PC pc;
+    PETSC_TRY(KSPGetPC(e->ksp, &pc));
+    PETSC_TRY(PCSetType(pc, PCGAMG));
+    /* the true residual, as the pcg method judges it; no absolute floor */
+    PETSC_TRY(KSPSetNormType(e->ksp, KSP_NORM_UNPRECONDITIONED));
+    PETSC_TRY(KSPSetTolerances(e->ksp, tolerance, 0.0, PETSC_DEFAULT, 10000));
+    PETSC_TRY(KSPSetInitialGuessNonzero(e->ksp, PETSC_TRUE));
+    PETSC_TRY(KSPSetFromOptions(e->ksp));
+    return PF_OK;
+}
+
+static void destroy_body(engine *e)
+{
+    KSPDestroy(&e->ksp);
+    MatDestroy(&e->a);
+    VecDestroy(&e->x);
+    VecDestroy(&e->b);
+    VecDestroy(&e->whole);
+    VecScatterDestroy(&e->to_zero);
+}
+
+/* dst (distributed) = src [n] on rank 0 (src unread elsewhere). */
+static pf_status scatter_in(engine *e, const double *src, Vec dst, pf_error *err)
+{
+    if (comm_rank() == 0) {
+        PetscScalar *w;
+        PETSC_TRY(VecGetArray(e->whole, &w));
+        memcpy(w, src, (size_t)e->n * sizeof *w);
+        PETSC_TRY(VecRestoreArray(e->whole, &w));
+    }
+    PETSC_TRY(VecScatterBegin(e->to_zero, e->whole, dst, INSERT_VALUES, SCATTER_REVERSE));
+    PETSC_TRY(VecScatterEnd(e->to_zero, e->whole, dst, INSERT_VALUES, SCATTER_REVERSE));
+    return PF_OK;
+}
+
+/* dst [n] on rank 0 = src (distributed). */
+static pf_status gather(engine *e, Vec src, double *dst, pf_error *err)
+{
+    PETSC_TRY(VecScatterBegin(e->to_zero, src, e->whole, INSERT_VALUES, SCATTER_FORWARD));
+    PETSC_TRY(VecScatterEnd(e->to_zero, src, e->whole, INSERT_VALUES, SCATTER_FORWARD));
+    if (comm_rank() == 0) {
+        const PetscScalar *w;
+        PETSC_TRY(VecGetArrayRead(e->whole, &w));
+        memcpy(dst, w, (size_t)e->n * sizeof *dst);
+        PETSC_TRY(VecRestoreArrayRead(e->whole, &w));
+    }
+    return PF_OK;
+}
+
+/* Modified Gram-Schmidt; a vector that loses all but 1e-10 of its norm is dependent. */
+static pf_status orthonormalise(Vec *v, int32_t k, pf_error *err)
+{
+    for (int32_t i = 0; i < k; ++i) {
+        PetscReal before, after;
+        PETSC_TRY(VecNorm(v[i], NORM_2, &before));
+        for (int32_t j = 0; j < i; ++j) {
+            PetscScalar d;
+            PETSC_TRY(VecDot(v[i], v[j], &d));
+            PETSC_TRY(VecAXPY(v[i], -d, v[j]));
+        }
+        PETSC_TRY(VecNorm(v[i], NORM_2, &after));
+        PF_CHECK(after > 1e-10 * before, err, PF_ERR_INVALID,
+                 "near-null space vector %d is a combination of the ones before it", (int)i);
+        PETSC_TRY(VecScale(v[i], 1.0 / after));
+    }
+    return PF_OK;
+}
+
+static pf_status null_space_body(engine *e, int32_t k, const double *vectors, pf_error *err)
+{
+    Vec *v = calloc((size_t)k + 1, sizeof *v);
+    PF_CHECK(v, err, PF_ERR_NOMEM, "cannot allocate %d vectors", (int)k);
+    pf_status st = PF_OK;
+    int32_t made = 0;
+    for (; st >= 0 && made < k; ++made) {
+        if (VecDuplicate(e->x, &v[made]))
+            st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc: VecDuplicate");
+        else
+            st =
+                scatter_in(e, vectors ? vectors + (size_t)made * (size_t)e->n : NULL, v[made], err);
+    }
+    if (st >= 0)
+        st = orthonormalise(v, k, err);
+    MatNullSpace space = NULL;
+    if (st >= 0 && MatNullSpaceCreate(PETSC_COMM_WORLD, PETSC_FALSE, k, v, &space))
+        st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc: MatNullSpaceCreate");
+    if (st >= 0 && MatSetNearNullSpace(e->a, space))
+        st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc: MatSetNearNullSpace");
+    MatNullSpaceDestroy(&space);
+    for (int32_t i = 0; i < made; ++i)
+        VecDestroy(&v[i]);
+    free(v);
+    return st;
+}
+
+/* One solve; values: rank 0's COO values when they changed (NULL: unchanged; elsewhere any
+ * non-NULL pointer marks the change). */
+static pf_status solve_body(engine *e, const PetscScalar *values, const double *b, double *x,
+                            KSPConvergedReason *reason, PetscInt *its, PetscReal *rnorm,
+                            pf_error *err)
+{
+    if (values)
+        PETSC_TRY(MatSetValuesCOO(e->a, values, INSERT_VALUES));
+    PF_TRY(scatter_in(e, b, e->b, err));
+    PF_TRY(scatter_in(e, x, e->x, err));
+    PETSC_TRY(KSPSolve(e->ksp, e->b, e->x));
+    PETSC_TRY(KSPGetConvergedReason(e->ksp, reason));
+    PETSC_TRY(KSPGetIterationNumber(e->ksp, its));
+    PETSC_TRY(KSPGetResidualNorm(e->ksp, rnorm));
+    return gather(e, e->x, x, err);
+}
+
+/* ---- rank 0's side ----------------------------------------------------------------------- */
+
+/* The COO list of a's full symmetric matrix: each stored upper entry (r, c) as (r, c) and, off
+ * the diagonal, (c, r), in storage order. */
+static PetscCount coo_count(const pf_block_matrix *a)
+{
+    PetscCount n = 0;
+    for (int64_t c = 0; c < a->n; ++c)
+        for (int64_t p = a->col_ptr[c]; p < a->col_ptr[c + 1]; ++p)
+            n += a->row_idx[p] == c ? 1 : 2;
+    return n;
+}
+
+static void coo_values(const pf_block_matrix *a, PetscScalar *v)
+{
+    PetscCount q = 0;
+    for (int64_t c = 0; c < a->n; ++c)
+        for (int64_t p = a->col_ptr[c]; p < a->col_ptr[c + 1]; ++p) {
+            v[q++] = a->val[p];
+            if (a->row_idx[p] != c)
+                v[q++] = a->val[p];
+        }
+}
+
+pf_status pf_petsc_solver_create(pf_petsc_solver **out, const pf_block_matrix *a, double tolerance,
+                                 pf_error *err)
+{
+    *out = NULL;
+    PetscBool up = PETSC_FALSE;
+    PetscInitialized(&up);
+    if (!up)
+        PF_TRY(pf_petsc_initialize(NULL, NULL, NULL, NULL, err));
+    PF_CHECK(comm_rank() == 0, err, PF_ERR_INVALID, "petsc solvers are made on rank 0 only");
+    PF_CHECK(a->n < PETSC_MAX_INT, err, PF_ERR_TOO_LARGE,
+             "%lld unknowns exceed PETSc's %d-bit indices", (long long)a->n,
+             (int)(8 * sizeof(PetscInt)));
+    pf_petsc_solver *p = pf_calloc(1, sizeof *p);
+    PF_CHECK(p, err, PF_ERR_NOMEM, "cannot allocate a petsc solver");
+    p->n_coo = coo_count(a);
+    size_t m = (size_t)p->n_coo + 1;
+    PetscInt *ci = pf_alloc_array(m, sizeof *ci), *cj = pf_alloc_array(m, sizeof *cj);
+    p->coo_values = pf_alloc_array(m, sizeof *p->coo_values);
+    if (!ci || !cj || !p->coo_values) {
+        pf_free(ci);
+        pf_free(cj);
+        pf_petsc_solver_destroy(&p);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate %lld matrix entries for PETSc", (long long)m);
+    }
+    PetscCount q = 0;
+    for (int64_t c = 0; c < a->n; ++c)
+        for (int64_t k = a->col_ptr[c]; k < a->col_ptr[c + 1]; ++k) {
+            PetscInt r = (PetscInt)a->row_idx[k];
+            ci[q] = r;
+            cj[q++] = (PetscInt)c;
+            if (r != c) {
+                ci[q] = (PetscInt)c;
+                cj[q++] = r;
+            }
+        }
+    p->e.id = (int64_t)(uintptr_t)p;
+    announce((message){.command = CMD_CREATE, .id = p->e.id, .n = a->n, .tolerance = tolerance});
+    pf_status st = create_body(&p->e, (PetscInt)a->n, tolerance, p->n_coo, ci, cj, err);
+    pf_free(ci);
+    pf_free(cj);
+    if (st < 0)
+        pf_petsc_solver_destroy(&p);
+    *out = p;
+    return st;
+}
+
+void pf_petsc_solver_destroy(pf_petsc_solver **pp)
+{
+    pf_petsc_solver *p = *pp;
+    if (!p)
+        return;
+    announce((message){.command = CMD_DESTROY, .id = p->e.id});
+    destroy_body(&p->e);
+    pf_free(p->coo_values);
+    pf_free(p);
+    *pp = NULL;
+}
+
+pf_status pf_petsc_solver_near_null_space(pf_petsc_solver *p, int32_t k, const double *vectors,
+                                          pf_error *err)
+{
+    announce((message){.command = CMD_NULL_SPACE, .id = p->e.id, .n = k});
+    return null_space_body(&p->e, k, vectors, err);
+}
+
+static const char *reason_text(KSPConvergedReason r)
+{
+    return r < 0 && r >= -11 ? KSPConvergedReasons[r] : "unknown";
+}
+
+pf_status pf_petsc_solver_solve(pf_petsc_solver *p, const pf_block_matrix *a, bool values_changed,
+                                const double *b, double *x, int32_t *iterations, double *residual,
+                                pf_error *err)
+{
+    *iterations = 0;
+    double bnorm = 0;
+    for (int64_t k = 0; k < a->n; ++k)
+        bnorm += b[k] * b[k];
+    if (bnorm == 0) { /* x = 0 exactly, without PETSc */
+        memset(x, 0, (size_t)a->n * sizeof *x);
+        *residual = 0;
+        p->values_pending |= values_changed;
+        return PF_OK;
+    }
+    values_changed |= p->values_pending;
+    p->values_pending = false;
+    if (values_changed)
+        coo_values(a, p->coo_values);
+    announce((message){.command = CMD_SOLVE, .id = p->e.id, .changed = values_changed});
+    KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
+    PetscInt its = 0;
+    PetscReal rnorm = 0;
+    PF_TRY(
+        solve_body(&p->e, values_changed ? p->coo_values : NULL, b, x, &reason, &its, &rnorm, err));
+    *iterations = (int32_t)its;
+    *residual = bnorm > 0 ? rnorm / sqrt(bnorm) : 0;
+    PF_CHECK(reason > 0, err, PF_ERR_NUMERIC,
+             "PETSc's KSP stopped without converging (%s) after %d iterations, residual %.3g "
+             "relative to the right-hand side",
+             reason_text(reason), (int)its, *residual);
+    return PF_OK;
+}
+
+/* ---- initialisation, the serving ranks, the end ------------------------------------------ */
+
+bool pf_petsc_available(void)
+{
+    return true;
+}
+
+/* Rank 0 left without pf_petsc_finalize (an error ended the program): the others stop too, with
+ * rank 0's exit code where the C library tells it (glibc's on_exit), else 1. */
+#ifdef __GLIBC__
+static void exit_handler(int code, void *unused)
+{
+    (void)unused;
+    pf_petsc_finalize(code);
+}
+#else
+static void exit_handler(void)
+{
+    pf_petsc_finalize(1);
+}
+#endif
+
+pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_error *err)
+{
+    PetscBool up = PETSC_FALSE;
+    PetscInitialized(&up);
+    if (!up) {
+        PetscErrorCode pe =
+            argc && argv ? PetscInitialize(argc, argv, NULL, NULL) : PetscInitializeNoArguments();
+        PF_CHECK(pe == 0, err, PF_ERR_INVALID, "PETSc failed to initialise (error %d)", (int)pe);
+        PETSC_STDOUT = stderr; /* stdout carries the pf stream */
+        if (comm_rank() == 0) {
+#ifdef __GLIBC__
+            on_exit(exit_handler, NULL);
+#else
+            atexit(exit_handler);
+#endif
+        }
+    }
+    if (rank)
+        *rank = comm_rank();
+    if (size)
+        *size = comm_size();
+    return PF_OK;
+}
+
+pf_status pf_petsc_serve(int *exit_code, pf_error *err)
+{
+    *exit_code = 1;
+    PF_CHECK(PetscInitializeCalled && !PetscFinalizeCalled, err, PF_ERR_INVALID,
+             "pf_petsc_serve before pf_petsc_initialize");
+    PF_CHECK(comm_rank() != 0, err, PF_ERR_INVALID, "rank 0 drives the solvers, it cannot serve");
+    engine *list = NULL;
+    pf_status st = PF_OK;
+    for (;;) {
+        message m;
+        if (MPI_Bcast(&m, (int)sizeof m, MPI_BYTE, 0, PETSC_COMM_WORLD) != MPI_SUCCESS) {
+            st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "lost rank 0");
+            break;
+        }
+        if (m.command == CMD_EXIT) {
+            *exit_code = (int)m.n;
+            break;
+        }
+        engine **at = &list;
+        while (*at && (*at)->id != m.id)
+            at = &(*at)->next;
+        engine *e = *at;
+        /* A body that fails here fails alike on rank 0 (the same collective calls on the same
+         * data), which reports it; this rank keeps serving. */
+        pf_error ignored = {0};
+        if (m.command == CMD_CREATE) {
+            e = calloc(1, sizeof *e);
+            if (!e) {
+                st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+                MPI_Abort(PETSC_COMM_WORLD, 1);
+            }
+            e->id = m.id;
+            e->next = list;
+            list = e;
+            create_body(e, (PetscInt)m.n, m.tolerance, 0, NULL, NULL, &ignored);
+        } else if (!e) {
+            continue; /* a solver whose creation failed on rank 0 before it was announced */
+        } else if (m.command == CMD_NULL_SPACE) {
+            null_space_body(e, (int32_t)m.n, NULL, &ignored);
+        } else if (m.command == CMD_SOLVE) {
+            static const PetscScalar none = 0;
+            KSPConvergedReason reason;
+            PetscInt its;
+            PetscReal rnorm;
+            solve_body(e, m.changed ? &none : NULL, NULL, NULL, &reason, &its, &rnorm, &ignored);
+        } else if (m.command == CMD_DESTROY) {
+            *at = e->next;
+            destroy_body(e);
+            free(e);
+        }
+    }
+    while (list) {
+        engine *next = list->next;
+        destroy_body(list);
+        free(list);
+        list = next;
+    }
+    PetscFinalize();
+    return st;
+}
+
+void pf_petsc_finalize(int exit_code)
+{
+    if (!PetscInitializeCalled || PetscFinalizeCalled)
+        return;
+    if (comm_rank() == 0)
+        announce((message){.command = CMD_EXIT, .n = exit_code});
+    PetscFinalize();
+}
+
+#else /* without PETSc */
+
+bool pf_petsc_available(void)
+{
+    return false;
+}
+
+pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_error *err)
+{
+    (void)argc, (void)argv, (void)err;
+    if (rank)
+        *rank = 0;
+    if (size)
+        *size = 1;
+    return PF_OK;
+}
+
+static pf_status not_built(pf_error *err)
+{
+    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                        "this pf was built without PETSc: configure with -DPF_PETSC=ON after "
+                        "scripts/setup --petsc");
+}
+
+pf_status pf_petsc_serve(int *exit_code, pf_error *err)
+{
+    *exit_code = 1;
+    return not_built(err);
+}
+
+void pf_petsc_finalize(int exit_code)
+{
+    (void)exit_code;
+}
+
+pf_status pf_petsc_solver_create(pf_petsc_solver **p, const pf_block_matrix *a, double tolerance,
+                                 pf_error *err)
+{
+    (void)a, (void)tolerance;
+    *p = NULL;
+    return not_built(err);
+}
+
+void pf_petsc_solver_destroy(pf_petsc_solver **p)
+{
+    *p = NULL;
+}
+
+pf_status pf_petsc_solver_near_null_space(pf_petsc_solver *p, int32_t k, const double *vectors,
+                                          pf_error *err)
+{
+    (void)p, (void)k, (void)vectors;
+    return not_built(err);
+}
+
+pf_status pf_petsc_solver_solve(pf_petsc_solver *p, const pf_block_matrix *a, bool values_changed,
+                                const double *b, double *x, int32_t *iterations, double *residual,
+                                pf_error *err)
+{
+    (void)p, (void)a, (void)values_changed, (void)b, (void)x, (void)residual;
+    *iterations = 0;
+    return not_built(err);
+}
+
+#endif

@@ -1,0 +1,28 @@
+/* The petsc method of the solver policy (petsc.c), private to libcore/solve: one distributed
+ * system on PETSc, driven from rank 0 (pf/solve.h, "PETSc and MPI"). */
+#ifndef PF_SOLVE_PETSC_H
+#define PF_SOLVE_PETSC_H
+
+#include <pf/solve.h>
+
+typedef struct pf_petsc_solver pf_petsc_solver;
+
+/* The distributed matrix with a's pattern (both triangles, COO), its vectors and the KSP:
+ * conjugate gradients on the true residual to ||b - A x|| <= tolerance ||b||, GAMG, then
+ * PETSc's options. Collective (rank 0 tells the serving ranks). PF_ERR_INVALID without PETSc. */
+pf_status pf_petsc_solver_create(pf_petsc_solver **p, const pf_block_matrix *a, double tolerance,
+                                 pf_error *err);
+void pf_petsc_solver_destroy(pf_petsc_solver **p);
+
+/* GAMG's near-null space: k vectors [k][n], orthonormalised on the way. */
+pf_status pf_petsc_solver_near_null_space(pf_petsc_solver *p, int32_t k, const double *vectors,
+                                          pf_error *err);
+
+/* Solves A x = b from the guess in x; values_changed: a's values differ from the last solve's
+ * (they are sent again and the preconditioner rebuilt). *iterations and *residual (relative)
+ * of the solve. PF_ERR_NUMERIC when the KSP diverged or stopped short, naming PETSc's reason. */
+pf_status pf_petsc_solver_solve(pf_petsc_solver *p, const pf_block_matrix *a, bool values_changed,
+                                const double *b, double *x, int32_t *iterations, double *residual,
+                                pf_error *err);
+
+#endif

@@ -14,6 +14,7 @@
  * K3 is not warped. */
 #include <pf/fem.h>
 
+#include <math.h>
 #include <string.h>
 
 enum { MAX_N = 30 }; /* 3 nb for degree 2 */
@@ -131,6 +132,7 @@ static void consistency_block(const pf_dg *dg, const pf_dg_face *f, int s, int t
     int nb = dg->nb, n = 3 * nb;
     double sign = s == 0 ? 1 : -1;
     const double nv[3] = {f->normal.x, f->normal.y, f->normal.z};
+    const pf_material *mat = pf_dg_material(dg, f->elem[t]); /* the stress of side t */
     for (int a = 0; a < nb; ++a)
         for (int b = 0; b < nb; ++b) {
             const double *g = g_entry(dg, f, s, t, a, b);
@@ -139,7 +141,7 @@ static void consistency_block(const pf_dg *dg, const pf_dg_face *f, int s, int t
                 for (int k = 0; k < 3; ++k)
                     out[(3 * a + i) * n + 3 * b + k] =
                         -w * sign *
-                        (dg->lambda * nv[i] * g[k] + dg->mu * ((i == k ? ng : 0) + nv[k] * g[i]));
+                        (mat->lambda * nv[i] * g[k] + mat->mu * ((i == k ? ng : 0) + nv[k] * g[i]));
         }
 }
 
@@ -150,13 +152,19 @@ static void penalty_block(const pf_dg *dg, const pf_dg_face *f, int s, int t, do
     double sign = (s == t) ? 1 : -1;
     double scale = weight * sign;
     const double nv[3] = {f->normal.x, f->normal.y, f->normal.z};
+    /* the stiffer side's moduli across an interface between two materials */
+    double lambda = pf_dg_material(dg, f->elem[0])->lambda, mu = pf_dg_material(dg, f->elem[0])->mu;
+    if (f->elem[1] >= 0) {
+        lambda = fmax(lambda, pf_dg_material(dg, f->elem[1])->lambda);
+        mu = fmax(mu, pf_dg_material(dg, f->elem[1])->mu);
+    }
     for (int a = 0; a < nb; ++a)
         for (int b = 0; b < nb; ++b) {
             double sab = scale * s_entry(dg, f, s, t, a, b);
             for (int i = 0; i < 3; ++i)
                 for (int k = 0; k < 3; ++k)
                     out[(3 * a + i) * n + 3 * b + k] =
-                        sab * ((i == k ? 2 * dg->mu : 0) + dg->lambda * nv[i] * nv[k]);
+                        sab * ((i == k ? 2 * mu : 0) + lambda * nv[i] * nv[k]);
         }
 }
 

@@ -213,6 +213,10 @@ pf_status pf_stream_state_take(pf_stream_state *s, const pf_chunk *c, pf_error *
         return take_mesh(s, c, err);
     if (strcmp(c->tag, "SURF") == 0)
         return take_surface(s, c, err);
+    if (strcmp(c->tag, "GRPS") == 0) /* the latest MESH's regions: the decoder checks the id */
+        return s->have_mesh ? pf_stream_decode_groups(c, &s->mesh, err)
+                            : pf_stream_chunk_error(err, PF_ERR_FORMAT, __FILE__, __LINE__, c,
+                                                    "groups before any MESH chunk");
     if (strcmp(c->tag, "WGHT") == 0)
         return take_weights(s, c, err);
     if (strcmp(c->tag, "STRS") == 0)

@@ -58,6 +58,7 @@ void pf_scene_release(pf_scene *s)
         return;
     pf_free(s->fixed);
     pf_free(s->loads);
+    pf_free(s->materials);
     release_obstacles(s);
     pf_free(s->json);
     memset(s, 0, sizeof *s);
@@ -427,12 +428,31 @@ static pf_status read_plane(reader *r, const cJSON *v, pf_region *out)
     return PF_OK;
 }
 
-/* One entry of "fixed" or "loads": exactly one of box / plane, plus the entry's vector key
- * (displacement, optional; traction, required). */
+/* "name" (a mesh group's name) or a positive integer (its number). */
+static pf_status read_group(reader *r, const cJSON *v, pf_region *out)
+{
+    out->kind = PF_REGION_GROUP;
+    if (cJSON_IsString(v)) {
+        size_t n = strlen(v->valuestring);
+        if (n == 0 || n >= PF_GROUP_NAME_MAX)
+            return fail(r, "a group name has 1 to %d bytes, got %zu", PF_GROUP_NAME_MAX - 1, n);
+        memcpy(out->group_name, v->valuestring, n + 1);
+        return PF_OK;
+    }
+    if (!cJSON_IsNumber(v))
+        return fail_type(r, v, "a group name or number");
+    double d = 0;
+    PF_TRY(read_number(r, v, RANGE_INT_POS, &d));
+    out->group = (int32_t)d;
+    return PF_OK;
+}
+
+/* One entry of "fixed" or "loads": exactly one of box / plane / group, plus the entry's vector
+ * key (displacement, optional; traction, required). */
 static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector_key,
                                    bool vector_required, pf_region *region, pf_vec3 *vector)
 {
-    const char *const keys[] = {"box", "plane", vector_key, NULL};
+    const char *const keys[] = {"box", "plane", "group", vector_key, NULL};
     PF_TRY(begin_object(r, v, keys));
     int n_regions = 0;
     bool has_vector = false;
@@ -443,14 +463,17 @@ static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector
         } else if (!strcmp(it->string, "plane")) {
             READ_KEY(r, it, read_plane(r, it, region));
             ++n_regions;
+        } else if (!strcmp(it->string, "group")) {
+            READ_KEY(r, it, read_group(r, it, region));
+            ++n_regions;
         } else {
             READ_KEY(r, it, read_vec3(r, it, vector));
             has_vector = true;
         }
     }
     if (n_regions != 1)
-        return fail(r, n_regions ? "give one region, \"box\" or \"plane\", not both"
-                                 : "missing region: give \"box\" or \"plane\"");
+        return fail(r, n_regions ? "give one region, \"box\", \"plane\" or \"group\", not several"
+                                 : "missing region: give \"box\", \"plane\" or \"group\"");
     if (vector_required && !has_vector)
         return fail(r, "missing key \"%s\"", vector_key);
     return PF_OK;
@@ -491,6 +514,54 @@ static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
         size_t mark = push_index(r, i);
         PF_TRY(
             read_region_entry(r, it, "traction", true, &s->loads[i].region, &s->loads[i].traction));
+        pop(r, mark);
+    }
+    return PF_OK;
+}
+
+/* One entry of "materials": exactly one of box / group, and any of E, nu, density (NAN until
+ * read_scene fills in the scene's material). */
+static pf_status read_material_entry(reader *r, const cJSON *v, pf_material_region *m)
+{
+    static const char *const keys[] = {"box", "group", "E", "nu", "density", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    m->E = m->nu = m->density = NAN;
+    int n_regions = 0;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "box")) {
+            READ_KEY(r, it, read_box(r, it, &m->region));
+            ++n_regions;
+        } else if (!strcmp(it->string, "group")) {
+            READ_KEY(r, it, read_group(r, it, &m->region));
+            ++n_regions;
+        } else if (!strcmp(it->string, "E")) {
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &m->E));
+        } else if (!strcmp(it->string, "nu")) {
+            READ_KEY(r, it, read_number(r, it, RANGE_POISSON, &m->nu));
+        } else {
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &m->density));
+        }
+    }
+    if (n_regions != 1)
+        return fail(r, n_regions ? "give one region, \"box\" or \"group\", not both"
+                                 : "missing region: give \"box\" or \"group\"");
+    return PF_OK;
+}
+
+static pf_status read_materials(reader *r, const cJSON *v, pf_scene *s)
+{
+    if (!cJSON_IsArray(v))
+        return fail_type(r, v, "an array");
+    int n = cJSON_GetArraySize(v);
+    pf_free(s->materials);
+    s->n_materials = 0;
+    s->materials = pf_calloc((size_t)n + 1, sizeof *s->materials);
+    PF_CHECK(s->materials, r->err, PF_ERR_NOMEM, "%s: materials: out of memory", r->name);
+    s->n_materials = n;
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+        size_t mark = push_index(r, i);
+        PF_TRY(read_material_entry(r, it, &s->materials[i]));
         pop(r, mark);
     }
     return PF_OK;
@@ -723,35 +794,6 @@ static pf_status read_obstacles(reader *r, const cJSON *v, pf_scene *s)
     return PF_OK;
 }
 
-pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t)
-{
-    if (o->n_keys == 0)
-        return pf_v3(0, 0, 0);
-    if (t <= o->key_time[0])
-        return o->key_translation[0];
-    for (int32_t k = 1; k < o->n_keys; ++k)
-        if (t < o->key_time[k]) {
-            double s = (t - o->key_time[k - 1]) / (o->key_time[k] - o->key_time[k - 1]);
-            return pf_v3_add(pf_v3_scale(o->key_translation[k - 1], 1 - s),
-                             pf_v3_scale(o->key_translation[k], s));
-        }
-    return o->key_translation[o->n_keys - 1];
-}
-
-pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surface,
-                                        pf_error *err)
-{
-    PF_CHECK(i >= 0 && i < s->n_obstacles && s->obstacles[i].kind == PF_OBSTACLE_MESH, err,
-             PF_ERR_INVALID, "obstacles[%d]: not a mesh obstacle", (int)i);
-    pf_obstacle *o = &s->obstacles[i];
-    PF_CHECK(surface->n_tris > 0, err, PF_ERR_INVALID, "obstacles[%d].mesh: %s: no triangles",
-             (int)i, o->file);
-    pf_surface_release(&o->surface);
-    o->surface = *surface;
-    memset(surface, 0, sizeof *surface);
-    return PF_OK;
-}
-
 static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
 {
     if (!cJSON_IsObject(root)) {
@@ -760,14 +802,16 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
         return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__,
                             "%s: the scene must be a JSON object, got %s", r->name, got);
     }
-    static const char *const keys[] = {"material", "method", "corotation", "gravity", "body_force",
-                                       "damping",  "fixed",  "loads",      "ground",  "obstacles",
-                                       "time",     "static", "solver",     NULL};
+    static const char *const keys[] = {"material",   "materials", "method", "corotation", "gravity",
+                                       "body_force", "damping",   "fixed",  "loads",      "ground",
+                                       "obstacles",  "time",      "static", "solver",     NULL};
     PF_TRY(begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;
         if (!strcmp(k, "material"))
             READ_KEY(r, it, read_material(r, it, s));
+        else if (!strcmp(k, "materials"))
+            READ_KEY(r, it, read_materials(r, it, s));
         else if (!strcmp(k, "method"))
             READ_KEY(r, it, read_method(r, it, s));
         else if (!strcmp(k, "corotation"))
@@ -794,6 +838,12 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
             READ_KEY(r, it, read_bool(r, it, &s->is_static));
     }
     pf_scene_apply_static_ground_rule(s);
+    for (int32_t k = 0; k < s->n_materials; ++k) { /* what an entry did not give */
+        pf_material_region *m = &s->materials[k];
+        m->E = isnan(m->E) ? s->E : m->E;
+        m->nu = isnan(m->nu) ? s->nu : m->nu;
+        m->density = isnan(m->density) ? s->density : m->density;
+    }
     return PF_OK;
 }
 
@@ -828,70 +878,4 @@ pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *
     pf_status st = read_scene(&r, root, s);
     cJSON_Delete(root);
     return st;
-}
-
-enum { SCENE_MAX_BYTES = 64 << 20 };
-
-pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err)
-{
-    memset(s, 0, sizeof *s);
-    pf_scene_default(s);
-    PF_CHECK(path, err, PF_ERR_INVALID, "scene: no file name");
-    FILE *f = fopen(path, "rb");
-    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    /* Read to the end in growing chunks: works for pipes and process substitution too. */
-    pf_buffer buf = {0};
-    pf_status st = PF_OK;
-    char chunk[8192];
-    size_t n;
-    while (st == PF_OK && (n = fread(chunk, 1, sizeof chunk, f)) > 0) {
-        st = pf_buffer_append(&buf, chunk, n, err);
-        if (st == PF_OK && buf.size > SCENE_MAX_BYTES)
-            st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
-                              "%s: larger than %d bytes: not a scene file", path, SCENE_MAX_BYTES);
-    }
-    if (st == PF_OK && ferror(f))
-        st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: read failed: %s", path,
-                          strerror(errno));
-    fclose(f);
-    if (st == PF_OK)
-        st = pf_scene_parse(s, (const char *)buf.data, buf.size, path, err);
-    else if (st == PF_ERR_NOMEM)
-        pf_error_prefix(err, "%s", path);
-    pf_buffer_release(&buf);
-    return st;
-}
-
-/* ---- completion against a mesh, regions ------------------------------------------------------ */
-
-void pf_scene_resolve(pf_scene *s, pf_vec3 lo, pf_vec3 hi)
-{
-    if (s->ground_auto) {
-        /* The bounding box's extent along the normal from its 8 corners; the plane sits 5 % of
-         * that extent below the lowest corner, so the body starts just above the ground. */
-        pf_vec3 n = s->ground_normal;
-        double smin = INFINITY, smax = -INFINITY;
-        for (int c = 0; c < 8; ++c) {
-            pf_vec3 corner = pf_v3(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
-            double d = pf_v3_dot(n, corner);
-            smin = fmin(smin, d);
-            smax = fmax(smax, d);
-        }
-        s->ground_point = pf_v3_scale(n, smin - 0.05 * (smax - smin));
-    }
-    double tol = 1e-6 * pf_v3_dist(lo, hi);
-    for (int32_t i = 0; i < s->n_fixed; ++i)
-        if (s->fixed[i].region.kind == PF_REGION_PLANE && s->fixed[i].region.tol < 0)
-            s->fixed[i].region.tol = tol;
-    for (int32_t i = 0; i < s->n_loads; ++i)
-        if (s->loads[i].region.kind == PF_REGION_PLANE && s->loads[i].region.tol < 0)
-            s->loads[i].region.tol = tol;
-}
-
-bool pf_region_contains(const pf_region *r, pf_vec3 p)
-{
-    if (r->kind == PF_REGION_BOX)
-        return p.x >= r->lo.x && p.x <= r->hi.x && p.y >= r->lo.y && p.y <= r->hi.y &&
-               p.z >= r->lo.z && p.z <= r->hi.z;
-    return fabs(pf_plane_signed_distance(r->plane, p)) <= r->tol;
 }

@@ -36,7 +36,12 @@ static cJSON *vector(pf_vec3 v)
 static cJSON *region(const pf_region *r)
 {
     cJSON *o = cJSON_CreateObject();
-    if (r->kind == PF_REGION_BOX) {
+    if (r->kind == PF_REGION_GROUP) {
+        if (r->group_name[0])
+            cJSON_AddStringToObject(o, "group", r->group_name);
+        else
+            add_number(o, "group", r->group);
+    } else if (r->kind == PF_REGION_BOX) {
         cJSON *box = cJSON_AddArrayToObject(o, "box");
         cJSON_AddItemToArray(box, vector(r->lo));
         cJSON_AddItemToArray(box, vector(r->hi));
@@ -117,6 +122,16 @@ static cJSON *scene_object(const pf_scene *s)
     add_number(damping, "alpha", s->damping_alpha);
     add_number(damping, "beta", s->damping_beta);
 
+    if (s->n_materials > 0) {
+        cJSON *materials = cJSON_AddArrayToObject(root, "materials");
+        for (int32_t k = 0; k < s->n_materials; ++k) {
+            cJSON *m = region(&s->materials[k].region);
+            add_number(m, "E", s->materials[k].E);
+            add_number(m, "nu", s->materials[k].nu);
+            add_number(m, "density", s->materials[k].density);
+            cJSON_AddItemToArray(materials, m);
+        }
+    }
     cJSON *fixed = cJSON_AddArrayToObject(root, "fixed");
     for (int32_t k = 0; k < s->n_fixed; ++k) {
         cJSON *f = region(&s->fixed[k].region);

@@ -83,12 +83,12 @@ static void external_forces(const void *m, double *f)
     for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
         const pf_dg_face *face = &d->dg.faces[q];
         for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_contains(&sc->loads[k].region, face->centroid))
+            if (pf_region_selects_face(&sc->loads[k].region, d->mesh, face->face, face->centroid))
                 pf_dg_add_traction(&d->dg, face->face, sc->loads[k].traction, f);
     }
-    pf_vec3 body = pf_v3_add(pf_v3_scale(sc->gravity, sc->density), sc->body_force);
-    if (body.x != 0 || body.y != 0 || body.z != 0)
-        pf_dg_add_body_force(&d->dg, body, f);
+    pf_vec3 g = sc->gravity, b = sc->body_force;
+    if (g.x != 0 || g.y != 0 || g.z != 0 || b.x != 0 || b.y != 0 || b.z != 0)
+        pf_dg_add_gravity(&d->dg, g, b, f);
 }
 
 /* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
@@ -99,7 +99,9 @@ static double ground_stiffness(const void *m)
     for (int32_t e = 0; e < d->dg.n_elems; ++e)
         h += d->dg.frame[e].scale;
     h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
-    return 10 * (d->dg.lambda + 2 * d->dg.mu) * h;
+    double modulus, per_density;
+    pf_material_stiffest(d->dg.materials, d->dg.n_materials, &modulus, &per_density);
+    return 10 * modulus * h;
 }
 
 static void set_penalty(void *m, double eta)
@@ -115,7 +117,9 @@ static double rigid_mode_shift(const void *m)
     double h = INFINITY;
     for (int32_t e = 0; e < d->dg.n_elems; ++e)
         h = fmin(h, d->dg.frame[e].scale);
-    return 1e-6 * (d->dg.lambda + 2 * d->dg.mu) / (d->dg.density * h * h);
+    double modulus, per_density;
+    pf_material_stiffest(d->dg.materials, d->dg.n_materials, &modulus, &per_density);
+    return 1e-6 * per_density / (h * h);
 }
 
 /* Stitching (eq. 30) as a matrix: node i averages u|_K(x_i) = sum_a phi_a(x_i) u_{K,a} over the
@@ -193,8 +197,8 @@ static void nodal_displacements(const void *m, const double *u, double *out)
 static void von_mises(const void *m, const double *u, double *out)
 {
     const pf_dg *dg = &((const dg_method *)m)->dg;
-    double lambda = dg->lambda, mu = dg->mu;
     for (int32_t e = 0; e < dg->n_elems; ++e) {
+        double lambda = pf_dg_material(dg, e)->lambda, mu = pf_dg_material(dg, e)->mu;
         double g[9];
         pf_dg_gradient(dg, u, e, g);
         pf_mat3 f;
@@ -342,13 +346,13 @@ static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loade
     for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
         const pf_dg_face *face = &d->dg.faces[q];
         for (int32_t k = 0; k < sc->n_fixed; ++k)
-            if (pf_region_contains(&sc->fixed[k].region, face->centroid)) {
+            if (pf_region_selects_face(&sc->fixed[k].region, d->mesh, face->face, face->centroid)) {
                 d->face_fixed[face->face] = k;
                 ++*fixed_faces;
                 break;
             }
         for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_contains(&sc->loads[k].region, face->centroid)) {
+            if (pf_region_selects_face(&sc->loads[k].region, d->mesh, face->face, face->centroid)) {
                 ++*loaded_faces;
                 break;
             }
@@ -369,8 +373,15 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     PF_CHECK(d, err, PF_ERR_NOMEM, "cannot allocate the DG method");
     d->scene = scene;
     d->mesh = mesh;
-    pf_status st =
-        pf_dg_create(&d->dg, mesh, scene->degree, scene->E, scene->nu, scene->density, err);
+    pf_material *table = NULL;
+    int32_t *elem = NULL, n_materials = 0;
+    pf_status st = pf_scene_materials(scene, mesh, &table, &n_materials, &elem, err);
+    if (st >= 0) {
+        pf_materials mat = {.n = n_materials, .table = table, .elem = elem};
+        st = pf_dg_create_materials(&d->dg, mesh, scene->degree, &mat, err);
+    }
+    pf_free(table);
+    pf_free(elem);
     if (st >= 0) {
         d->x0 = pf_alloc_array((size_t)(d->dg.n_dofs ? d->dg.n_dofs : 1), sizeof *d->x0);
         d->rot = pf_alloc_array(9 * (size_t)(d->dg.n_elems ? d->dg.n_elems : 1), sizeof *d->rot);

@@ -188,8 +188,9 @@ pf_status pf_msh_groups_apply(const msh_groups *g, const int32_t *node_map, pf_m
     pf_status st = PF_OK;
     const pf_mesh_group *named = BUFFER_AT(g->names, const pf_mesh_group);
     for (size_t i = 0; st == PF_OK && i < BUFFER_COUNT(g->names, pf_mesh_group); ++i)
-        st = pf_msh_groups_add_name(&list, named[i].dim, named[i].number, named[i].name,
-                                    strlen(named[i].name), err);
+        if (named[i].dim >= 2) /* points and curves select nothing pf simulates */
+            st = pf_msh_groups_add_name(&list, named[i].dim, named[i].number, named[i].name,
+                                        strlen(named[i].name), err);
     for (int32_t e = 0; st == PF_OK && e < m->n_elems; ++e)
         if (cell_group[e] > 0)
             st = note_group(&list, 3, cell_group[e], err);

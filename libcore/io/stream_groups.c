@@ -135,8 +135,9 @@ pf_status pf_stream_decode_groups(const pf_chunk *c, pf_mesh *m, pf_error *err)
                            "MESH is mesh %llu with %d elements and %d faces",
                            (unsigned long long)id, (unsigned long long)ne, (unsigned long long)nf,
                            (unsigned long long)m->id, (int)m->n_elems, (int)m->n_faces);
-    if (ng > left / 12)
-        return GROUPS_FAIL(c, err, "%llu groups in %llu bytes", (unsigned long long)ng,
+    if (ng > left / 12 || 4 * (ne + nf) > left - 12 * ng) /* before allocating anything */
+        return GROUPS_FAIL(c, err, "%llu groups, %llu elements and %llu faces in %llu bytes",
+                           (unsigned long long)ng, (unsigned long long)ne, (unsigned long long)nf,
                            (unsigned long long)left);
     pf_mesh_groups_release(m);
     PF_TRY(pf_mesh_groups_alloc(m, (int32_t)ng, err));

@@ -40,6 +40,8 @@ static const char USAGE[] =
     "Other options:\n"
     "  --input FILE       read the stream from FILE instead of stdin\n"
     "  --quiet            no progress or summary on stderr\n"
+    "  --stats FILE       write the run's statistics to FILE as JSON (docs/scene.md, \"Run\n"
+    "                     statistics\"), also after a diverged run\n"
     "  --help, --version\n"
     "\n"
     "Exit 0 ok; 1 bad input or a simulation that diverged (the frames before it are written and\n"
@@ -64,7 +66,8 @@ enum {
     OPT_TOLERANCE,
     OPT_COROTATION,
     OPT_INPUT,
-    OPT_QUIET
+    OPT_QUIET,
+    OPT_STATS
 };
 
 typedef struct run {
@@ -73,7 +76,9 @@ typedef struct run {
     const char *scene_path;
     const char *input_path;
     bool quiet;
-    pf_mesh mesh;       /* the input's latest MESH, moved out of input */
+    const char *stats_path; /* --stats FILE, or NULL */
+    double wall0, cpu0;     /* the clocks at the start */
+    pf_mesh mesh;           /* the input's latest MESH, moved out of input */
     bool have_mesh;
     pf_stream_state input; /* the latest SURF and WGHT, for contact at the embedded surface */
     bool embedded; /* contact at the surface's vertices */
@@ -144,6 +149,7 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"tolerance", true, OPT_TOLERANCE},
                                             {"input", true, OPT_INPUT},
                                             {"quiet", false, OPT_QUIET},
+                                            {"stats", true, OPT_STATS},
                                             {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
     /* Overrides apply after the scene file, wherever they stand: collect them first. */
@@ -161,6 +167,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->input_path = value;
         } else if (id == OPT_QUIET) {
             r->quiet = true;
+        } else if (id == OPT_STATS) {
+            r->stats_path = value;
         } else if (n < 64) {
             ids[n] = id;
             /* --static and --corotation alone mean true (the empty value, docs/scene.md) */
@@ -295,6 +303,17 @@ static void print_summary(const run *r, const pf_sim *sim)
     print_solver_summary(&st->solver);
 }
 
+/* --stats FILE: the statistics as JSON, written atomically. */
+static pf_status write_stats(const run *r, const pf_sim *sim, pf_error *err)
+{
+    char *json = NULL;
+    PF_TRY(pf_sim_stats_json(sim, pf_time_seconds() - r->wall0, pf_cpu_seconds() - r->cpu0, &json,
+                             err));
+    pf_status st = pf_write_file_atomic(r->stats_path, json, strlen(json), "statistics", err);
+    pf_free(json);
+    return st;
+}
+
 /* The triangles of the scene's mesh obstacles, read here and handed to the scene (libcore/sim
  * reads no files). */
 static pf_status load_obstacles(pf_scene *sc, pf_error *err)
@@ -348,6 +367,14 @@ static pf_status simulate(run *r, pf_error *err)
     }
     if (!r->quiet)
         print_summary(r, sim);
+    if (r->stats_path) { /* also after a failed frame: the statistics of what was done */
+        pf_error stats_err = {0};
+        pf_status ss = write_stats(r, sim, &stats_err);
+        if (ss < 0 && st >= 0) {
+            *err = stats_err;
+            st = ss;
+        }
+    }
     pf_sim_destroy(&sim);
     return st;
 }
@@ -367,6 +394,8 @@ int main(int argc, char **argv)
 {
     run r;
     memset(&r, 0, sizeof r);
+    r.wall0 = pf_time_seconds();
+    r.cpu0 = pf_cpu_seconds();
     parse_arguments(&r, argc, argv);
     pf_error *err = &r.err;
     FILE *in_file = NULL;

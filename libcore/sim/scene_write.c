@@ -8,6 +8,8 @@
 
 #include <cjson/cJSON.h>
 
+#include "scene_json.h"
+
 /* A number printed with %.17g as a raw item: cJSON's own printing keeps 15 digits whenever they
  * read back within an ulp, so a written scene did not read back into the same numbers (a ground
  * normal (5, 1, 0) normalised changed its last bit on every write and read). Scene values are
@@ -167,18 +169,22 @@ static cJSON *scene_object(const pf_scene *s)
     return root;
 }
 
-pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err)
+pf_status pf_sim_json_print(cJSON *root, const char *what, char **json, pf_error *err)
 {
     *json = NULL;
-    cJSON *root = scene_object(s);
     char *text = root ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
-    PF_CHECK(text, err, PF_ERR_NOMEM, "cannot write the scene as JSON");
+    PF_CHECK(text, err, PF_ERR_NOMEM, "cannot write %s as JSON", what);
     size_t n = strlen(text);
     *json = pf_alloc(n + 1);
     if (*json)
         memcpy(*json, text, n + 1);
     cJSON_free(text);
-    PF_CHECK(*json, err, PF_ERR_NOMEM, "cannot write the scene as JSON");
+    PF_CHECK(*json, err, PF_ERR_NOMEM, "cannot write %s as JSON", what);
     return PF_OK;
+}
+
+pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err)
+{
+    return pf_sim_json_print(scene_object(s), "the scene", json, err);
 }

@@ -291,6 +291,11 @@ void pf_stream_state_release(pf_stream_state *s);
  * output zeroed after a failure. Exporters write each file to "path.part" and rename it over path,
  * so a file is either absent, the old one, or complete. */
 
+/* Writes size bytes to path atomically: to "path.part", renamed over path when complete, so
+ * path is either the old file or the whole new one. PF_ERR_IO "PATH: cannot write WHAT: REASON". */
+pf_status pf_write_file_atomic(const char *path, const void *data, size_t size, const char *what,
+                               pf_error *err);
+
 /* True when path names a volume mesh by its extension (.msh, .node, .ele, case-insensitive), or
  * is the stem of a TetGen pair: no file of that name, STEM.node beside it. */
 bool pf_import_is_volume_path(const char *path);

@@ -334,6 +334,14 @@ double pf_sim_deformed_volume(const pf_sim *sim);
 
 const pf_sim_stats *pf_sim_get_stats(const pf_sim *sim);
 
+/* The run's statistics as a JSON object (docs/scene.md, "Run statistics"): pf_sim_get_stats with
+ * the solver's factorisations by reason, PCG iterations (mean and largest), seconds per phase
+ * (wall, and CPU where measured), frames and simulated time, and the whole run's wall_seconds and
+ * cpu_seconds as the caller measured them. *json is NUL-terminated, freed with pf_free.
+ * PF_ERR_NOMEM. */
+pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_seconds,
+                            char **json, pf_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -325,6 +325,26 @@ static void groups_travel_in_the_stream(void **state)
     check_msh_groups(&st.mesh);
     assert_memory_equal(st.mesh.elem_group, m.elem_group, (size_t)m.n_elems * sizeof(int32_t));
     assert_memory_equal(st.mesh.face_group, m.face_group, (size_t)m.n_faces * sizeof(int32_t));
+    /* after another MESH, the same GRPS is ignored: the new mesh has no groups */
+    rewind(in);
+    pf_stream_reader_destroy(&r);
+    assert_int_equal(pf_stream_reader_create(&r, in, "mem", &err), PF_OK);
+    pf_chunk mesh_chunk = {0}, groups_chunk = {0};
+    pf_mesh box = {0};
+    assert_int_equal(pf_mesh_make_box(&box, (pf_vec3){0, 0, 0}, (pf_vec3){1, 1, 1}, 1, 1, 1, &err),
+                     PF_OK);
+    pf_buffer enc = {0};
+    assert_int_equal(pf_stream_encode_mesh(&box, &enc, &err), PF_OK);
+    mesh_chunk = (pf_chunk){.tag = "MESH", .version = 1, .size = enc.size, .payload = enc.data};
+    assert_int_equal(pf_stream_read_chunk(r, &groups_chunk, &end, &err), PF_OK); /* MESH */
+    assert_int_equal(pf_stream_read_chunk(r, &groups_chunk, &end, &err), PF_OK); /* GRPS */
+    assert_string_equal(groups_chunk.tag, "GRPS");
+    assert_int_equal(pf_stream_state_take(&st, &mesh_chunk, &err), PF_OK);
+    assert_int_equal(pf_stream_state_take(&st, &groups_chunk, &err), PF_OK);
+    assert_null(st.mesh.elem_group);
+    assert_int_equal(st.mesh.n_groups, 0);
+    pf_buffer_release(&enc);
+    pf_mesh_release(&box);
     pf_stream_state_release(&st);
     pf_stream_reader_destroy(&r);
     fclose(in);

@@ -330,6 +330,10 @@ static void print_other(const info *in, const pf_chunk *c, const char *note)
 /* GRPS: every group of the latest mesh with its number, dimension, name and size. */
 static void print_groups(const info *in, const pf_chunk *c, const pf_mesh *m)
 {
+    if (!m->elem_group) { /* the reader state ignored groups of another mesh */
+        print_other(in, c, " (groups of another mesh than the latest: ignored)");
+        return;
+    }
     if (in->json)
         printf("{\"chunk\":\"GRPS\",\"offset\":%llu,\"version\":%u,\"groups\":[",
                (unsigned long long)c->offset, c->version);

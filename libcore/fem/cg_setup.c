@@ -653,13 +653,7 @@ void pf_cg_add_gravity(const pf_cg *cg, pf_vec3 g, pf_vec3 b, double *f)
 
 void pf_cg_add_body_force(const pf_cg *cg, pf_vec3 b, double *f)
 {
-    const pf_basis *bs = &cg->basis;
-    for (int64_t q = 0; q < bs->node_offsets[cg->n_elems]; ++q) {
-        double *fi = f + 3 * (size_t)bs->nodes[q];
-        fi[0] += b.x * cg->n_int[q];
-        fi[1] += b.y * cg->n_int[q];
-        fi[2] += b.z * cg->n_int[q];
-    }
+    pf_cg_add_gravity(cg, (pf_vec3){0, 0, 0}, b, f);
 }
 
 void pf_cg_add_traction(const pf_cg *cg, const pf_mesh *m, const pf_boundary *bd, int32_t index,

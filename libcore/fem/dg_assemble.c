@@ -318,15 +318,7 @@ void pf_dg_mass_mul(const pf_dg *dg, double alpha, const double *x, double *y)
 
 void pf_dg_add_body_force(const pf_dg *dg, pf_vec3 b, double *f)
 {
-    int nb = dg->nb;
-    for (int32_t e = 0; e < dg->n_elems; ++e)
-        for (int a = 0; a < nb; ++a) {
-            double w = dg->phi_int[(size_t)e * nb + a];
-            double *fa = f + 3 * ((size_t)e * nb + a);
-            fa[0] += w * b.x;
-            fa[1] += w * b.y;
-            fa[2] += w * b.z;
-        }
+    pf_dg_add_gravity(dg, (pf_vec3){0, 0, 0}, b, f);
 }
 
 void pf_dg_add_traction(const pf_dg *dg, int32_t face, pf_vec3 t, double *f)

@@ -224,7 +224,8 @@ pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, p
  * - MESH replaces the latest mesh and is recorded in the list of meshes; the weights and stress
  *   of the previous mesh are dropped (mesh-dependent chunks refer to the latest MESH);
  * - SURF replaces the latest surface and drops the weights;
- * - GRPS gives the latest MESH its groups (it must name it, with its element and face counts);
+ * - GRPS gives the latest MESH its groups when it names it (id, element and face counts); the
+ *   groups of another mesh, or of a version this pf does not read, are ignored (not critical);
  * - WGHT must name the latest SURF and the latest MESH by id, with their vertex and node counts;
  * - STRS must name the latest MESH with its element count;
  * - FRAM must name the latest MESH with its node count; a frame of an earlier mesh or of a mesh no

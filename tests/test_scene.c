@@ -252,7 +252,8 @@ static const bad_case bad_cases[] = {
      "scene.json: method.fluxx: unknown key (expected one of: name, degree, flux, penalty, "
      "corotation, mass, edge_samples)"},
     {"{\"gravty\": [0, 0, 0]}", PF_ERR_INVALID,
-     "scene.json: gravty: unknown key (expected one of: material, method, corotation, gravity, "
+     "scene.json: gravty: unknown key (expected one of: material, materials, method, corotation, "
+     "gravity, "
      "body_force, damping, fixed, loads, ground, obstacles, time, static, solver, refine)"},
     {"{\"fixed\": [{\"box\": [[0,0,0],[1,1,1]]}, {\"plane\": {\"point\": [0,0,0], "
      "\"normal\": [1,0,0], \"tolerance\": 1}}]}",
@@ -331,14 +332,15 @@ static const bad_case bad_cases[] = {
     {"{\"loads\": [{\"box\": [[0,0,0],[1,1,1]]}]}", PF_ERR_INVALID,
      "scene.json: loads[0]: missing key \"traction\""},
     {"{\"fixed\": [{\"displacement\": [0,0,1]}]}", PF_ERR_INVALID,
-     "scene.json: fixed[0]: missing region: give \"box\" or \"plane\""},
+     "scene.json: fixed[0]: missing region: give \"box\", \"plane\" or \"group\""},
     {"{\"fixed\": [{\"box\": [[0,0,0],[1,1,1]], \"plane\": {\"point\": [0,0,0], "
      "\"normal\": [1,0,0]}}]}",
-     PF_ERR_INVALID, "scene.json: fixed[0]: give one region, \"box\" or \"plane\", not both"},
+     PF_ERR_INVALID,
+     "scene.json: fixed[0]: give one region, \"box\", \"plane\" or \"group\", not several"},
     {"{\"loads\": [{\"box\": [[0,0,0],[1,1,1]], \"traction\": [1,0,0], "
      "\"displacement\": [0,0,0]}]}",
      PF_ERR_INVALID,
-     "scene.json: loads[0].displacement: unknown key (expected one of: box, plane, traction)"},
+     "scene.json: loads[0].displacement: unknown key (expected one of: box, plane, group, traction)"},
     /* syntax: line:col where the parser stopped (columns count characters) */
     {"{\n  \"material\": {\"E\": 1}\n  \"static\": true\n}", PF_ERR_FORMAT,
      "scene.json:3:3: JSON syntax error near '\"static\": true'"},
@@ -419,9 +421,10 @@ static void test_nul_byte_and_unterminated_buffer(void **state)
 
     /* a byte-order mark is skipped */
     assert_int_equal(parse(&s, "\xEF\xBB\xBF{\"frames\": 1}", &err), PF_ERR_INVALID);
-    assert_string_equal(err.msg, "scene.json: frames: unknown key (expected one of: material, "
-                                 "method, corotation, gravity, body_force, damping, fixed, loads, "
-                                 "ground, obstacles, time, static, solver, refine)");
+    assert_string_equal(
+        err.msg, "scene.json: frames: unknown key (expected one of: material, "
+                 "materials, method, corotation, gravity, body_force, damping, fixed, loads, "
+                 "ground, obstacles, time, static, solver, refine)");
     pf_scene_release(&s);
     assert_int_equal(parse(&s, "\xEF\xBB\xBF{\"time\": {\"frames\": 1}}", &err), PF_OK);
     assert_int_equal(s.frames, 1);

@@ -526,6 +526,8 @@ static void test_dg_reuse_matches_fresh(void **state)
         same[ne + e] = same[e] && !res.changed[e];
     }
     pf_dg old, fresh, reused;
+    pf_material steel = pf_material_make(1e5, 0.3, 1000);
+    pf_materials one = {.n = 1, .table = &steel, .elem = NULL};
     assert_int_equal(pf_dg_create(&old, &m, 2, 1e5, 0.3, 1000, &err), PF_OK);
     assert_int_equal(pf_dg_create(&fresh, &fine, 2, 1e5, 0.3, 1000, &err), PF_OK);
     pf_dg_reuse reuse = {.old = &old,
@@ -534,7 +536,7 @@ static void test_dg_reuse_matches_fresh(void **state)
                          .same_solid = same,
                          .same_faces = same + ne,
                          .face_src = res.face_src};
-    assert_int_equal(pf_dg_create_reusing(&reused, &fine, 2, 1e5, 0.3, 1000, &reuse, &err), PF_OK);
+    assert_int_equal(pf_dg_create_reusing(&reused, &fine, 2, &one, &reuse, &err), PF_OK);
     int nb = fresh.nb;
     size_t nk = (size_t)ne * 9 * nb * nb, nm = (size_t)ne * nb * nb;
     double scale = 0, worst = 0;

@@ -327,6 +327,39 @@ static void print_other(const info *in, const pf_chunk *c, const char *note)
     }
 }
 
+/* GRPS: every group of the latest mesh with its number, dimension, name and size. */
+static void print_groups(const info *in, const pf_chunk *c, const pf_mesh *m)
+{
+    if (!m->elem_group) { /* the reader state ignored groups of another mesh */
+        print_other(in, c, " (groups of another mesh than the latest: ignored)");
+        return;
+    }
+    if (in->json)
+        printf("{\"chunk\":\"GRPS\",\"offset\":%llu,\"version\":%u,\"groups\":[",
+               (unsigned long long)c->offset, c->version);
+    else
+        printf("GRPS  at byte %llu: %d groups of mesh %llu\n", (unsigned long long)c->offset,
+               (int)m->n_groups, (unsigned long long)m->id);
+    for (int32_t g = 0; g < m->n_groups; ++g) {
+        const pf_mesh_group *p = &m->groups[g];
+        const int32_t *tags = p->dim == 3 ? m->elem_group : m->face_group;
+        int32_t n = p->dim == 3 ? m->n_elems : m->n_faces, count = 0;
+        for (int32_t i = 0; i < n; ++i)
+            count += tags[i] == p->number;
+        if (in->json) {
+            printf("%s{\"number\":%d,\"dim\":%d,\"name\":", g ? "," : "", (int)p->number,
+                   (int)p->dim);
+            json_string(p->name, strlen(p->name));
+            printf(",\"%s\":%d}", p->dim == 3 ? "elements" : "faces", (int)count);
+        } else {
+            printf("      %d '%s': %d %s\n", (int)p->number, p->name, (int)count,
+                   p->dim == 3 ? "elements" : "faces");
+        }
+    }
+    if (in->json)
+        printf("]}\n");
+}
+
 /* SCEN: the JSON as stored (docs/scene.md: every key, the overrides applied). */
 static pf_status print_scene(info *in, const pf_chunk *c, pf_error *err)
 {
@@ -399,6 +432,8 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
                    d.version, d.command);
         }
         pf_info_data_release(&d);
+    } else if (strcmp(c->tag, "GRPS") == 0) {
+        print_groups(in, c, &in->st.mesh);
     } else if (strcmp(c->tag, "END_") == 0) {
         pf_end_data d = {0};
         PF_TRY(pf_stream_decode_end(c, &d, err));

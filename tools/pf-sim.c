@@ -46,6 +46,8 @@ static const char USAGE[] =
     "  --output FILE      write the stream to FILE (through a temporary file renamed at the\n"
     "                     end) instead of stdout; needed under mpirun\n"
     "  --quiet            no progress or summary on stderr\n"
+    "  --stats FILE       write the run's statistics to FILE as JSON (docs/scene.md, \"Run\n"
+    "                     statistics\"), also after a diverged run\n"
     "  --help, --version\n"
     "\n"
     "\n"
@@ -78,7 +80,8 @@ enum {
     OPT_COROTATION,
     OPT_INPUT,
     OPT_OUTPUT,
-    OPT_QUIET
+    OPT_QUIET,
+    OPT_STATS
 };
 
 typedef struct run {
@@ -88,7 +91,9 @@ typedef struct run {
     const char *input_path;
     const char *output_path;
     bool quiet;
-    pf_mesh mesh; /* the input's latest MESH, moved out of input */
+    const char *stats_path; /* --stats FILE, or NULL */
+    double wall0, cpu0;     /* the clocks at the start */
+    pf_mesh mesh;           /* the input's latest MESH, moved out of input */
     bool have_mesh;
     pf_stream_state input; /* the latest SURF and WGHT, for contact at the embedded surface */
     bool embedded;         /* contact at the surface's vertices */
@@ -161,6 +166,7 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"input", true, OPT_INPUT},
                                             {"output", true, OPT_OUTPUT},
                                             {"quiet", false, OPT_QUIET},
+                                            {"stats", true, OPT_STATS},
                                             {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
     /* Overrides apply after the scene file, wherever they stand: collect them first. */
@@ -180,6 +186,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->output_path = value;
         } else if (id == OPT_QUIET) {
             r->quiet = true;
+        } else if (id == OPT_STATS) {
+            r->stats_path = value;
         } else if (n < 64) {
             ids[n] = id;
             /* --static and --corotation alone mean true (the empty value, docs/scene.md) */
@@ -351,6 +359,17 @@ static void print_summary(const run *r, const pf_sim *sim)
     print_solver_summary(&st->solver);
 }
 
+/* --stats FILE: the statistics as JSON, written atomically. */
+static pf_status write_stats(const run *r, const pf_sim *sim, pf_error *err)
+{
+    char *json = NULL;
+    PF_TRY(pf_sim_stats_json(sim, pf_time_seconds() - r->wall0, pf_cpu_seconds() - r->cpu0, &json,
+                             err));
+    pf_status st = pf_write_file_atomic(r->stats_path, json, strlen(json), "statistics", err);
+    pf_free(json);
+    return st;
+}
+
 /* The triangles of the scene's mesh obstacles, read here and handed to the scene (libcore/sim
  * reads no files). */
 static pf_status load_obstacles(pf_scene *sc, pf_error *err)
@@ -417,6 +436,14 @@ static pf_status simulate(run *r, pf_error *err)
     }
     if (!r->quiet)
         print_summary(r, sim);
+    if (r->stats_path) { /* also after a failed frame: the statistics of what was done */
+        pf_error stats_err = {0};
+        pf_status ss = write_stats(r, sim, &stats_err);
+        if (ss < 0 && st >= 0) {
+            *err = stats_err;
+            st = ss;
+        }
+    }
     pf_sim_destroy(&sim);
     return st;
 }
@@ -504,6 +531,8 @@ int main(int argc, char **argv)
     int n_args = without_petsc_options(argc, argv, args);
     run r;
     memset(&r, 0, sizeof r);
+    r.wall0 = pf_time_seconds();
+    r.cpu0 = pf_cpu_seconds();
     parse_arguments(&r, n_args, args);
     pf_error *err = &r.err;
     FILE *in_file = NULL;

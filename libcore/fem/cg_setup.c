@@ -10,6 +10,8 @@
  * exactly), harmonic elements pf_polyhedron_quadrature. */
 #include <pf/fem.h>
 
+#include "fem_internal.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -33,6 +35,8 @@ void pf_cg_release(pf_cg *cg)
     pf_free(cg->ke_offsets);
     pf_free(cg->me_offsets);
     pf_free(cg->centroid);
+    pf_free(cg->materials);
+    pf_free(cg->elem_material);
     memset(cg, 0, sizeof *cg);
 }
 
@@ -247,13 +251,14 @@ static pf_status integrate(const pf_cg *cg, const pf_mesh *m, int32_t e, int deg
     accum_start(a, k);
     switch (pf_basis_elem_kind(&cg->basis, e)) {
     case PF_BASIS_TET:
-        integrate_tet(a, &cg->basis, m, e, nodes, cg->density);
+        integrate_tet(a, &cg->basis, m, e, nodes, pf_cg_material(cg, e)->density);
         break;
     case PF_BASIS_HEX:
-        integrate_hex(a, &cg->basis, m, e, nodes, cg->density);
+        integrate_hex(a, &cg->basis, m, e, nodes, pf_cg_material(cg, e)->density);
         break;
     default:
-        PF_TRY(integrate_harmonic(a, &cg->basis, m, e, degree, cg->density, arena, points, err));
+        PF_TRY(integrate_harmonic(a, &cg->basis, m, e, degree, pf_cg_material(cg, e)->density,
+                                  arena, points, err));
     }
     PF_CHECK(a->volume > 0 && isfinite(a->volume), err, PF_ERR_INVALID,
              "element %d: quadrature volume %g", (int)e, a->volume);
@@ -431,7 +436,7 @@ static pf_status elem_matrices(const pf_cg *cg, const pf_mesh *m, int32_t e, int
     } else {
         memset(a->flux, 0, 3 * (size_t)a->k * sizeof *a->flux);
     }
-    stiffness_from_d(a->d, a->k, cg->lambda, cg->mu, ke);
+    stiffness_from_d(a->d, a->k, pf_cg_material(cg, e)->lambda, pf_cg_material(cg, e)->mu, ke);
     return PF_OK;
 }
 
@@ -566,7 +571,7 @@ static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, pf_error *err)
         memcpy(cg->me + cg->me_offsets[e], a.me, (size_t)k * k * sizeof *a.me);
         memcpy(cg->n_int + o, a.n_int, (size_t)k * sizeof *a.n_int);
         for (int32_t p = 0; p < k; ++p)
-            cg->lumped[nodes[p]] += cg->density * a.n_int[p];
+            cg->lumped[nodes[p]] += pf_cg_material(cg, e)->density * a.n_int[p];
         cg->volume[e] = a.volume;
         cg->centroid[e] = pf_v3_scale(a.moment, 1 / a.volume);
         double *gc = cg->grad_center + 3 * o;
@@ -585,25 +590,39 @@ static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, pf_error *err)
 pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double density,
                        const pf_cg_params *params, pf_error *err)
 {
+    pf_material one = {.E = E, .nu = nu, .density = density};
+    pf_materials mat = {.n = 1, .table = &one, .elem = NULL};
+    return pf_cg_create_materials(cg, m, &mat, params, err);
+}
+
+pf_status pf_cg_create_materials(pf_cg *cg, const pf_mesh *m, const pf_materials *materials,
+                                 const pf_cg_params *params, pf_error *err)
+{
     memset(cg, 0, sizeof *cg);
     pf_cg_params p = params ? *params : pf_cg_params_default();
     if (p.quadrature_degree == 0)
         p.quadrature_degree = PF_CG_DEFAULT_QUADRATURE;
-    PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && density > 0 && isfinite(density), err,
-             PF_ERR_INVALID, "bad material: E = %g, nu = %g, density = %g", E, nu, density);
     PF_CHECK(p.quadrature_degree >= 1 && p.quadrature_degree <= 29, err, PF_ERR_INVALID,
              "CG quadrature degree must be in [1, 29], got %d", (int)p.quadrature_degree);
     PF_CHECK(m->face_elems, err, PF_ERR_INVALID, "mesh not derived (pf_mesh_derive)");
+    pf_status st =
+        pf_fem_copy_materials(materials, m->n_elems, &cg->materials, &cg->elem_material, err);
+    if (st < 0) {
+        pf_cg_release(cg);
+        return st;
+    }
+    cg->n_materials = materials->n;
     cg->n_nodes = m->n_nodes;
     cg->n_elems = m->n_elems;
-    cg->density = density;
+    cg->density = cg->materials[0].density;
+    cg->lambda = cg->materials[0].lambda;
+    cg->mu = cg->materials[0].mu;
     cg->quadrature_degree = p.quadrature_degree;
     cg->consistency = !p.no_consistency_correction;
-    pf_lame(E, nu, &cg->lambda, &cg->mu);
     /* One BLAS thread: small products, and bits independent of the core count (pf/base.h). */
     pf_blas_threads blas = pf_blas_threads_set(1, false);
     double t0 = pf_time_seconds();
-    pf_status st = pf_basis_create(&cg->basis, m, &p.basis, err);
+    st = pf_basis_create(&cg->basis, m, &p.basis, err);
     cg->basis_seconds = pf_time_seconds() - t0;
     if (st >= 0)
         st = allocate(cg, err);
@@ -615,17 +634,26 @@ pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double 
     return st;
 }
 
+/* f += int N_a (rho_e g + b) over every element e: gravity on each element's own density. */
+void pf_cg_add_gravity(const pf_cg *cg, pf_vec3 g, pf_vec3 b, double *f)
+{
+    const pf_basis *bs = &cg->basis;
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        pf_vec3 load = pf_v3_add(pf_v3_scale(g, pf_cg_material(cg, e)->density), b);
+        for (int64_t q = bs->node_offsets[e]; q < bs->node_offsets[e + 1]; ++q) {
+            double *fi = f + 3 * (size_t)bs->nodes[q];
+            fi[0] += load.x * cg->n_int[q];
+            fi[1] += load.y * cg->n_int[q];
+            fi[2] += load.z * cg->n_int[q];
+        }
+    }
+}
+
 /* ---- loads and stress ------------------------------------------------------------------- */
 
 void pf_cg_add_body_force(const pf_cg *cg, pf_vec3 b, double *f)
 {
-    const pf_basis *bs = &cg->basis;
-    for (int64_t q = 0; q < bs->node_offsets[cg->n_elems]; ++q) {
-        double *fi = f + 3 * (size_t)bs->nodes[q];
-        fi[0] += b.x * cg->n_int[q];
-        fi[1] += b.y * cg->n_int[q];
-        fi[2] += b.z * cg->n_int[q];
-    }
+    pf_cg_add_gravity(cg, (pf_vec3){0, 0, 0}, b, f);
 }
 
 void pf_cg_add_traction(const pf_cg *cg, const pf_mesh *m, const pf_boundary *bd, int32_t index,
@@ -680,7 +708,8 @@ void pf_cg_von_mises(const pf_cg *cg, const double *u, double *out)
                 for (int j = 0; j < 3; ++j)
                     f.m[i][j] += u[3 * (size_t)nodes[p] + i] * g[3 * p + j];
         double sigma[6];
-        pf_corotated_stress(f, cg->lambda, cg->mu, sigma);
+        const pf_material *mat = pf_cg_material(cg, e);
+        pf_corotated_stress(f, mat->lambda, mat->mu, sigma);
         out[e] = pf_von_mises(sigma);
     }
 }

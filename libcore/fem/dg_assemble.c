@@ -19,6 +19,7 @@
  * just built. The penalty terms K3 do not rotate: a step copies them (pf_dg_penalty_values). */
 #include <pf/fem.h>
 
+#include <math.h>
 #include <string.h>
 
 enum { MAX_N = 30 }; /* 3 nb for degree 2 */
@@ -168,7 +169,8 @@ static void consistency_block(const pf_dg *dg, const pf_dg_face *f, int s, int t
         for (int i = 0; i < 3; ++i)
             nv[i] = r[3 * i] * n0[0] + r[3 * i + 1] * n0[1] + r[3 * i + 2] * n0[2];
     }
-    double lam = -w * sign * dg->lambda, mu = -w * sign * dg->mu;
+    const pf_material *mat = pf_dg_material(dg, f->elem[t]); /* the stress of side t */
+    double lam = -w * sign * mat->lambda, mu = -w * sign * mat->mu;
     for (int a = 0; a < nb; ++a)
         for (int b = 0; b < nb; ++b) {
             const double *g0 = g_entry(dg, f, s, t, a, b);
@@ -194,13 +196,19 @@ static void penalty_block(const pf_dg *dg, const pf_dg_face *f, int s, int t, do
     double sign = (s == t) ? 1 : -1;
     double scale = weight * sign;
     const double nv[3] = {f->normal.x, f->normal.y, f->normal.z};
+    /* the stiffer side's moduli across an interface between two materials */
+    double lambda = pf_dg_material(dg, f->elem[0])->lambda, mu = pf_dg_material(dg, f->elem[0])->mu;
+    if (f->elem[1] >= 0) {
+        lambda = fmax(lambda, pf_dg_material(dg, f->elem[1])->lambda);
+        mu = fmax(mu, pf_dg_material(dg, f->elem[1])->mu);
+    }
     for (int a = 0; a < nb; ++a)
         for (int b = 0; b < nb; ++b) {
             double sab = scale * s_entry(dg, f, s, t, a, b);
             for (int i = 0; i < 3; ++i)
                 for (int k = 0; k < 3; ++k)
                     out[(3 * a + i) * n + 3 * b + k] =
-                        sab * ((i == k ? 2 * dg->mu : 0) + dg->lambda * nv[i] * nv[k]);
+                        sab * ((i == k ? 2 * mu : 0) + lambda * nv[i] * nv[k]);
         }
 }
 
@@ -401,15 +409,7 @@ void pf_dg_mass_mul(const pf_dg *dg, double alpha, const double *x, double *y)
 
 void pf_dg_add_body_force(const pf_dg *dg, pf_vec3 b, double *f)
 {
-    int nb = dg->nb;
-    for (int32_t e = 0; e < dg->n_elems; ++e)
-        for (int a = 0; a < nb; ++a) {
-            double w = dg->phi_int[(size_t)e * nb + a];
-            double *fa = f + 3 * ((size_t)e * nb + a);
-            fa[0] += w * b.x;
-            fa[1] += w * b.y;
-            fa[2] += w * b.z;
-        }
+    pf_dg_add_gravity(dg, (pf_vec3){0, 0, 0}, b, f);
 }
 
 void pf_dg_add_traction(const pf_dg *dg, int32_t face, pf_vec3 t, double *f)

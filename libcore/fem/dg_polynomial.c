@@ -182,11 +182,12 @@ pf_status pf_dg_add_polynomial_dirichlet(const pf_dg *dg, const pf_mesh *m,
                           integrate_times_monomial(&t, local[i], g->degree, l, mom);
         }
         double trace = d[0][0] + d[1][1] + d[2][2];
+        double lambda = pf_dg_material(dg, e)->lambda, mu = pf_dg_material(dg, e)->mu;
         for (int k = 0; k < 3; ++k) {
-            double load = penalty * (2 * dg->mu * p[k] + dg->lambda * n[k] * np);
+            double load = penalty * (2 * mu * p[k] + lambda * n[k] * np);
             if (terms->ip)
-                load -= dg->lambda * (n[0] * d[0][k] + n[1] * d[1][k] + n[2] * d[2][k]) +
-                        dg->mu * (n[0] * d[k][0] + n[1] * d[k][1] + n[2] * d[k][2] + n[k] * trace);
+                load -= lambda * (n[0] * d[0][k] + n[1] * d[1][k] + n[2] * d[2][k]) +
+                        mu * (n[0] * d[k][0] + n[1] * d[k][1] + n[2] * d[k][2] + n[k] * trace);
             fe[3 * b + k] += load;
         }
     }
@@ -342,7 +343,8 @@ pf_status pf_dg_project_field(const pf_dg *src, const pf_mesh *src_mesh, const d
             for (int a = 0; a < nb; ++a) {
                 double ea[10] = {0};
                 ea[a] = 1;
-                double w = src->density * pf_poly_integrate_product(ea, p, cb, p, m);
+                double w = pf_dg_material(src, q[k])->density *
+                           pf_poly_integrate_product(ea, p, cb, p, m);
                 for (int i = 0; i < 3; ++i)
                     rhs[3 * a + i] += w * uq[3 * b + i];
             }

@@ -4,6 +4,8 @@
  * writing both elements' basis functions in the face's frame. */
 #include <pf/fem.h>
 
+#include "fem_internal.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -27,6 +29,8 @@ void pf_dg_release(pf_dg *dg)
     pf_free(dg->node_offsets);
     pf_free(dg->node_elem);
     pf_free(dg->node_phi);
+    pf_free(dg->materials);
+    pf_free(dg->elem_material);
     memset(dg, 0, sizeof *dg);
 }
 
@@ -52,7 +56,8 @@ static double gradient_product(const double *m, double h, int a, int i, int b, i
 
 /* K[(a, i), (b, k)] = lambda D(a i, b k) + mu (delta_ik sum_j D(a j, b j) + D(a k, b i)), the
  * isotropic form of int B^T C B (sec. 4.2, eq. 23). */
-static void element_stiffness(const pf_dg *dg, const double *m, double h, double *ke)
+static void element_stiffness(const pf_dg *dg, const pf_material *mat, const double *m, double h,
+                              double *ke)
 {
     int nb = dg->nb, n = 3 * nb;
     for (int a = 0; a < nb; ++a)
@@ -65,11 +70,12 @@ static void element_stiffness(const pf_dg *dg, const double *m, double h, double
             for (int i = 0; i < 3; ++i)
                 for (int k = 0; k < 3; ++k)
                     ke[(3 * a + i) * n + 3 * b + k] =
-                        dg->lambda * d[i][k] + dg->mu * ((i == k ? trace : 0) + d[k][i]);
+                        mat->lambda * d[i][k] + mat->mu * ((i == k ? trace : 0) + d[k][i]);
         }
 }
 
-static void element_mass(const pf_dg *dg, const double *m, double *me, double *phi_int)
+static void element_mass(const pf_dg *dg, double density, const double *m, double *me,
+                         double *phi_int)
 {
     int nb = dg->nb;
     for (int a = 0; a < nb; ++a) {
@@ -80,7 +86,7 @@ static void element_mass(const pf_dg *dg, const double *m, double *me, double *p
             int eb[3];
             exponents_of(b, eb);
             me[a * nb + b] =
-                dg->density * m[pf_moment_index(ea[0] + eb[0], ea[1] + eb[1], ea[2] + eb[2])];
+                density * m[pf_moment_index(ea[0] + eb[0], ea[1] + eb[1], ea[2] + eb[2])];
         }
     }
 }
@@ -124,8 +130,10 @@ static pf_status setup_elements(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reus
         dg->centroid[3 * e + 0] = fr.center.x + fr.scale * m[1] / m[0];
         dg->centroid[3 * e + 1] = fr.center.y + fr.scale * m[2] / m[0];
         dg->centroid[3 * e + 2] = fr.center.z + fr.scale * m[3] / m[0];
-        element_stiffness(dg, m, fr.scale, dg->ke + (size_t)e * n * n);
-        element_mass(dg, m, dg->me + (size_t)e * nb * nb, dg->phi_int + (size_t)e * nb);
+        const pf_material *mat = pf_dg_material(dg, e);
+        element_stiffness(dg, mat, m, fr.scale, dg->ke + (size_t)e * n * n);
+        element_mass(dg, mat->density, m, dg->me + (size_t)e * nb * nb,
+                     dg->phi_int + (size_t)e * nb);
     }
     return PF_OK;
 }
@@ -403,30 +411,102 @@ static pf_status allocate_elements(pf_dg *dg, pf_error *err)
     return PF_OK;
 }
 
+pf_material pf_material_make(double E, double nu, double density)
+{
+    pf_material m = {.E = E, .nu = nu, .density = density};
+    pf_lame(E, nu, &m.lambda, &m.mu);
+    return m;
+}
+
+/* Copies the materials into *table and *elem (n_elems entries), checked. */
+pf_status pf_fem_copy_materials(const pf_materials *mat, int32_t n_elems, pf_material **table,
+                                int32_t **elem, pf_error *err)
+{
+    PF_CHECK(mat && mat->n >= 1 && mat->table, err, PF_ERR_INVALID, "no material");
+    for (int32_t k = 0; k < mat->n; ++k) {
+        double E = mat->table[k].E, nu = mat->table[k].nu, rho = mat->table[k].density;
+        PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && rho > 0 && isfinite(rho), err,
+                 PF_ERR_INVALID, "bad material %d: E = %g, nu = %g, density = %g", (int)k, E, nu,
+                 rho);
+    }
+    *table = pf_alloc_array((size_t)mat->n, sizeof **table);
+    *elem = pf_calloc((size_t)n_elems + 1, sizeof **elem);
+    PF_CHECK(*table && *elem, err, PF_ERR_NOMEM, "cannot allocate the materials");
+    for (int32_t k = 0; k < mat->n; ++k)
+        (*table)[k] = pf_material_make(mat->table[k].E, mat->table[k].nu, mat->table[k].density);
+    for (int32_t e = 0; mat->elem && e < n_elems; ++e) {
+        PF_CHECK(mat->elem[e] >= 0 && mat->elem[e] < mat->n, err, PF_ERR_INVALID,
+                 "element %d has material %d of %d", (int)e, (int)mat->elem[e], (int)mat->n);
+        (*elem)[e] = mat->elem[e];
+    }
+    return PF_OK;
+}
+
+void pf_material_stiffest(const pf_material *table, int32_t n, double *modulus,
+                          double *modulus_per_density)
+{
+    *modulus = *modulus_per_density = 0;
+    for (int32_t k = 0; k < n; ++k) {
+        const pf_material *m = &table[k];
+        *modulus = fmax(*modulus, m->lambda + 2 * m->mu);
+        *modulus_per_density = fmax(*modulus_per_density, (m->lambda + 2 * m->mu) / m->density);
+    }
+}
+
+void pf_dg_add_gravity(const pf_dg *dg, pf_vec3 g, pf_vec3 b, double *f)
+{
+    int nb = dg->nb;
+    for (int32_t e = 0; e < dg->n_elems; ++e) {
+        pf_vec3 load = pf_v3_add(pf_v3_scale(g, pf_dg_material(dg, e)->density), b);
+        for (int a = 0; a < nb; ++a) {
+            double w = dg->phi_int[(size_t)e * nb + a];
+            double *fa = f + 3 * ((size_t)e * nb + a);
+            fa[0] += w * load.x;
+            fa[1] += w * load.y;
+            fa[2] += w * load.z;
+        }
+    }
+}
+
 pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
                        double density, pf_error *err)
 {
-    return pf_dg_create_reusing(dg, m, degree, E, nu, density, NULL, err);
+    pf_material one = {.E = E, .nu = nu, .density = density};
+    pf_materials mat = {.n = 1, .table = &one, .elem = NULL};
+    return pf_dg_create_materials(dg, m, degree, &mat, err);
 }
 
-pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
-                               double density, const pf_dg_reuse *reuse, pf_error *err)
+pf_status pf_dg_create_materials(pf_dg *dg, const pf_mesh *m, int32_t degree,
+                                 const pf_materials *materials, pf_error *err)
+{
+    return pf_dg_create_reusing(dg, m, degree, materials, NULL, err);
+}
+
+pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree,
+                               const pf_materials *materials, const pf_dg_reuse *reuse,
+                               pf_error *err)
 {
     memset(dg, 0, sizeof *dg);
     PF_CHECK(degree == 1 || degree == 2, err, PF_ERR_INVALID, "DG degree must be 1 or 2, got %d",
              (int)degree);
-    PF_CHECK(E > 0 && isfinite(E) && nu > -1 && nu < 0.5 && density > 0 && isfinite(density), err,
-             PF_ERR_INVALID, "bad material: E = %g, nu = %g, density = %g", E, nu, density);
     PF_CHECK(m->face_elems, err, PF_ERR_INVALID, "mesh not derived (pf_mesh_derive)");
+    pf_status s =
+        pf_fem_copy_materials(materials, m->n_elems, &dg->materials, &dg->elem_material, err);
+    if (s < 0) {
+        pf_dg_release(dg);
+        return s;
+    }
+    dg->n_materials = materials->n;
     dg->degree = degree;
     dg->nb = pf_moment_count(degree);
     dg->n_elems = m->n_elems;
     dg->n_dofs = 3 * (int64_t)dg->nb * m->n_elems;
-    dg->density = density;
-    pf_lame(E, nu, &dg->lambda, &dg->mu);
+    dg->density = dg->materials[0].density;
+    dg->lambda = dg->materials[0].lambda;
+    dg->mu = dg->materials[0].mu;
 
     pf_arena arena;
-    pf_status s = pf_arena_init(&arena, (size_t)1 << 20, err);
+    s = pf_arena_init(&arena, (size_t)1 << 20, err);
     if (s >= 0)
         s = allocate_elements(dg, err);
     if (s >= 0)

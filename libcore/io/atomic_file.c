@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include <pf/base.h>
+#include <pf/io.h>
 
 pf_status pf_atomic_file_open(pf_atomic_file *a, const char *path, pf_error *err)
 {
@@ -66,4 +67,14 @@ void pf_atomic_file_abort(pf_atomic_file *a)
     }
     pf_free(a->part);
     memset(a, 0, sizeof *a);
+}
+
+pf_status pf_write_file_atomic(const char *path, const void *data, size_t size, const char *what,
+                               pf_error *err)
+{
+    pf_atomic_file a;
+    PF_TRY(pf_atomic_file_open(&a, path, err));
+    if (size)
+        fwrite(data, 1, size, a.f); /* a short write sets the error flag commit checks */
+    return pf_atomic_file_commit(&a, what, err);
 }

@@ -1,7 +1,11 @@
 /* Gmsh .msh import: ASCII formats 2.x and 4.1 (the Gmsh reference manual, "MSH file format").
  *
  * Both versions are read line by line: a section starts with "$Name" and ends with "$EndName";
- * only $MeshFormat, $Nodes and $Elements are read, every other section is skipped whole. Node tags
+ * $MeshFormat, $PhysicalNames, $Entities (4.1), $Nodes and $Elements are read, every other
+ * section is skipped whole. Physical groups become the mesh's groups: a solid element's group is
+ * its first physical tag (2.x: the element's first tag; 4.1: its entity's first physical tag),
+ * and the triangles and quadrangles of 2D physical groups tag the mesh faces with the same
+ * corners (import_msh_groups.c). Node tags
  * are arbitrary positive integers (sparse, in any order), so element nodes are looked up by tag in
  * a sorted index rather than used as array positions. No count read from the file is trusted: it
  * is checked against the bytes left before anything is allocated from it.
@@ -12,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "import_msh_groups.h"
 #include "import_volume.h"
 #include "text_reader.h"
 
@@ -77,6 +82,7 @@ typedef struct msh_file {
     double *x;       /* [3 n_nodes] */
     int64_t *by_tag; /* [n_nodes] node indices sorted by tag */
     cell_list cells; /* tets and hexes, nodes as indices into x */
+    msh_groups groups;
 } msh_file;
 
 static void msh_release(msh_file *f)
@@ -86,6 +92,7 @@ static void msh_release(msh_file *f)
     pf_free(f->x);
     pf_free(f->by_tag);
     pf_cell_list_release(&f->cells);
+    pf_msh_groups_release(&f->groups);
 }
 
 /* ---- lines and sections ---------------------------------------------------------------------- */
@@ -324,7 +331,8 @@ static pf_status read_nodes_v4(msh_file *f, pf_error *err)
 /* ---- elements -------------------------------------------------------------------------------- */
 
 /* The node tags of a tet or hex on the current line, checked and kept as a cell of its corners. */
-static pf_status read_cell(msh_file *f, int64_t elem, const elem_type *t, pf_error *err)
+static pf_status read_cell(msh_file *f, int64_t elem, const elem_type *t, int64_t group,
+                           pf_error *err)
 {
     text_reader *r = &f->r;
     TEXT_CHECK(t->corners, r, err, PF_ERR_UNSUPPORTED,
@@ -345,9 +353,32 @@ static pf_status read_cell(msh_file *f, int64_t elem, const elem_type *t, pf_err
     }
     PF_TRY(pf_text_reader_expect_line_end(r, "the element's nodes", err));
     pf_status s = pf_cell_list_add(&f->cells, corners, t->corners, err);
+    if (s == PF_OK)
+        s = pf_msh_groups_add_cell(&f->groups, group, err);
     if (s < 0)
         pf_error_prefix(err, "%s:%lld", r->path, (long long)r->line_no);
     return s;
+}
+
+/* The corners of a triangle or quadrangle of physical group `group` on the current line (the
+ * rest of the line, higher-order nodes, is not read), kept to tag the mesh face they match. */
+static pf_status read_face(msh_file *f, int64_t elem, const elem_type *t, int64_t group,
+                           pf_error *err)
+{
+    text_reader *r = &f->r;
+    int n = t->name[0] == 't' ? 3 : 4;
+    int64_t corners[4];
+    for (int k = 0; k < n; ++k) {
+        int64_t tag;
+        char what[80];
+        snprintf(what, sizeof what, "node %d of element %lld (a %s)", k + 1, (long long)elem,
+                 t->name);
+        PF_TRY(pf_text_reader_int(r, &tag, what, err));
+        TEXT_CHECK((corners[k] = find_node(f, tag)) >= 0, r, err, PF_ERR_FORMAT,
+                   "element %lld refers to node %lld, which the file does not define",
+                   (long long)elem, (long long)tag);
+    }
+    return pf_msh_groups_add_face(&f->groups, corners, n, group, elem, r->line_no, err);
 }
 
 /* Version 2: "n", then n lines "tag type n_tags tags... nodes...". */
@@ -367,14 +398,23 @@ static pf_status read_elements_v2(msh_file *f, pf_error *err)
         PF_TRY(pf_text_reader_int(r, &n_tags, "the number of element tags", err));
         TEXT_CHECK(n_tags >= 0 && (uint64_t)n_tags <= r->line_len, r, err, PF_ERR_FORMAT,
                    "element %lld has %lld tags", (long long)elem, (long long)n_tags);
-        for (int64_t k = 0; k < n_tags; ++k)
+        int64_t physical = 0;
+        for (int64_t k = 0; k < n_tags; ++k) {
             PF_TRY(pf_text_reader_int(r, &tag, "an element tag (physical, entity, ...)", err));
+            if (k == 0)
+                physical = tag;
+        }
+        TEXT_CHECK(physical >= 0 && physical <= INT32_MAX, r, err, PF_ERR_FORMAT,
+                   "element %lld: physical group %lld out of range", (long long)elem,
+                   (long long)physical);
         const elem_type *t = find_type(type);
         TEXT_CHECK(t, r, err, PF_ERR_UNSUPPORTED,
                    "element %lld has type %lld, which pf does not read", (long long)elem,
                    (long long)type);
         if (t->dim == 3)
-            PF_TRY(read_cell(f, elem, t, err));
+            PF_TRY(read_cell(f, elem, t, physical, err));
+        else if (t->dim == 2 && physical > 0)
+            PF_TRY(read_face(f, elem, t, physical, err));
     }
     return end_line(f, "$Elements", "$EndElements", "elements", err);
 }
@@ -414,13 +454,17 @@ static pf_status read_elements_v4(msh_file *f, pf_error *err)
         TEXT_CHECK(!t || t->dim == dim, r, err, PF_ERR_FORMAT,
                    "element block %lld: type %lld is not of dimension %lld", (long long)(b + 1),
                    (long long)type, (long long)dim);
+        int64_t physical = pf_msh_groups_entity_physical(&f->groups, dim, entity);
         for (int64_t k = 0; k < n; ++k) {
             int64_t elem;
             PF_TRY(entry_line(f, "$Elements", "elements of the block", k, n, err));
-            if (dim < 3)
+            if (dim < 2 || (dim == 2 && physical == 0))
                 continue;
             PF_TRY(pf_text_reader_int(r, &elem, "an element tag", err));
-            PF_TRY(read_cell(f, elem, t, err));
+            if (dim == 3)
+                PF_TRY(read_cell(f, elem, t, physical, err));
+            else
+                PF_TRY(read_face(f, elem, t, physical, err));
         }
         read += n;
     }
@@ -473,6 +517,81 @@ static pf_status read_format(msh_file *f, pf_error *err)
     return PF_OK;
 }
 
+/* "n", then n lines 'dim number "name"'. */
+static pf_status read_physical_names(msh_file *f, pf_error *err)
+{
+    text_reader *r = &f->r;
+    int64_t count;
+    PF_TRY(header_line(f, "$PhysicalNames", err));
+    PF_TRY(pf_text_reader_int(r, &count, "the number of physical names", err));
+    PF_TRY(pf_text_reader_expect_line_end(r, "the number of physical names", err));
+    PF_TRY(check_count(f, count, 3, "physical names", "$PhysicalNames", err));
+    for (int64_t i = 0; i < count; ++i) {
+        int64_t dim, number;
+        PF_TRY(entry_line(f, "$PhysicalNames", "physical names", i, count, err));
+        PF_TRY(pf_text_reader_int(r, &dim, "the dimension of a physical group", err));
+        PF_TRY(pf_text_reader_int(r, &number, "the number of a physical group", err));
+        TEXT_CHECK(dim >= 0 && dim <= 3 && number > 0 && number <= INT32_MAX, r, err, PF_ERR_FORMAT,
+                   "physical group of dimension %lld and number %lld", (long long)dim,
+                   (long long)number);
+        /* the name: the rest of the line between double quotes (it may hold spaces) */
+        const char *s = r->line + r->cursor, *end = r->line + r->line_len;
+        while (s < end && (*s == ' ' || *s == '\t'))
+            ++s;
+        const char *close = s < end && *s == '"' ? memchr(s + 1, '"', (size_t)(end - s - 1)) : NULL;
+        TEXT_CHECK(close, r, err, PF_ERR_FORMAT, "physical group %lld: its name must be quoted",
+                   (long long)number);
+        r->cursor = (size_t)(close + 1 - r->line);
+        PF_TRY(pf_text_reader_expect_line_end(r, "the physical name", err));
+        PF_TRY(pf_msh_groups_add_name(&f->groups, (int32_t)dim, (int32_t)number, s + 1,
+                                      (size_t)(close - s - 1), err));
+    }
+    return end_line(f, "$PhysicalNames", "$EndPhysicalNames", "physical names", err);
+}
+
+/* Version 4.1: "points curves surfaces volumes", then per entity "tag" and either "x y z"
+ * (points) or its bounding box (6 numbers), then "n physical_tags..." and, past points, the
+ * bounding entities (not read). The first physical tag of every surface and volume is kept. */
+static pf_status read_entities(msh_file *f, pf_error *err)
+{
+    text_reader *r = &f->r;
+    int64_t counts[4];
+    PF_TRY(header_line(f, "$Entities", err));
+    for (int d = 0; d < 4; ++d)
+        PF_TRY(pf_text_reader_int(r, &counts[d], "an entity count", err));
+    PF_TRY(pf_text_reader_expect_line_end(r, "the entity counts", err));
+    for (int d = 0; d < 4; ++d) {
+        PF_TRY(check_count(f, counts[d], 5, "entities", "$Entities", err));
+        for (int64_t i = 0; i < counts[d]; ++i) {
+            int64_t tag, n_physical, physical = 0;
+            PF_TRY(entry_line(f, "$Entities", "entities", i, counts[d], err));
+            PF_TRY(pf_text_reader_int(r, &tag, "an entity tag", err));
+            for (int k = 0; k < (d == 0 ? 3 : 6); ++k) {
+                double v;
+                PF_TRY(pf_text_reader_double(r, &v, "an entity coordinate", err));
+            }
+            PF_TRY(pf_text_reader_int(r, &n_physical, "the number of physical tags", err));
+            TEXT_CHECK(n_physical >= 0 && (uint64_t)n_physical <= r->line_len, r, err,
+                       PF_ERR_FORMAT, "entity %lld has %lld physical tags", (long long)tag,
+                       (long long)n_physical);
+            for (int64_t k = 0; k < n_physical; ++k) {
+                int64_t p;
+                PF_TRY(pf_text_reader_int(r, &p, "a physical tag", err));
+                /* Gmsh writes negative tags for physical groups of reversed orientation */
+                p = p < 0 ? -p : p;
+                TEXT_CHECK(p > 0 && p <= INT32_MAX, r, err, PF_ERR_FORMAT,
+                           "entity %lld: physical tag %lld out of range", (long long)tag,
+                           (long long)p);
+                if (k == 0)
+                    physical = p;
+            }
+            if (d >= 2 && physical > 0)
+                PF_TRY(pf_msh_groups_add_entity(&f->groups, d, tag, physical, err));
+        }
+    }
+    return end_line(f, "$Entities", "$EndEntities", "entities", err);
+}
+
 static pf_status read_sections(msh_file *f, pf_error *err)
 {
     text_reader *r = &f->r;
@@ -485,6 +604,11 @@ static pf_status read_sections(msh_file *f, pf_error *err)
             TEXT_CHECK(!f->has_elements, r, err, PF_ERR_FORMAT, "a second $Elements section");
             PF_TRY(f->version == 2 ? read_elements_v2(f, err) : read_elements_v4(f, err));
             f->has_elements = true;
+        } else if (pf_text_reader_line_is(r, "$PhysicalNames")) {
+            PF_TRY(read_physical_names(f, err));
+        } else if (pf_text_reader_line_is(r, "$Entities") && f->version == 4) {
+            TEXT_CHECK(!f->has_elements, r, err, PF_ERR_FORMAT, "$Entities after $Elements");
+            PF_TRY(read_entities(f, err));
         } else if (line_starts_section(r)) {
             PF_TRY(skip_section(f, err));
         } else {
@@ -512,9 +636,16 @@ pf_status pf_import_msh(const char *path, pf_mesh *m, pf_error *err)
     if (s == PF_OK)
         s = read_sections(&f, err);
     if (s == PF_OK) {
-        s = pf_cell_list_build_mesh(&f.cells, f.x, f.n_nodes, m, err);
-        if (s < 0)
+        int32_t *node_map = pf_alloc_array((size_t)f.n_nodes + 1, sizeof *node_map);
+        s = node_map ? pf_cell_list_build_mesh(&f.cells, f.x, f.n_nodes, m, node_map, err)
+                     : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+        if (s == PF_OK)
+            s = pf_msh_groups_apply(&f.groups, node_map, m, err);
+        pf_free(node_map);
+        if (s < 0) {
             pf_error_prefix(err, "%s", path);
+            pf_mesh_release(m);
+        }
     }
     msh_release(&f);
     return s;

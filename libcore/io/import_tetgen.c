@@ -185,7 +185,7 @@ pf_status pf_import_tetgen(const char *path, pf_mesh *m, pf_error *err)
         s = read_ele_file(&r, node_path, &nodes, &cells, err);
     pf_text_reader_close(&r);
     if (s == PF_OK) {
-        s = pf_cell_list_build_mesh(&cells, nodes.x, nodes.n, m, err);
+        s = pf_cell_list_build_mesh(&cells, nodes.x, nodes.n, m, NULL, err);
         if (s < 0)
             pf_error_prefix(err, "%s", ele_path);
     }

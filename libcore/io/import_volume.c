@@ -30,7 +30,7 @@ void pf_cell_list_release(cell_list *c)
 }
 
 pf_status pf_cell_list_build_mesh(const cell_list *c, const double *x, int64_t n_nodes, pf_mesh *m,
-                               pf_error *err)
+                                  int32_t *node_map, pf_error *err)
 {
     memset(m, 0, sizeof *m);
     size_t n_refs = c->nodes.size / sizeof(uint32_t);
@@ -68,6 +68,8 @@ pf_status pf_cell_list_build_mesh(const cell_list *c, const double *x, int64_t n
         s = pf_mesh_from_cells(m, kept, n_kept, c->n_cells ? offsets : &no_cells, cells,
                                (int32_t)c->n_cells, err);
     }
+    if (s == PF_OK && node_map && n_nodes > 0)
+        memcpy(node_map, renumber, (size_t)n_nodes * sizeof *node_map);
     pf_free(renumber);
     pf_free(cells);
     pf_free(kept);

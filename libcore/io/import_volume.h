@@ -16,9 +16,10 @@ pf_status pf_cell_list_add(cell_list *c, const uint32_t *nodes, int n, pf_error 
 
 /* The mesh of the cells over nodes x [3 n_nodes] (every index < n_nodes), nodes no cell uses
  * dropped and the others kept in their order; built by pf_mesh_from_cells (shared faces once,
- * inside-out cells reoriented). m is overwritten. */
+ * inside-out cells reoriented, element e is cell e). node_map [n_nodes], when not NULL, receives
+ * the mesh index of every file node (-1: dropped). m is overwritten. */
 pf_status pf_cell_list_build_mesh(const cell_list *c, const double *x, int64_t n_nodes, pf_mesh *m,
-                               pf_error *err);
+                                  int32_t *node_map, pf_error *err);
 
 void pf_cell_list_release(cell_list *c);
 

@@ -36,7 +36,7 @@ typedef struct tag_entry {
 static const tag_entry TAGS[] = {
     {"INFO", 1, false, false}, {"SCEN", 1, true, false}, {"MESH", 1, true, false},
     {"SURF", 1, true, false},  {"WGHT", 1, true, true},  {"FRAM", 1, true, true},
-    {"STRS", 1, false, true},  {"END_", 1, true, false},
+    {"STRS", 1, false, true},  {"END_", 1, true, false}, {"GRPS", 1, false, true},
 };
 
 static const tag_entry *find_tag(const char *tag)
@@ -584,7 +584,12 @@ pf_status pf_stream_write_mesh(pf_stream_writer *w, const pf_mesh *m, pf_error *
 {
     w->scratch.size = 0;
     PF_TRY(pf_stream_encode_mesh(m, &w->scratch, err));
-    return write_scratch(w, "MESH", err);
+    PF_TRY(write_scratch(w, "MESH", err));
+    if (!m->elem_group)
+        return PF_OK;
+    w->scratch.size = 0;
+    PF_TRY(pf_stream_encode_groups(m, &w->scratch, err));
+    return write_scratch(w, "GRPS", err);
 }
 
 pf_status pf_stream_write_surface(pf_stream_writer *w, const pf_surface *s, pf_error *err)

@@ -50,6 +50,9 @@ static inline void le_put_f64(unsigned char *p, double v)
 /* zlib's CRC-32 (polynomial 0xedb88320, reflected) of n bytes, in pieces that fit zlib's uInt. */
 uint32_t pf_stream_crc32(const unsigned char *p, uint64_t n);
 
+/* Index of the first byte of s[0..n) that is NUL or breaks UTF-8 (RFC 3629), n when none. */
+size_t pf_stream_utf8_invalid_at(const unsigned char *s, size_t n);
+
 /* Writes "SOURCE: chunk TAG at byte N: " (no "SOURCE: " when c->source is NULL) followed by the
  * message into err; returns code. */
 pf_status pf_stream_chunk_error(pf_error *err, pf_status code, const char *src_file, int src_line,

@@ -618,7 +618,7 @@ pf_status pf_stream_decode_stress(const pf_chunk *c, pf_stress_data *s, pf_error
 
 /* Index of the first byte that is NUL or breaks UTF-8 (RFC 3629: shortest form only, no surrogates,
  * nothing above U+10FFFF), or n when all n bytes are valid. */
-static size_t utf8_invalid_at(const unsigned char *s, size_t n)
+size_t pf_stream_utf8_invalid_at(const unsigned char *s, size_t n)
 {
     size_t i = 0;
     while (i < n) {
@@ -649,7 +649,7 @@ static pf_status put_string(const char *s, const char *what, pf_buffer *out, pf_
 {
     size_t n = s ? strlen(s) : 0;
     PF_CHECK(n <= UINT32_MAX, err, PF_ERR_TOO_LARGE, "INFO %s string of %zu bytes", what, n);
-    size_t bad = utf8_invalid_at((const unsigned char *)s, n);
+    size_t bad = pf_stream_utf8_invalid_at((const unsigned char *)s, n);
     PF_CHECK(bad == n, err, PF_ERR_INVALID, "INFO %s string is not valid UTF-8 (byte %zu)", what,
              bad);
     unsigned char *p = NULL;
@@ -676,7 +676,7 @@ static pf_status get_string(cursor *k, const char *what, char **dst, pf_error *e
     PF_TRY(take(k, 1, 4, &pl, "string length", err));
     uint64_t n = le_get_u32(pl);
     PF_TRY(take(k, n, 1, &ps, bytes_of, err));
-    size_t bad = utf8_invalid_at(ps, (size_t)n);
+    size_t bad = pf_stream_utf8_invalid_at(ps, (size_t)n);
     CHUNK_CHECK(bad == n, k->c, err, PF_ERR_FORMAT,
                 "the %s string is not valid UTF-8 without NUL (byte %zu of %llu)", what, bad,
                 (unsigned long long)n);

@@ -207,12 +207,26 @@ pf_status pf_stream_state_skip_frame(pf_stream_state *s, const pf_chunk *c, uint
     return check_frame(s, c, mesh_id, *index, (int32_t)n_nodes, err);
 }
 
+/* The groups of the latest MESH. GRPS is not critical: groups of another mesh (a tool that does
+ * not know GRPS passed them on after making a new MESH) are ignored, not an error. */
+static pf_status take_groups(pf_stream_state *s, const pf_chunk *c, pf_error *err)
+{
+    if (!s->have_mesh || c->size < 20 || c->version != pf_stream_tag_version("GRPS") ||
+        le_get_u64(c->payload) != s->mesh.id ||
+        le_get_u32(c->payload + 8) != (uint32_t)s->mesh.n_elems ||
+        le_get_u32(c->payload + 12) != (uint32_t)s->mesh.n_faces)
+        return PF_OK;
+    return pf_stream_decode_groups(c, &s->mesh, err);
+}
+
 pf_status pf_stream_state_take(pf_stream_state *s, const pf_chunk *c, pf_error *err)
 {
     if (strcmp(c->tag, "MESH") == 0)
         return take_mesh(s, c, err);
     if (strcmp(c->tag, "SURF") == 0)
         return take_surface(s, c, err);
+    if (strcmp(c->tag, "GRPS") == 0)
+        return take_groups(s, c, err);
     if (strcmp(c->tag, "WGHT") == 0)
         return take_weights(s, c, err);
     if (strcmp(c->tag, "STRS") == 0)

@@ -39,6 +39,7 @@ void pf_mesh_release(pf_mesh *m)
     pf_free(m->elem_faces);
     pf_free(m->face_elems);
     pf_free(m->elem_kind);
+    pf_mesh_groups_release(m);
     memset(m, 0, sizeof *m);
 }
 
@@ -53,6 +54,7 @@ pf_status pf_mesh_copy(pf_mesh *dst, const pf_mesh *src, pf_error *err)
     memcpy(dst->face_nodes, src->face_nodes, (size_t)nfn * sizeof(uint32_t));
     memcpy(dst->elem_offsets, src->elem_offsets, ((size_t)src->n_elems + 1) * sizeof(int64_t));
     memcpy(dst->elem_faces, src->elem_faces, (size_t)nef * sizeof(uint32_t));
+    PF_TRY(pf_mesh_groups_copy(dst, src, err));
     if (src->face_elems || src->elem_kind)
         return pf_mesh_derive(dst, err);
     return PF_OK;
@@ -224,4 +226,67 @@ void pf_mesh_bounds(const pf_mesh *m, pf_vec3 *lo, pf_vec3 *hi)
         *lo = i ? pf_v3_min(*lo, p) : p;
         *hi = i ? pf_v3_max(*hi, p) : p;
     }
+}
+
+/* ---- groups ---------------------------------------------------------------------------------- */
+
+pf_status pf_mesh_groups_alloc(pf_mesh *m, int32_t n_groups, pf_error *err)
+{
+    m->elem_group = pf_calloc((size_t)m->n_elems + 1, sizeof *m->elem_group);
+    m->face_group = pf_calloc((size_t)m->n_faces + 1, sizeof *m->face_group);
+    m->groups = pf_calloc((size_t)n_groups + 1, sizeof *m->groups);
+    if (!m->elem_group || !m->face_group || !m->groups) {
+        pf_mesh_groups_release(m);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate the groups of a mesh of %d elements", (int)m->n_elems);
+    }
+    m->n_groups = n_groups;
+    return PF_OK;
+}
+
+void pf_mesh_groups_release(pf_mesh *m)
+{
+    for (int32_t g = 0; m->groups && g < m->n_groups; ++g)
+        pf_free(m->groups[g].name);
+    pf_free(m->groups);
+    pf_free(m->elem_group);
+    pf_free(m->face_group);
+    m->groups = NULL;
+    m->elem_group = m->face_group = NULL;
+    m->n_groups = 0;
+}
+
+pf_status pf_mesh_groups_copy(pf_mesh *dst, const pf_mesh *src, pf_error *err)
+{
+    if (!src->elem_group)
+        return PF_OK;
+    PF_TRY(pf_mesh_groups_alloc(dst, src->n_groups, err));
+    if (dst->n_elems == src->n_elems && dst->n_faces == src->n_faces) {
+        memcpy(dst->elem_group, src->elem_group, (size_t)src->n_elems * sizeof *dst->elem_group);
+        memcpy(dst->face_group, src->face_group, (size_t)src->n_faces * sizeof *dst->face_group);
+    }
+    for (int32_t g = 0; g < src->n_groups; ++g) {
+        const char *name = src->groups[g].name ? src->groups[g].name : "";
+        size_t n = strlen(name);
+        dst->groups[g] = src->groups[g];
+        dst->groups[g].name = pf_alloc(n + 1);
+        if (!dst->groups[g].name) {
+            pf_mesh_groups_release(dst);
+            return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                "cannot copy the group names of a mesh");
+        }
+        memcpy(dst->groups[g].name, name, n + 1);
+    }
+    return PF_OK;
+}
+
+const pf_mesh_group *pf_mesh_find_group(const pf_mesh *m, int32_t dim, const char *name,
+                                        int32_t number)
+{
+    for (int32_t g = 0; g < m->n_groups; ++g) {
+        const pf_mesh_group *p = &m->groups[g];
+        if (p->dim == dim && (name ? p->name && strcmp(p->name, name) == 0 : p->number == number))
+            return p;
+    }
+    return NULL;
 }

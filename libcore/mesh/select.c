@@ -62,8 +62,18 @@ pf_status pf_mesh_select_elements(pf_mesh *dst, const pf_mesh *src, const uint8_
             elem_map[d] = e;
         ++d;
     }
+    if (src->elem_group) {
+        /* the groups travel with their elements and faces */
+        st = pf_mesh_groups_copy(dst, src, err);
+        for (int32_t e = 0, d = 0; st == PF_OK && e < src->n_elems; ++e)
+            if (keep[e])
+                dst->elem_group[d++] = src->elem_group[e];
+        for (int32_t f = 0; st == PF_OK && f < src->n_faces; ++f)
+            if (face_map[f] >= 0)
+                dst->face_group[face_map[f]] = src->face_group[f];
+    }
     pf_free(face_map);
-    return PF_OK;
+    return st;
 }
 
 static int32_t find_root(int32_t *parent, int32_t e)

@@ -19,42 +19,6 @@
 #include "scene_json.h"
 #include "scene_values.h"
 
-/* ---- defaults -------------------------------------------------------------------------------- */
-
-void pf_scene_default(pf_scene *s)
-{
-    *s = (pf_scene){
-        .E = 1e5,
-        .nu = 0.3,
-        .density = 1000,
-        .method = PF_METHOD_DG,
-        .degree = 1,
-        .flux = PF_FLUX_IP,
-        .penalty = 0,
-        .corotation = true,
-        .edge_samples = 2,
-        .gravity = {0, 0, -9.81},
-        .body_force = {0, 0, 0},
-        .damping_alpha = 0,
-        .damping_beta = 0.01,
-        .ground = true,
-        .ground_given = false,
-        .ground_auto = true,
-        .ground_normal = {0, 0, 1},
-        .ground_stiffness = 0,
-        .is_static = false,
-        .dt = 1.0 / 30.0,
-        .frames = 60,
-        .substeps = 10,
-        .solver = pf_solver_params_default(),
-        .refine = {.split = PF_SPLIT_OCTS,
-                   .max_level = 2,
-                   .max_elements = 100000,
-                   .coarsen_fraction = 0.5,
-                   .coarsen_after = 10},
-    };
-}
-
 static void release_obstacles(pf_scene *s);
 
 void pf_scene_release(pf_scene *s)
@@ -63,6 +27,7 @@ void pf_scene_release(pf_scene *s)
         return;
     pf_free(s->fixed);
     pf_free(s->loads);
+    pf_free(s->materials);
     release_obstacles(s);
     pf_free(s->json);
     memset(s, 0, sizeof *s);
@@ -356,11 +321,7 @@ static pf_status read_solver(reader *r, const cJSON *v, pf_solver_params *p)
 
 static pf_status read_split(reader *r, const cJSON *v, pf_split_kind *out)
 {
-    if (cJSON_IsString(v) && !strcmp(v->valuestring, "octs"))
-        *out = PF_SPLIT_OCTS;
-    else if (cJSON_IsString(v) && !strcmp(v->valuestring, "halves"))
-        *out = PF_SPLIT_HALVES;
-    else
+    if (!cJSON_IsString(v) || !pf_scene_parse_split_name(v->valuestring, out))
         return fail_type(r, v, "\"octs\" or \"halves\"");
     return PF_OK;
 }
@@ -473,12 +434,31 @@ static pf_status read_plane(reader *r, const cJSON *v, pf_region *out)
     return PF_OK;
 }
 
-/* One entry of "fixed" or "loads": exactly one of box / plane, plus the entry's vector key
- * (displacement, optional; traction, required). */
+/* "name" (a mesh group's name) or a positive integer (its number). */
+static pf_status read_group(reader *r, const cJSON *v, pf_region *out)
+{
+    out->kind = PF_REGION_GROUP;
+    if (cJSON_IsString(v)) {
+        size_t n = strlen(v->valuestring);
+        if (n == 0 || n >= PF_GROUP_NAME_MAX)
+            return fail(r, "a group name has 1 to %d bytes, got %zu", PF_GROUP_NAME_MAX - 1, n);
+        memcpy(out->group_name, v->valuestring, n + 1);
+        return PF_OK;
+    }
+    if (!cJSON_IsNumber(v))
+        return fail_type(r, v, "a group name or number");
+    double d = 0;
+    PF_TRY(read_number(r, v, RANGE_INT_POS, &d));
+    out->group = (int32_t)d;
+    return PF_OK;
+}
+
+/* One entry of "fixed" or "loads": exactly one of box / plane / group, plus the entry's vector
+ * key (displacement, optional; traction, required). */
 static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector_key,
                                    bool vector_required, pf_region *region, pf_vec3 *vector)
 {
-    const char *const keys[] = {"box", "plane", vector_key, NULL};
+    const char *const keys[] = {"box", "plane", "group", vector_key, NULL};
     PF_TRY(begin_object(r, v, keys));
     int n_regions = 0;
     bool has_vector = false;
@@ -489,14 +469,17 @@ static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector
         } else if (!strcmp(it->string, "plane")) {
             READ_KEY(r, it, read_plane(r, it, region));
             ++n_regions;
+        } else if (!strcmp(it->string, "group")) {
+            READ_KEY(r, it, read_group(r, it, region));
+            ++n_regions;
         } else {
             READ_KEY(r, it, read_vec3(r, it, vector));
             has_vector = true;
         }
     }
     if (n_regions != 1)
-        return fail(r, n_regions ? "give one region, \"box\" or \"plane\", not both"
-                                 : "missing region: give \"box\" or \"plane\"");
+        return fail(r, n_regions ? "give one region, \"box\", \"plane\" or \"group\", not several"
+                                 : "missing region: give \"box\", \"plane\" or \"group\"");
     if (vector_required && !has_vector)
         return fail(r, "missing key \"%s\"", vector_key);
     return PF_OK;
@@ -537,6 +520,54 @@ static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
         size_t mark = push_index(r, i);
         PF_TRY(
             read_region_entry(r, it, "traction", true, &s->loads[i].region, &s->loads[i].traction));
+        pop(r, mark);
+    }
+    return PF_OK;
+}
+
+/* One entry of "materials": exactly one of box / group, and any of E, nu, density (NAN until
+ * read_scene fills in the scene's material). */
+static pf_status read_material_entry(reader *r, const cJSON *v, pf_material_region *m)
+{
+    static const char *const keys[] = {"box", "group", "E", "nu", "density", NULL};
+    PF_TRY(begin_object(r, v, keys));
+    m->E = m->nu = m->density = NAN;
+    int n_regions = 0;
+    for (const cJSON *it = v->child; it; it = it->next) {
+        if (!strcmp(it->string, "box")) {
+            READ_KEY(r, it, read_box(r, it, &m->region));
+            ++n_regions;
+        } else if (!strcmp(it->string, "group")) {
+            READ_KEY(r, it, read_group(r, it, &m->region));
+            ++n_regions;
+        } else if (!strcmp(it->string, "E")) {
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &m->E));
+        } else if (!strcmp(it->string, "nu")) {
+            READ_KEY(r, it, read_number(r, it, RANGE_POISSON, &m->nu));
+        } else {
+            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &m->density));
+        }
+    }
+    if (n_regions != 1)
+        return fail(r, n_regions ? "give one region, \"box\" or \"group\", not both"
+                                 : "missing region: give \"box\" or \"group\"");
+    return PF_OK;
+}
+
+static pf_status read_materials(reader *r, const cJSON *v, pf_scene *s)
+{
+    if (!cJSON_IsArray(v))
+        return fail_type(r, v, "an array");
+    int n = cJSON_GetArraySize(v);
+    pf_free(s->materials);
+    s->n_materials = 0;
+    s->materials = pf_calloc((size_t)n + 1, sizeof *s->materials);
+    PF_CHECK(s->materials, r->err, PF_ERR_NOMEM, "%s: materials: out of memory", r->name);
+    s->n_materials = n;
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+        size_t mark = push_index(r, i);
+        PF_TRY(read_material_entry(r, it, &s->materials[i]));
         pop(r, mark);
     }
     return PF_OK;
@@ -776,34 +807,6 @@ static pf_status read_obstacles(reader *r, const cJSON *v, pf_scene *s)
     return PF_OK;
 }
 
-pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t)
-{
-    if (o->n_keys == 0)
-        return pf_v3(0, 0, 0);
-    if (t <= o->key_time[0])
-        return o->key_translation[0];
-    for (int32_t k = 1; k < o->n_keys; ++k)
-        if (t < o->key_time[k]) {
-            double s = (t - o->key_time[k - 1]) / (o->key_time[k] - o->key_time[k - 1]);
-            return pf_v3_add(pf_v3_scale(o->key_translation[k - 1], 1 - s),
-                             pf_v3_scale(o->key_translation[k], s));
-        }
-    return o->key_translation[o->n_keys - 1];
-}
-
-pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surface, pf_error *err)
-{
-    PF_CHECK(i >= 0 && i < s->n_obstacles && s->obstacles[i].kind == PF_OBSTACLE_MESH, err,
-             PF_ERR_INVALID, "obstacles[%d]: not a mesh obstacle", (int)i);
-    pf_obstacle *o = &s->obstacles[i];
-    PF_CHECK(surface->n_tris > 0, err, PF_ERR_INVALID, "obstacles[%d].mesh: %s: no triangles",
-             (int)i, o->file);
-    pf_surface_release(&o->surface);
-    o->surface = *surface;
-    memset(surface, 0, sizeof *surface);
-    return PF_OK;
-}
-
 static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
 {
     if (!cJSON_IsObject(root)) {
@@ -812,14 +815,17 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
         return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__,
                             "%s: the scene must be a JSON object, got %s", r->name, got);
     }
-    static const char *const keys[] = {"material", "method", "corotation", "gravity", "body_force",
-                                       "damping",  "fixed",  "loads",      "ground",  "obstacles",
-                                       "time",     "static", "solver",     "refine",  NULL};
+    static const char *const keys[] = {"material",   "materials", "method", "corotation", "gravity",
+                                       "body_force", "damping",   "fixed",  "loads",      "ground",
+                                       "obstacles",  "time",      "static", "solver",     "refine",
+                                       NULL};
     PF_TRY(begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;
         if (!strcmp(k, "material"))
             READ_KEY(r, it, read_material(r, it, s));
+        else if (!strcmp(k, "materials"))
+            READ_KEY(r, it, read_materials(r, it, s));
         else if (!strcmp(k, "method"))
             READ_KEY(r, it, read_method(r, it, s));
         else if (!strcmp(k, "corotation"))
@@ -848,6 +854,12 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
             READ_KEY(r, it, read_bool(r, it, &s->is_static));
     }
     pf_scene_apply_static_ground_rule(s);
+    for (int32_t k = 0; k < s->n_materials; ++k) { /* what an entry did not give */
+        pf_material_region *m = &s->materials[k];
+        m->E = isnan(m->E) ? s->E : m->E;
+        m->nu = isnan(m->nu) ? s->nu : m->nu;
+        m->density = isnan(m->density) ? s->density : m->density;
+    }
     return PF_OK;
 }
 

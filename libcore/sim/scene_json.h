@@ -19,4 +19,9 @@ pf_status pf_scene_json_check(const char *text, size_t len, const char *name, si
 pf_status pf_scene_json_error_at(const char *text, size_t len, size_t pos, const char *name,
                                  const char *what, pf_error *err);
 
+/* Prints root (taking it: deleted) as indented JSON into *json (pf_alloc, NUL-terminated).
+ * PF_ERR_NOMEM "cannot write WHAT as JSON", also for a NULL root. */
+struct cJSON;
+pf_status pf_sim_json_print(struct cJSON *root, const char *what, char **json, pf_error *err);
+
 #endif

@@ -114,3 +114,46 @@ bool pf_scene_parse_solver_name(const char *text, pf_solver_method *out)
 {
     return pf_solver_method_parse(text, out);
 }
+
+bool pf_scene_parse_split_name(const char *text, pf_split_kind *out)
+{
+    bool octs = !strcmp(text, "octs"), halves = !strcmp(text, "halves");
+    if (octs || halves)
+        *out = octs ? PF_SPLIT_OCTS : PF_SPLIT_HALVES;
+    return octs || halves;
+}
+
+/* The defaults of every key (docs/scene.md's tables). */
+void pf_scene_default(pf_scene *s)
+{
+    *s = (pf_scene){
+        .E = 1e5,
+        .nu = 0.3,
+        .density = 1000,
+        .method = PF_METHOD_DG,
+        .degree = 1,
+        .flux = PF_FLUX_IP,
+        .penalty = 0,
+        .corotation = true,
+        .edge_samples = 2,
+        .gravity = {0, 0, -9.81},
+        .body_force = {0, 0, 0},
+        .damping_alpha = 0,
+        .damping_beta = 0.01,
+        .ground = true,
+        .ground_given = false,
+        .ground_auto = true,
+        .ground_normal = {0, 0, 1},
+        .ground_stiffness = 0,
+        .is_static = false,
+        .dt = 1.0 / 30.0,
+        .frames = 60,
+        .substeps = 10,
+        .solver = pf_solver_params_default(),
+        .refine = {.split = PF_SPLIT_OCTS,
+                   .max_level = 2,
+                   .max_elements = 100000,
+                   .coarsen_fraction = 0.5,
+                   .coarsen_after = 10},
+    };
+}

@@ -32,6 +32,7 @@ bool pf_scene_parse_method_name(const char *text, pf_method *out);
 bool pf_scene_parse_flux_name(const char *text, pf_flux *out);
 bool pf_scene_parse_mass_name(const char *text, pf_mass *out);
 bool pf_scene_parse_solver_name(const char *text, pf_solver_method *out);
+bool pf_scene_parse_split_name(const char *text, pf_split_kind *out);
 
 /* A static scene has no ground unless the file asks for one; override of "static" re-applies
  * this rule, hence ground_given. */

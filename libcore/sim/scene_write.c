@@ -8,6 +8,8 @@
 
 #include <cjson/cJSON.h>
 
+#include "scene_json.h"
+
 /* A number printed with %.17g as a raw item: cJSON's own printing keeps 15 digits whenever they
  * read back within an ulp, so a written scene did not read back into the same numbers (a ground
  * normal (5, 1, 0) normalised changed its last bit on every write and read). Scene values are
@@ -36,7 +38,12 @@ static cJSON *vector(pf_vec3 v)
 static cJSON *region(const pf_region *r)
 {
     cJSON *o = cJSON_CreateObject();
-    if (r->kind == PF_REGION_BOX) {
+    if (r->kind == PF_REGION_GROUP) {
+        if (r->group_name[0])
+            cJSON_AddStringToObject(o, "group", r->group_name);
+        else
+            add_number(o, "group", r->group);
+    } else if (r->kind == PF_REGION_BOX) {
         cJSON *box = cJSON_AddArrayToObject(o, "box");
         cJSON_AddItemToArray(box, vector(r->lo));
         cJSON_AddItemToArray(box, vector(r->hi));
@@ -130,6 +137,16 @@ static cJSON *scene_object(const pf_scene *s)
     add_number(damping, "alpha", s->damping_alpha);
     add_number(damping, "beta", s->damping_beta);
 
+    if (s->n_materials > 0) {
+        cJSON *materials = cJSON_AddArrayToObject(root, "materials");
+        for (int32_t k = 0; k < s->n_materials; ++k) {
+            cJSON *m = region(&s->materials[k].region);
+            add_number(m, "E", s->materials[k].E);
+            add_number(m, "nu", s->materials[k].nu);
+            add_number(m, "density", s->materials[k].density);
+            cJSON_AddItemToArray(materials, m);
+        }
+    }
     cJSON *fixed = cJSON_AddArrayToObject(root, "fixed");
     for (int32_t k = 0; k < s->n_fixed; ++k) {
         cJSON *f = region(&s->fixed[k].region);
@@ -165,18 +182,22 @@ static cJSON *scene_object(const pf_scene *s)
     return root;
 }
 
-pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err)
+pf_status pf_sim_json_print(cJSON *root, const char *what, char **json, pf_error *err)
 {
     *json = NULL;
-    cJSON *root = scene_object(s);
     char *text = root ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
-    PF_CHECK(text, err, PF_ERR_NOMEM, "cannot write the scene as JSON");
+    PF_CHECK(text, err, PF_ERR_NOMEM, "cannot write %s as JSON", what);
     size_t n = strlen(text);
     *json = pf_alloc(n + 1);
     if (*json)
         memcpy(*json, text, n + 1);
     cJSON_free(text);
-    PF_CHECK(*json, err, PF_ERR_NOMEM, "cannot write the scene as JSON");
+    PF_CHECK(*json, err, PF_ERR_NOMEM, "cannot write %s as JSON", what);
     return PF_OK;
+}
+
+pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err)
+{
+    return pf_sim_json_print(scene_object(s), "the scene", json, err);
 }

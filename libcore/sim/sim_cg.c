@@ -92,12 +92,12 @@ static void external_forces(const void *m, double *f)
         int64_t n = mesh->face_offsets[face + 1] - mesh->face_offsets[face];
         pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
         for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_contains(&sc->loads[k].region, centroid))
+            if (pf_region_selects_face(&sc->loads[k].region, mesh, face, centroid))
                 pf_cg_add_traction(&c->cg, mesh, bd, q, sc->loads[k].traction, nodal);
     }
-    pf_vec3 body = pf_v3_add(pf_v3_scale(sc->gravity, sc->density), sc->body_force);
-    if (body.x != 0 || body.y != 0 || body.z != 0)
-        pf_cg_add_body_force(&c->cg, body, nodal);
+    pf_vec3 g = sc->gravity, b = sc->body_force;
+    if (g.x != 0 || g.y != 0 || g.z != 0 || b.x != 0 || b.y != 0 || b.z != 0)
+        pf_cg_add_gravity(&c->cg, g, b, nodal);
     for (int32_t i = 0; i < c->map.n_free; ++i)
         for (int d = 0; d < 3; ++d)
             f[3 * (size_t)i + d] += nodal[3 * (size_t)c->map.block_node[i] + d];
@@ -112,7 +112,9 @@ static double ground_stiffness(const void *m)
     for (int32_t e = 0; e < c->cg.n_elems; ++e)
         h += c->cg.size[e];
     h /= c->cg.n_elems > 0 ? c->cg.n_elems : 1;
-    return 10 * (c->cg.lambda + 2 * c->cg.mu) * h;
+    double modulus, per_density;
+    pf_material_stiffest(c->cg.materials, c->cg.n_materials, &modulus, &per_density);
+    return 10 * modulus * h;
 }
 
 /* The nodal map of method.h: weight 1 on a free node's own triple. A fixed node has no entry: no
@@ -328,7 +330,7 @@ static void stress_sample(const cg_method *c, const double *u, int32_t e, pf_vec
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j)
                 f.m[i][j] += u[3 * (size_t)nodes[a] + i] * grad[3 * a + j];
-    pf_corotated_stress(f, c->cg.lambda, c->cg.mu, sigma);
+    pf_corotated_stress(f, pf_cg_material(&c->cg, e)->lambda, pf_cg_material(&c->cg, e)->mu, sigma);
     pf_vec3 dir;
     double value = pf_principal_stress(sigma, &dir);
     if (fabs(value) > fabs(*best))
@@ -480,7 +482,7 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
         int64_t n = mesh->face_offsets[f + 1] - mesh->face_offsets[f];
         pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
         for (int32_t k = 0; k < sc->n_fixed; ++k)
-            if (pf_region_contains(&sc->fixed[k].region, centroid)) {
+            if (pf_region_selects_face(&sc->fixed[k].region, mesh, f, centroid)) {
                 for (int64_t q = 0; q < n; ++q) {
                     if (c->fixed[idx[q]])
                         continue;
@@ -491,7 +493,7 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
                 break;
             }
         for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_contains(&sc->loads[k].region, centroid)) {
+            if (pf_region_selects_face(&sc->loads[k].region, mesh, f, centroid)) {
                 ++*loaded_faces;
                 break;
             }
@@ -515,7 +517,15 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     pf_cg_params params = pf_cg_params_default();
     params.basis.no_check_stats = true;
     params.basis.edge_samples = scene->edge_samples;
-    pf_status st = pf_cg_create(&c->cg, mesh, scene->E, scene->nu, scene->density, &params, err);
+    pf_material *table = NULL;
+    int32_t *elem = NULL, n_materials = 0;
+    pf_status st = pf_scene_materials(scene, mesh, &table, &n_materials, &elem, err);
+    if (st >= 0) {
+        pf_materials mat = {.n = n_materials, .table = table, .elem = elem};
+        st = pf_cg_create_materials(&c->cg, mesh, &mat, &params, err);
+    }
+    pf_free(table);
+    pf_free(elem);
     if (st >= 0) {
         size_t nn = (size_t)mesh->n_nodes, ne = (size_t)mesh->n_elems;
         c->fixed = pf_calloc(nn + 1, sizeof *c->fixed);

@@ -96,12 +96,12 @@ static void external_forces(const void *m, double *f)
     for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
         const pf_dg_face *face = &d->dg.faces[q];
         for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_contains(&sc->loads[k].region, face->centroid))
+            if (pf_region_selects_face(&sc->loads[k].region, d->mesh, face->face, face->centroid))
                 pf_dg_add_traction(&d->dg, face->face, sc->loads[k].traction, f);
     }
-    pf_vec3 body = pf_v3_add(pf_v3_scale(sc->gravity, sc->density), sc->body_force);
-    if (body.x != 0 || body.y != 0 || body.z != 0)
-        pf_dg_add_body_force(&d->dg, body, f);
+    pf_vec3 g = sc->gravity, b = sc->body_force;
+    if (g.x != 0 || g.y != 0 || g.z != 0 || b.x != 0 || b.y != 0 || b.z != 0)
+        pf_dg_add_gravity(&d->dg, g, b, f);
 }
 
 /* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
@@ -112,7 +112,9 @@ static double ground_stiffness(const void *m)
     for (int32_t e = 0; e < d->dg.n_elems; ++e)
         h += d->dg.frame[e].scale;
     h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
-    return 10 * (d->dg.lambda + 2 * d->dg.mu) * h;
+    double modulus, per_density;
+    pf_material_stiffest(d->dg.materials, d->dg.n_materials, &modulus, &per_density);
+    return 10 * modulus * h;
 }
 
 static void set_penalty(void *m, double eta)
@@ -131,7 +133,9 @@ static double rigid_mode_shift(const void *m)
     double h = INFINITY;
     for (int32_t e = 0; e < d->dg.n_elems; ++e)
         h = fmin(h, d->dg.frame[e].scale);
-    return 1e-6 * (d->dg.lambda + 2 * d->dg.mu) / (d->dg.density * h * h);
+    double modulus, per_density;
+    pf_material_stiffest(d->dg.materials, d->dg.n_materials, &modulus, &per_density);
+    return 1e-6 * per_density / (h * h);
 }
 
 /* Stitching (eq. 30) as a matrix: node i averages u|_K(x_i) = sum_a phi_a(x_i) u_{K,a} over the
@@ -209,8 +213,8 @@ static void nodal_displacements(const void *m, const double *u, double *out)
 static void von_mises(const void *m, const double *u, double *out)
 {
     const pf_dg *dg = &((const dg_method *)m)->dg;
-    double lambda = dg->lambda, mu = dg->mu;
     for (int32_t e = 0; e < dg->n_elems; ++e) {
+        double lambda = pf_dg_material(dg, e)->lambda, mu = pf_dg_material(dg, e)->mu;
         double g[9];
         pf_dg_gradient(dg, u, e, g);
         pf_mat3 f;
@@ -298,7 +302,7 @@ static void stress_sample(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
             f.m[i][j] = (i == j) + g[3 * i + j];
-    pf_corotated_stress(f, dg->lambda, dg->mu, sigma);
+    pf_corotated_stress(f, pf_dg_material(dg, e)->lambda, pf_dg_material(dg, e)->mu, sigma);
     pf_vec3 dir;
     double value = pf_principal_stress(sigma, &dir);
     if (fabs(value) > fabs(*best))
@@ -432,13 +436,13 @@ static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loade
     for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
         const pf_dg_face *face = &d->dg.faces[q];
         for (int32_t k = 0; k < sc->n_fixed; ++k)
-            if (pf_region_contains(&sc->fixed[k].region, face->centroid)) {
+            if (pf_region_selects_face(&sc->fixed[k].region, d->mesh, face->face, face->centroid)) {
                 d->face_fixed[face->face] = k;
                 ++*fixed_faces;
                 break;
             }
         for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_contains(&sc->loads[k].region, face->centroid)) {
+            if (pf_region_selects_face(&sc->loads[k].region, d->mesh, face->face, face->centroid)) {
                 ++*loaded_faces;
                 break;
             }
@@ -460,16 +464,24 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     PF_CHECK(d, err, PF_ERR_NOMEM, "cannot allocate the DG method");
     d->scene = scene;
     d->mesh = mesh;
-    pf_dg_reuse dg_reuse = {0};
-    if (reuse)
-        dg_reuse = (pf_dg_reuse){.old = &((const dg_method *)reuse->old)->dg,
-                                 .old_mesh = reuse->old_mesh,
-                                 .parent = reuse->parent,
-                                 .same_solid = reuse->same_solid,
-                                 .same_faces = reuse->same_faces,
-                                 .face_src = reuse->face_src};
-    pf_status st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, scene->E, scene->nu,
-                                        scene->density, reuse ? &dg_reuse : NULL, err);
+    pf_material *table = NULL;
+    int32_t *elem = NULL, n_materials = 0;
+    pf_status st = pf_scene_materials(scene, mesh, &table, &n_materials, &elem, err);
+    if (st >= 0) {
+        pf_materials mat = {.n = n_materials, .table = table, .elem = elem};
+        pf_dg_reuse dg_reuse = {0};
+        if (reuse)
+            dg_reuse = (pf_dg_reuse){.old = &((const dg_method *)reuse->old)->dg,
+                                     .old_mesh = reuse->old_mesh,
+                                     .parent = reuse->parent,
+                                     .same_solid = reuse->same_solid,
+                                     .same_faces = reuse->same_faces,
+                                     .face_src = reuse->face_src};
+        st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, &mat, reuse ? &dg_reuse : NULL,
+                                  err);
+    }
+    pf_free(table);
+    pf_free(elem);
     if (st >= 0) {
         d->x0 = pf_alloc_array((size_t)(d->dg.n_dofs ? d->dg.n_dofs : 1), sizeof *d->x0);
         d->rot = pf_alloc_array(9 * (size_t)(d->dg.n_elems ? d->dg.n_elems : 1), sizeof *d->rot);

@@ -199,7 +199,8 @@ pf_status pf_sim_merge(pf_sim *s, const int32_t *group, int32_t *n_merged, pf_er
     pf_mesh_change change = {.old_mesh = s->mesh,
                              .parent = res.parent,
                              .merged_into = merged_into,
-                             .node_map = res.node_map};
+                             .node_map = res.node_map,
+                             .face_src = res.face_src};
     pf_sim *old = NULL;
     if (st >= 0 && res.n_merged > 0)
         st = pf_sim_change_mesh(s, &next, &change, res.changed, &old, err);

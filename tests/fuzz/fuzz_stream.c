@@ -73,6 +73,23 @@ static int decode_and_reencode(const pf_chunk *c, pf_buffer *re)
         if ((s = pf_stream_decode_scene(c, &json, &n, &err)) == PF_OK)
             require(pf_stream_encode_scene(json, n, re, &err) == PF_OK, "decoded SCEN re-encodes");
         pf_free(json);
+    } else if (strcmp(c->tag, "GRPS") == 0 && c->size >= 20) {
+        /* the groups of a mesh with the counts the header names (the decoder checks them) */
+        pf_mesh m = {0};
+        m.id = (uint64_t)c->payload[0] | (uint64_t)c->payload[1] << 8 |
+               (uint64_t)c->payload[2] << 16 | (uint64_t)c->payload[3] << 24 |
+               (uint64_t)c->payload[4] << 32 | (uint64_t)c->payload[5] << 40 |
+               (uint64_t)c->payload[6] << 48 | (uint64_t)c->payload[7] << 56;
+        uint32_t counts[2];
+        for (int k = 0; k < 2; ++k)
+            counts[k] = (uint32_t)c->payload[8 + 4 * k] | (uint32_t)c->payload[9 + 4 * k] << 8 |
+                        (uint32_t)c->payload[10 + 4 * k] << 16 |
+                        (uint32_t)c->payload[11 + 4 * k] << 24;
+        m.n_elems = counts[0] > INT32_MAX ? -1 : (int32_t)counts[0];
+        m.n_faces = counts[1] > INT32_MAX ? -1 : (int32_t)counts[1];
+        if ((s = pf_stream_decode_groups(c, &m, &err)) == PF_OK)
+            require(pf_stream_encode_groups(&m, re, &err) == PF_OK, "decoded GRPS re-encodes");
+        pf_mesh_groups_release(&m);
     } else if (strcmp(c->tag, "END_") == 0) {
         pf_end_data d;
         if ((s = pf_stream_decode_end(c, &d, &err)) == PF_OK)

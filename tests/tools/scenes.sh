@@ -12,13 +12,17 @@ scenes=$root/data/scenes
 for f in "$scenes"/*.json; do
   name=$(basename "$f" .json)
   mesh=$tmp/torus.pfs
-  case "$name" in cantilever*) mesh=$tmp/beam.pfs ;; esac
+  case "$name" in
+    cantilever*) mesh=$tmp/beam.pfs ;;
+    two_materials) "$bin/pf-import" "$scenes/two_materials.msh" --quiet >"$tmp/groups.pfs"
+                   mesh=$tmp/groups.pfs ;;
+  esac
   expect 0 "" "$bin/pf-sim" "$f" --frames 2 --quiet --input "$mesh"
   "$bin/pf-sim" "$f" --frames 2 --quiet <"$mesh" | "$bin/pf-info" --scene >"$tmp/scene_$name.json"
   check "$name: the stream's scene reads back as a scene file" bash -c \
     "'$bin/pf-sim' '$tmp/scene_$name.json' --frames 0 --quiet --input '$mesh' >/dev/null"
 done
-check "at least the six example scenes" test "$(ls "$tmp"/scene_*.json | wc -l)" -ge 6
+check "at least the seven example scenes" test "$(ls "$tmp"/scene_*.json | wc -l)" -ge 7
 
 # every key in the first column of docs/scene.md's key tables (header 'key ...') appears in some example's scene
 python3 - "$root/docs/scene.md" "$tmp"/scene_*.json >"$tmp/keys.txt" <<'PY'

@@ -91,4 +91,24 @@ check "the frames before the divergence are written: 0, 1, 2" \
   grep -q '^FRAM .*: 3 frames of mesh 0, time 0 \.\. 0\.08' "$tmp/diverged.txt"
 check "the stream ends with END_ counting those 3 frames" grep -q '^END_ .*, 3 frames$' "$tmp/diverged.txt"
 check "no truncation reported" bash -c "! grep -qi truncated '$tmp/diverged.txt'"
+
+# --stats FILE: the run's statistics as JSON, also for the diverged run (3 frames advanced)
+"$bin/pf-sim" "$tmp/diverge.json" --quiet --stats "$tmp/stats.json" <"$tmp/cube.pfs" >/dev/null 2>&1
+check "--stats after a divergence: 2 frames advanced, 3 steps (the diverging one too), no .part left" python3 -c "
+import json, os, sys
+s = json.load(open('$tmp/stats.json'))
+sys.exit(0 if s['frames'] == 2 and s['steps'] == 3 and not os.path.exists('$tmp/stats.json.part') else 1)"
+"$bin/pf-sim" --quiet --frames 3 --solver pcg --stats "$tmp/stats.json" <"$tmp/cube.pfs" >/dev/null
+check "--stats: counts and seconds that agree with each other" python3 -c "
+import json, sys
+s = json.load(open('$tmp/stats.json'))
+v = s['solver']
+ok = (s['frames'] == 3 and s['steps'] == 30 and v['method'] == 'pcg' and v['solves'] == 30
+      and sum(v['factorisations_by_reason'].values()) == v['factorisations'] >= 1
+      and v['pcg_iterations_max'] >= v['pcg_iterations_mean'] >= 0 and s['dofs'] > 0
+      and all(s['seconds'][k]['wall'] >= 0 and s['seconds'][k]['cpu'] >= 0
+              for k in ('run', 'factorisation', 'solves'))
+      and s['seconds']['run']['wall'] >= s['seconds']['setup'])
+sys.exit(0 if ok else 1)"
+expect 1 "cannot" "$bin/pf-sim" --quiet --frames 0 --stats "$tmp/no/such/dir/stats.json" --input "$tmp/cube.pfs"
 finish

@@ -32,6 +32,29 @@ extern "C" {
 /* Lame parameters from Young's modulus and Poisson's ratio (nu in (-1, 1/2)). */
 void pf_lame(double E, double nu, double *lambda, double *mu);
 
+/* An isotropic material: Young's modulus (stress units), Poisson's ratio, density (mass per unit
+ * volume) and its Lame parameters. */
+typedef struct pf_material {
+    double E, nu, density;
+    double lambda, mu; /* pf_lame(E, nu) */
+} pf_material;
+
+/* The material with its Lame parameters. */
+pf_material pf_material_make(double E, double nu, double density);
+/* The largest p-wave modulus lambda + 2 mu, and the largest (lambda + 2 mu) / density, of the n
+ * materials of table. */
+void pf_material_stiffest(const pf_material *table, int32_t n, double *modulus,
+                          double *modulus_per_density);
+
+/* Materials over a mesh's elements (borrowed by the create functions, which copy them): element e
+ * is made of table[elem[e]]; elem NULL: every element of table[0]. n >= 1, every material with
+ * E > 0, nu in (-1, 1/2), density > 0, every elem[e] in [0, n). */
+typedef struct pf_materials {
+    int32_t n;
+    const pf_material *table; /* [n] */
+    const int32_t *elem;      /* [n_elems] or NULL */
+} pf_materials;
+
 /* ==== polynomials in local frames =============================================================
  * A polynomial of degree <= d is its coefficients in the graded monomial order of pf/integrate.h
  * (pf_moment_count(d) of them). */
@@ -71,8 +94,12 @@ typedef struct pf_dg {
     int32_t degree; /* 1 or 2 */
     int32_t nb;     /* basis functions per element: 4 or 10 */
     int32_t n_elems;
-    int64_t n_dofs; /* 3 nb n_elems */
-    double lambda, mu, density;
+    int64_t n_dofs;             /* 3 nb n_elems */
+    double lambda, mu, density; /* materials[0]'s (the whole body's when there is one material) */
+    int32_t n_materials;
+    pf_material *materials; /* [n_materials] */
+    int32_t *elem_material; /* [n_elems] index into materials: one array, so that children of a
+                               refined element take their parent's entry */
     double body_length; /* (total volume)^(1/3): the fixed length BZ's penalty growth is measured
                            against (pf_dg_face_penalty) */
     pf_frame *frame;  /* [n_elems] */
@@ -101,6 +128,17 @@ typedef struct pf_dg {
  * (pf_mesh_derive). PF_ERR_INVALID for a degree other than 1 or 2 or a bad material. */
 pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
                        double density, pf_error *err);
+/* The same with several materials (one per element); face terms between elements of different
+ * materials take each side's stress for the consistency terms and the stiffer side's moduli
+ * (the larger lambda and mu) for the penalty. */
+pf_status pf_dg_create_materials(pf_dg *dg, const pf_mesh *m, int32_t degree,
+                                 const pf_materials *materials, pf_error *err);
+/* Element e's material. */
+static inline const pf_material *pf_dg_material(const pf_dg *dg, int32_t e)
+{
+    return &dg->materials[dg->elem_material[e]];
+}
+
 void pf_dg_release(pf_dg *dg);
 
 /* What a refined mesh (pf/refine.h) takes over from the set-up of the mesh it came from: element
@@ -122,10 +160,12 @@ typedef struct pf_dg_reuse {
                                 position in same_faces elements */
 } pf_dg_reuse;
 
-/* pf_dg_create, copying what reuse allows (NULL: nothing); dg->reused_elems and
+/* pf_dg_create_materials, copying what reuse allows (NULL: nothing: an element copied keeps
+ * its parent's material, as every element that is its parent's solid does); dg->reused_elems and
  * dg->reused_faces count what was copied. */
-pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, double nu,
-                               double density, const pf_dg_reuse *reuse, pf_error *err);
+pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree,
+                               const pf_materials *materials, const pf_dg_reuse *reuse,
+                               pf_error *err);
 
 /* The coefficient vector of the rest positions, X0 of sec. 6.2 (x = sum_a x0_a phi_a), [n_dofs]. */
 void pf_dg_rest_coefficients(const pf_dg *dg, double *x0);
@@ -219,6 +259,9 @@ void pf_dg_mass_mul(const pf_dg *dg, double alpha, const double *x, double *y);
 /* Adds the body force (force per unit volume b, constant) and the traction t on mesh face
  * `face` (force per area) to f. */
 void pf_dg_add_body_force(const pf_dg *dg, pf_vec3 b, double *f);
+/* f += int_K phi (rho_K g + b) over every element K: gravity g (acceleration) on each element's
+ * own density, plus the force per unit volume b. */
+void pf_dg_add_gravity(const pf_dg *dg, pf_vec3 g, pf_vec3 b, double *f);
 void pf_dg_add_traction(const pf_dg *dg, int32_t face, pf_vec3 t, double *f);
 
 /* ==== polynomial data (manufactured solutions) ================================================
@@ -312,10 +355,14 @@ pf_cg_params pf_cg_params_default(void);
 
 typedef struct pf_cg {
     int32_t n_nodes, n_elems;
-    double lambda, mu, density;
-    pf_basis basis;      /* shape functions; element e's nodes: pf_basis_elem_nodes(&basis, e) */
-    int32_t max_nodes;   /* largest node count of an element */
-    double *ke;          /* element stiffness matrices, unwarped: see pf_cg_elem_stiffness */
+    double lambda, mu, density; /* materials[0]'s (the whole body's when there is one material) */
+    int32_t n_materials;
+    pf_material *materials; /* [n_materials] */
+    int32_t *elem_material; /* [n_elems] index into materials (children of a refined element take
+                               their parent's entry) */
+    pf_basis basis;         /* shape functions; element e's nodes: pf_basis_elem_nodes(&basis, e) */
+    int32_t max_nodes;      /* largest node count of an element */
+    double *ke;             /* element stiffness matrices, unwarped: see pf_cg_elem_stiffness */
     int64_t *ke_offsets; /* [n_elems + 1]: element e's K_e is (3k)^2 doubles from ke_offsets[e] */
     int64_t *me_offsets; /* [n_elems + 1]: element e's M_e is k^2 doubles from me_offsets[e] */
     double *me;          /* int_e rho N_a N_b, row-major k x k */
@@ -341,6 +388,14 @@ typedef struct pf_cg {
  * report (the message names the element); PF_ERR_NOMEM. */
 pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double density,
                        const pf_cg_params *params, pf_error *err);
+/* The same with several materials (pf_materials: one per element). */
+pf_status pf_cg_create_materials(pf_cg *cg, const pf_mesh *m, const pf_materials *materials,
+                                 const pf_cg_params *params, pf_error *err);
+/* Element e's material. */
+static inline const pf_material *pf_cg_material(const pf_cg *cg, int32_t e)
+{
+    return &cg->materials[cg->elem_material[e]];
+}
 void pf_cg_release(pf_cg *cg);
 
 /* Element e's stored (unwarped) stiffness, (3k)^2 row-major, and mass, k^2 row-major. */
@@ -407,6 +462,9 @@ void pf_cg_mass_mul(const pf_cg *cg, const pf_cg_map *map, bool lumped, double a
  * bd->face[index] of m: f_a += t int_face N_a dA over the face's triangles (bd from
  * pf_boundary_extract of m) with a degree-4 Gauss rule per triangle (exact for closed forms). */
 void pf_cg_add_body_force(const pf_cg *cg, pf_vec3 b, double *f);
+/* f += int N_a (rho_e g + b) over every element e: gravity g (acceleration) on each element's own
+ * density, plus the force per unit volume b. */
+void pf_cg_add_gravity(const pf_cg *cg, pf_vec3 g, pf_vec3 b, double *f);
 void pf_cg_add_traction(const pf_cg *cg, const pf_mesh *m, const pf_boundary *bd, int32_t index,
                         pf_vec3 t, double *f);
 

@@ -50,11 +50,12 @@ typedef struct pf_chunk {
 } pf_chunk;
 
 /* ---- the chunk table ----------------------------------------------------------------------------
- * Known tags: INFO SCEN MESH SURF WGHT FRAM STRS END_. Critical: a tool that consumes such a chunk
- * and cannot decode it (an unknown version) must stop rather than skip it (SCEN MESH SURF WGHT FRAM
- * END_). Mesh-dependent: refers to the nodes or elements of the latest MESH and is dropped or
- * recomputed by a tool that emits a new MESH (WGHT FRAM STRS). Unknown tags are neither; tools pass
- * them on byte for byte. tag is a NUL-terminated string; anything but 4 characters is unknown. */
+ * Known tags: INFO SCEN MESH SURF WGHT FRAM STRS END_ GRPS. Critical: a tool that consumes such a
+ * chunk and cannot decode it (an unknown version) must stop rather than skip it (SCEN MESH SURF
+ * WGHT FRAM END_). Mesh-dependent: refers to the nodes or elements of the latest MESH and is
+ * dropped or recomputed by a tool that emits a new MESH (WGHT FRAM STRS GRPS). Unknown tags are
+ * neither; tools pass them on byte for byte. tag is a NUL-terminated string; anything but 4
+ * characters is unknown. */
 bool pf_stream_tag_is_known(const char *tag);
 bool pf_stream_tag_is_critical(const char *tag);
 bool pf_stream_tag_is_mesh_dependent(const char *tag);
@@ -197,10 +198,18 @@ pf_status pf_stream_frame_index(const pf_chunk *c, uint32_t *index, pf_error *er
 pf_status pf_stream_decode_stress(const pf_chunk *c, pf_stress_data *s, pf_error *err);
 pf_status pf_stream_decode_end(const pf_chunk *c, pf_end_data *d, pf_error *err);
 
+/* GRPS: the regions (Gmsh physical groups) of a mesh, docs/stream-format.md. The encoder writes
+ * m's groups (PF_ERR_INVALID when m has none or a tag names no group of its dimension); the
+ * decoder gives them to m, the mesh the chunk names (its id, element and face counts checked:
+ * PF_ERR_FORMAT naming the chunk otherwise), replacing groups m had. */
+pf_status pf_stream_encode_groups(const pf_mesh *m, pf_buffer *out, pf_error *err);
+pf_status pf_stream_decode_groups(const pf_chunk *c, pf_mesh *m, pf_error *err);
+
 /* ---- encode and write in one call (the writer reuses one scratch buffer) --------------------- */
 pf_status pf_stream_write_info(pf_stream_writer *w, const char *producer, const char *version,
                                const char *command, pf_error *err);
 pf_status pf_stream_write_scene(pf_stream_writer *w, const char *json, size_t size, pf_error *err);
+/* MESH, followed by its GRPS when the mesh has groups. */
 pf_status pf_stream_write_mesh(pf_stream_writer *w, const pf_mesh *m, pf_error *err);
 pf_status pf_stream_write_surface(pf_stream_writer *w, const pf_surface *s, pf_error *err);
 pf_status pf_stream_write_weights(pf_stream_writer *w, const pf_weights *wt, pf_error *err);
@@ -215,6 +224,8 @@ pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, p
  * - MESH replaces the latest mesh and is recorded in the list of meshes; the weights and stress
  *   of the previous mesh are dropped (mesh-dependent chunks refer to the latest MESH);
  * - SURF replaces the latest surface and drops the weights;
+ * - GRPS gives the latest MESH its groups when it names it (id, element and face counts); the
+ *   groups of another mesh, or of a version this pf does not read, are ignored (not critical);
  * - WGHT must name the latest SURF and the latest MESH by id, with their vertex and node counts;
  * - STRS must name the latest MESH with its element count;
  * - FRAM must name the latest MESH with its node count; a frame of an earlier mesh or of a mesh no
@@ -280,6 +291,11 @@ void pf_stream_state_release(pf_stream_state *s);
  * refuse non-finite coordinates and out-of-range indices before building anything, and leave their
  * output zeroed after a failure. Exporters write each file to "path.part" and rename it over path,
  * so a file is either absent, the old one, or complete. */
+
+/* Writes size bytes to path atomically: to "path.part", renamed over path when complete, so
+ * path is either the old file or the whole new one. PF_ERR_IO "PATH: cannot write WHAT: REASON". */
+pf_status pf_write_file_atomic(const char *path, const void *data, size_t size, const char *what,
+                               pf_error *err);
 
 /* True when path names a volume mesh by its extension (.msh, .node, .ele, case-insensitive), or
  * is the stem of a TetGen pair: no file of that name, STEM.node beside it. */

@@ -33,6 +33,14 @@ typedef enum pf_elem_kind {
     PF_ELEM_KIND_COUNT = 3
 } pf_elem_kind;
 
+/* A named region of a mesh (a Gmsh physical group): its number (> 0), its dimension (3: a set of
+ * elements, 2: a set of faces) and its name (NUL-terminated, pf_alloc; may be empty). */
+typedef struct pf_mesh_group {
+    int32_t number;
+    int32_t dim;
+    char *name;
+} pf_mesh_group;
+
 typedef struct pf_mesh {
     uint64_t id;            /* generation: a new id for every new topology (refinement, cutting) */
     int32_t n_nodes;
@@ -48,6 +56,15 @@ typedef struct pf_mesh {
     int32_t *face_elems;    /* [2 * n_faces]: the element using face f as stored, then the one
                                using it reversed; -1 where there is none */
     uint8_t *elem_kind;     /* [n_elems] pf_elem_kind */
+
+    /* Optional regions (Gmsh physical groups; the GRPS chunk of the stream), NULL / 0 when the
+     * mesh has none. A group number is > 0; 0 means "in no group". Kept by pf_mesh_copy and
+     * pf_mesh_select_elements; builders and other edits leave them NULL. */
+    int32_t *elem_group; /* [n_elems] the 3D group of each element, or NULL */
+    int32_t *face_group; /* [n_faces] the 2D group of each face, or NULL */
+    int32_t n_groups;
+    pf_mesh_group *groups; /* [n_groups] numbers, dimensions and names, numbers unique per
+                              dimension */
 } pf_mesh;
 
 /* Allocates all arrays of an empty mesh with the given counts (contents uninitialised except
@@ -58,6 +75,19 @@ pf_status pf_mesh_alloc(pf_mesh *m, int32_t n_nodes, int32_t n_faces, int64_t n_
 void pf_mesh_release(pf_mesh *m);
 /* Deep copy of src into dst (dst zeroed or released first). */
 pf_status pf_mesh_copy(pf_mesh *dst, const pf_mesh *src, pf_error *err);
+
+/* Gives m (without groups) the arrays of groups: elem_group and face_group zeroed (in no group),
+ * n_groups entries with zero numbers and NULL names for the caller to fill. PF_ERR_NOMEM. */
+pf_status pf_mesh_groups_alloc(pf_mesh *m, int32_t n_groups, pf_error *err);
+/* Frees the group arrays and names of m (the mesh itself stays). */
+void pf_mesh_groups_release(pf_mesh *m);
+/* Gives dst (which has none) src's groups: the names, and the arrays copied when dst has src's
+ * element and face counts (zeroed otherwise, for the caller to fill). Nothing when src has no
+ * groups. PF_ERR_NOMEM. */
+pf_status pf_mesh_groups_copy(pf_mesh *dst, const pf_mesh *src, pf_error *err);
+/* The group of dimension dim named name (NULL name: number given) in m; NULL when none. */
+const pf_mesh_group *pf_mesh_find_group(const pf_mesh *m, int32_t dim, const char *name,
+                                        int32_t number);
 
 /* Computes face_elems and elem_kind. Fails (PF_ERR_INVALID, naming the face) when a face is
  * used by more than two elements or twice with the same orientation, or when an index is out of

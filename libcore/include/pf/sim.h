@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include <pf/base.h>
+#include <pf/fem.h>
 #include <pf/geom.h>
 #include <pf/mesh.h>
 #include <pf/refine.h>
@@ -28,14 +29,23 @@ typedef enum pf_flux { PF_FLUX_IP = 0, PF_FLUX_BZ = 1 } pf_flux;
 typedef enum pf_mass { PF_MASS_CONSISTENT = 0, PF_MASS_LUMPED = 1 } pf_mass;
 
 /* A selection of boundary faces: those whose centroid lies in the box (bounds inclusive), or
- * within tol of the plane. */
-typedef enum pf_region_kind { PF_REGION_BOX = 0, PF_REGION_PLANE = 1 } pf_region_kind;
+ * within tol of the plane, or the faces of a mesh group of dimension 2 (a Gmsh physical surface,
+ * pf_mesh.face_group). For materials, a selection of elements: centroid in the box, or in a
+ * group of dimension 3. */
+typedef enum pf_region_kind {
+    PF_REGION_BOX = 0,
+    PF_REGION_PLANE = 1,
+    PF_REGION_GROUP = 2
+} pf_region_kind;
+enum { PF_GROUP_NAME_MAX = 128 }; /* bytes of a group name, its NUL included */
 typedef struct pf_region {
     pf_region_kind kind;
-    pf_vec3 lo, hi; /* box corners, lo <= hi componentwise */
-    pf_plane plane; /* unit normal */
-    double tol;     /* plane: distance tolerance, model units, >= 0; -1 when the scene did not
-                       give one: pf_scene_resolve then sets 1e-6 x the bounding-box diagonal */
+    int32_t group;                      /* group: its number (> 0), or 0 when given by name */
+    char group_name[PF_GROUP_NAME_MAX]; /* group: its name ("" when given by number) */
+    pf_vec3 lo, hi;                     /* box corners, lo <= hi componentwise */
+    pf_plane plane;                     /* unit normal */
+    double tol; /* plane: distance tolerance, model units, >= 0; -1 when the scene did not
+                   give one: pf_scene_resolve then sets 1e-6 x the bounding-box diagonal */
 } pf_region;
 
 /* A fixed region: weak Dirichlet on its faces (DG) or every node of its faces fixed (CG), to
@@ -50,6 +60,14 @@ typedef struct pf_load {
     pf_region region;
     pf_vec3 traction;
 } pf_load;
+
+/* A material of the elements a region selects (box: element centroid, the mean of its faces'
+ * vertices, inside; group: a mesh group of dimension 3). Values the entry does not give are the
+ * scene's material's. */
+typedef struct pf_material_region {
+    pf_region region;
+    double E, nu, density;
+} pf_material_region;
 
 /* An obstacle: a rigid solid the body cannot enter, penalty contact (DG paper sec. 8). Plane: the
  * half-space below the plane through point with the unit normal (pointing out of the solid);
@@ -113,6 +131,10 @@ typedef struct pf_scene {
     double E;       /* Young's modulus, stress units (default 1e5) */
     double nu;      /* Poisson's ratio, in (-1, 0.5) (default 0.3) */
     double density; /* mass per unit volume (default 1000) */
+    /* more materials, each for the elements its region selects (the first entry that selects an
+     * element wins; the others are of the material above) */
+    int32_t n_materials;
+    pf_material_region *materials;
 
     /* method */
     pf_method method;     /* default dg */
@@ -225,8 +247,21 @@ pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err);
 void pf_scene_release(pf_scene *s);
 
 /* True when point p (a face centroid) is selected by region r: a box with inclusive bounds, a
- * plane when |signed distance| <= tol (never, while tol is still -1: resolve first). */
+ * plane when |signed distance| <= tol (never, while tol is still -1: resolve first); never for a
+ * group (pf_region_selects_face). */
 bool pf_region_contains(const pf_region *r, pf_vec3 p);
+
+/* True when region r selects face f of mesh m, whose centroid is c: a group when m lists it with
+ * dimension 2 and f is in it; pf_region_contains(r, c) otherwise. */
+bool pf_region_selects_face(const pf_region *r, const pf_mesh *m, int32_t f, pf_vec3 c);
+
+/* The per-element materials of the scene on mesh m: *table [*n] (entry 0 the scene's material,
+ * k + 1 materials[k]) and *elem [m->n_elems] (pf_alloc'd, pf_free them), the first materials
+ * entry that selects an element, else 0. Also checks that every group the scene names (fixed,
+ * loads: dimension 2; materials: dimension 3) is one of the mesh's: PF_ERR_INVALID "fixed[1].group:
+ * the mesh has no group 'name' of faces (its groups: ...)". PF_ERR_NOMEM. */
+pf_status pf_scene_materials(const pf_scene *s, const pf_mesh *m, pf_material **table, int32_t *n,
+                             int32_t **elem, pf_error *err);
 
 /* ==== simulator ===============================================================================
  * One scene on one mesh. Dynamic scenes advance frame by frame (pf_sim_frame); static scenes solve
@@ -371,6 +406,14 @@ pf_status pf_sim_merge(pf_sim *sim, const int32_t *group, int32_t *n_merged, pf_
  * (and splits wait for the next call). pf_sim_frame calls it after every frame when the scene
  * refines. *n_changed (may be NULL): the elements split or groups merged. */
 pf_status pf_sim_refine(pf_sim *sim, int32_t *n_changed, pf_error *err);
+
+/* The run's statistics as a JSON object (docs/scene.md, "Run statistics"): pf_sim_get_stats with
+ * the solver's factorisations by reason, PCG iterations (mean and largest), seconds per phase
+ * (wall, and CPU where measured), frames and simulated time, and the whole run's wall_seconds and
+ * cpu_seconds as the caller measured them. *json is NUL-terminated, freed with pf_free.
+ * PF_ERR_NOMEM. */
+pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_seconds,
+                            char **json, pf_error *err);
 
 #ifdef __cplusplus
 }

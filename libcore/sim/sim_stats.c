@@ -1,0 +1,75 @@
+/* The run's statistics as JSON (pf-sim --stats FILE): the simulator's and the solver's counters
+ * and timings for pipelines and render farms. Keys are documented in docs/scene.md, "Run
+ * statistics"; times are seconds, wall-clock unless the key says cpu. */
+#include <pf/sim.h>
+
+#include <cjson/cJSON.h>
+
+#include "scene_json.h"
+
+static void add_int(cJSON *o, const char *key, int64_t v)
+{
+    cJSON_AddNumberToObject(o, key, (double)v);
+}
+
+static cJSON *wall_cpu(cJSON *o, const char *key, double wall, double cpu)
+{
+    cJSON *t = cJSON_AddObjectToObject(o, key);
+    cJSON_AddNumberToObject(t, "wall", wall);
+    cJSON_AddNumberToObject(t, "cpu", cpu);
+    return t;
+}
+
+static void add_solver(cJSON *root, const pf_solver_stats *ss)
+{
+    cJSON *s = cJSON_AddObjectToObject(root, "solver");
+    cJSON_AddStringToObject(s, "method", pf_solver_method_name(ss->method));
+    add_int(s, "solves", ss->solves);
+    add_int(s, "factorisations", ss->factorisations);
+    cJSON *reasons = cJSON_AddObjectToObject(s, "factorisations_by_reason");
+    for (int k = 0; k < PF_REFACTOR_REASONS; ++k)
+        add_int(reasons, pf_refactor_reason_name((pf_refactor_reason)k), ss->by_reason[k]);
+    add_int(s, "pcg_solves", ss->pcg_solves);
+    add_int(s, "pcg_iterations", ss->iterations);
+    cJSON_AddNumberToObject(s, "pcg_iterations_mean",
+                            ss->pcg_solves ? (double)ss->iterations / (double)ss->pcg_solves : 0);
+    add_int(s, "pcg_iterations_max", ss->max_iterations);
+    cJSON_AddNumberToObject(s, "factorisation_cost_in_iterations", ss->factor_iterations);
+    add_int(s, "matrix_nnz", ss->matrix_nnz);
+    add_int(s, "factor_nnz", ss->factor_nnz);
+}
+
+pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_seconds, char **json,
+                            pf_error *err)
+{
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    cJSON *root = cJSON_CreateObject();
+    if (root) {
+        add_int(root, "frames", pf_sim_frame_index(sim));
+        cJSON_AddNumberToObject(root, "simulated_time", pf_sim_time(sim));
+        add_int(root, "steps", st->steps);
+        add_int(root, "dofs", st->dofs);
+        cJSON_AddNumberToObject(root, "penalty", st->penalty);
+        add_int(root, "penalty_doublings", st->penalty_doublings);
+        add_int(root, "fixed_faces", st->fixed_faces);
+        add_int(root, "loaded_faces", st->loaded_faces);
+        add_int(root, "contact_points", st->contact_points);
+        add_int(root, "contact_samples", st->contact_samples);
+        add_int(root, "contacts", st->contacts);
+        cJSON *cg = cJSON_AddObjectToObject(root, "cg");
+        add_int(cg, "closed_form_elements", st->closed_form_elems);
+        add_int(cg, "harmonic_elements", st->harmonic_elems);
+        add_int(cg, "kernels", st->kernels);
+        cJSON *sec = cJSON_AddObjectToObject(root, "seconds");
+        wall_cpu(sec, "run", wall_seconds, cpu_seconds);
+        cJSON_AddNumberToObject(sec, "setup", st->setup_seconds);
+        cJSON_AddNumberToObject(sec, "basis", st->basis_seconds);
+        cJSON_AddNumberToObject(sec, "assembly", st->assemble_seconds);
+        cJSON_AddNumberToObject(sec, "contact_search", st->contact_seconds);
+        cJSON_AddNumberToObject(sec, "contact_positions", st->embed_seconds);
+        wall_cpu(sec, "factorisation", st->solver.factor_seconds, st->solver.factor_cpu_seconds);
+        wall_cpu(sec, "solves", st->solver.solve_seconds, st->solver.solve_cpu_seconds);
+        add_solver(root, &st->solver);
+    }
+    return pf_sim_json_print(root, "the run's statistics", json, err);
+}

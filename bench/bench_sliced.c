@@ -4,10 +4,10 @@
  *   bench_sliced           CSV, one row per harmonic cell and setting:
  *                          mesh,setting,xi,grading,patch_angle,element,nodes,faces,kernels,
  *                          setup_ms,boundary_error
- *   bench_sliced summary   CSV, one row per mesh and setting: median, worst-decile and largest
- *                          boundary error, median kernels and set-up time, CPU seconds of the
- *                          whole basis:
- *                          mesh,setting,xi,grading,patch_angle,cells,median_error,decile_error,
+ *   bench_sliced summary [MESH...]
+ *                          CSV, one row per mesh (sphere, torus, bunny; default all) and setting:
+ * median, worst-decile and largest boundary error, median kernels and set-up time, CPU seconds of
+ * the whole basis: mesh,setting,xi,grading,patch_angle,cells,median_error,decile_error,
  *                          max_error,median_kernels,median_setup_ms,cpu_seconds
  *
  * Meshes: the unit sphere of 8 x 16 facets sliced 6 cells across (what `pf-slice sphere.obj
@@ -94,6 +94,11 @@ int main(int argc, char **argv)
         printf("mesh,setting,xi,grading,patch_angle,element,nodes,faces,kernels,setup_ms,"
                "boundary_error\n");
     for (int mi = 0; mi < 3; ++mi) {
+        bool wanted = argc <= 2;
+        for (int a = 2; a < argc; ++a)
+            wanted = wanted || strcmp(argv[a], meshes[mi]) == 0;
+        if (!wanted)
+            continue;
         pf_mesh m = {0};
         if (slice(meshes[mi], &m) != 0)
             return 1;

@@ -64,8 +64,8 @@
  *     more than one loop or more than 32 inner nodes keeps per-facet data.
  * Measured on every harmonic cell of the 8 x 16 sphere sliced 6 across (pf-slice --res 6, 128
  * cells; bench/bench_sliced.c): median boundary error 12 % at the defaults; 0.68 % (worst decile
- * from 1.6 %, largest 2.4 %) with pf_basis_params_accurate, at 6x the kernels and 8x the CPU
- * time of the basis (grading 0.3: 0.91 %, 2.6 % and 2.9 % at 3.8x the CPU time). The CG
+ * from 1.6 %, largest 2.4 %) with pf_basis_params_accurate, at 6x the kernels and 10x the CPU
+ * time of the basis (grading 0.3: 0.91 %, 2.6 % and 2.9 % at 5x the CPU time). The CG
  * simulator keeps the defaults for now: its quadrature degree was chosen so that the
  * quadrature error stays below the basis error of the default functions, which the accurate
  * functions are well below (tests/test_cg.c, quadrature_order_converges).

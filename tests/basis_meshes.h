@@ -148,16 +148,22 @@ static inline void make_l_mesh(pf_mesh *m)
     pf_mesh_release(&box);
 }
 
-static inline void make_sphere_mesh(pf_mesh *m)
+/* The unit sphere of 8 x 16 facets sliced by a grid of res cells across. */
+static inline void make_sphere_mesh_res(pf_mesh *m, int32_t res)
 {
     pf_error err = {0};
     pf_surface s = {0};
     assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
     pf_slice_params p = pf_slice_params_default();
-    p.grid.res = 3;
+    p.grid.res = res;
     assert_int_equal(pf_mesh_slice(m, &s, &p, NULL, &err), PF_OK);
     assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
     pf_surface_release(&s);
+}
+
+static inline void make_sphere_mesh(pf_mesh *m)
+{
+    make_sphere_mesh_res(m, 3);
 }
 
 #endif

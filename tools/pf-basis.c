@@ -9,7 +9,8 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-basis [--json] [--xi X] [--edge-samples N] [--force-mfs] [FILE | -]\n"
+    "Usage: pf-basis [--json] [--accurate] [--xi X] [--edge-samples N] [--grading G]\n"
+    "                [--patch-angle DEG] [--force-mfs] [FILE | -]\n"
     "\n"
     "Builds the CG shape functions of every MESH in a pf stream (default: stdin) and reports per\n"
     "element: kind (tet / hex closed forms, harmonic by the method of fundamental solutions),\n"
@@ -20,6 +21,12 @@ static const char USAGE[] =
     "  --json             one JSON object per line and element, the summary last\n"
     "  --xi X             kernel offset as a fraction of the element size (default 0.1)\n"
     "  --edge-samples N   kernel samples inside each edge (default 2)\n"
+    "  --accurate         the settings for sliced cells (pf_basis_params_accurate): xi 0.2,\n"
+    "                     grading 0.2, patch angle 60; the flags below override them\n"
+    "  --grading G        samples graded by feature size, spacing growing at rate G away\n"
+    "                     from short edges and small facets (default 0: uniform)\n"
+    "  --patch-angle DEG  smooth data on an element's mesh-boundary faces as one patch when\n"
+    "                     their normals lie within DEG degrees of their mean (default 0: off)\n"
     "  --force-mfs        harmonic functions also for tets and parallelepipeds\n"
     "  --quiet            no progress on stderr\n"
     "  --help, --version\n"
@@ -27,7 +34,16 @@ static const char USAGE[] =
     "Exit 1 on a damaged stream, a stream without MESH or an element the basis cannot handle\n"
     "(the message names it); 2 on bad usage.\n";
 
-enum { OPT_JSON = 1, OPT_XI, OPT_EDGES, OPT_FORCE, OPT_QUIET };
+enum {
+    OPT_JSON = 1,
+    OPT_XI,
+    OPT_EDGES,
+    OPT_FORCE,
+    OPT_QUIET,
+    OPT_ACCURATE,
+    OPT_GRADING,
+    OPT_PATCH
+};
 
 typedef struct tool {
     bool json, quiet;
@@ -138,32 +154,62 @@ static pf_status run(tool *t, FILE *f, const char *name, pf_error *err)
 
 int main(int argc, char **argv)
 {
-    static const pf_cli_option options[] = {
-        {"json", false, OPT_JSON},         {"xi", true, OPT_XI},
-        {"edge-samples", true, OPT_EDGES}, {"force-mfs", false, OPT_FORCE},
-        {"quiet", false, OPT_QUIET},       {NULL, false, 0}};
+    static const pf_cli_option options[] = {{"json", false, OPT_JSON},
+                                            {"xi", true, OPT_XI},
+                                            {"edge-samples", true, OPT_EDGES},
+                                            {"force-mfs", false, OPT_FORCE},
+                                            {"quiet", false, OPT_QUIET},
+                                            {"accurate", false, OPT_ACCURATE},
+                                            {"grading", true, OPT_GRADING},
+                                            {"patch-angle", true, OPT_PATCH},
+                                            {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-basis", USAGE, argc, argv);
     tool t = {.params = pf_basis_params_default()};
     const char *path = NULL, *value;
+    bool accurate = false;
+    double xi = 0, grading = -1, patch = -1;
+    int32_t edges = 0;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
-        if (id == OPT_JSON)
+        if (id == OPT_ACCURATE)
+            accurate = true;
+        else if (id == OPT_GRADING) {
+            grading = pf_cli_parse_double(&cli, "grading", value);
+            if (!(grading >= 0 && grading <= 10))
+                pf_cli_usage_error(&cli, "--grading must be in [0, 10]");
+        } else if (id == OPT_PATCH) {
+            patch = pf_cli_parse_double(&cli, "patch-angle", value);
+            if (!(patch >= 0 && patch < 90))
+                pf_cli_usage_error(&cli, "--patch-angle must be in [0, 90)");
+        } else if (id == OPT_JSON)
             t.json = true;
         else if (id == OPT_QUIET)
             t.quiet = true;
         else if (id == OPT_FORCE)
             t.params.force_mfs = true;
         else if (id == OPT_XI) {
-            t.params.xi = pf_cli_parse_double(&cli, "xi", value);
-            if (!(t.params.xi > 0 && t.params.xi <= 1))
+            xi = pf_cli_parse_double(&cli, "xi", value);
+            if (!(xi > 0 && xi <= 1))
                 pf_cli_usage_error(&cli, "--xi must be in (0, 1]");
         } else if (id == OPT_EDGES)
-            t.params.edge_samples = (int32_t)pf_cli_parse_long(&cli, "edge-samples", value, 1, 64);
+            edges = (int32_t)pf_cli_parse_long(&cli, "edge-samples", value, 1, 64);
         else if (path)
             pf_cli_usage_error(&cli, "one input only (got '%s' and '%s')", path, value);
         else
             path = value;
     }
+    bool force = t.params.force_mfs;
+    if (accurate)
+        t.params = pf_basis_params_accurate();
+    t.params.force_mfs = force;
+    if (xi > 0)
+        t.params.xi = xi;
+    if (edges > 0)
+        t.params.edge_samples = edges;
+    if (grading >= 0)
+        t.params.grading = grading;
+    if (patch >= 0)
+        t.params.patch_angle = patch;
     pf_error err = {0};
     FILE *f;
     const char *name;

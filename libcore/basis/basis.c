@@ -38,6 +38,15 @@ pf_basis_params pf_basis_params_default(void)
     return p;
 }
 
+pf_basis_params pf_basis_params_accurate(void)
+{
+    pf_basis_params p = pf_basis_params_default();
+    p.xi = 0.2;
+    p.grading = 0.2;
+    p.patch_angle = 60;
+    return p;
+}
+
 static pf_basis_params fill_defaults(const pf_basis_params *in)
 {
     pf_basis_params d = pf_basis_params_default(), p = in ? *in : d;
@@ -55,49 +64,15 @@ static pf_basis_params fill_defaults(const pf_basis_params *in)
         p.merge_tol = d.merge_tol;
     if (!(p.rank_rcond > 0))
         p.rank_rcond = d.rank_rcond;
+    if (!(p.grading > 0))
+        p.grading = 0;
+    if (!(p.patch_angle > 0))
+        p.patch_angle = 0;
     return p;
 }
 
 /* ---- element context ---------------------------------------------------------------------------
  */
-
-typedef struct edge3 {
-    int32_t a, b;   /* local nodes */
-    int32_t f1, f2; /* local faces */
-} edge3;
-
-typedef struct pt3 {
-    pf_vec3 x, nrm; /* position, outward direction for kernels */
-    int32_t a, b;   /* node a (a == b) or edge a-b at parameter t; face point when face >= 0 */
-    double t;
-    int32_t face; /* local face index, -1 for node / edge points */
-    double len;   /* local sample spacing: shortest edge at a node, the spacing along the edge
-                     or of the face's grid */
-} pt3;
-
-typedef struct elem_ctx {
-    const pf_mesh *m;
-    face_fn *faces; /* all mesh faces, frames made lazily */
-    int32_t e, nf, k, ng, ne;
-    int32_t *face_id;  /* [nf] */
-    int8_t *face_rev;  /* [nf] */
-    int64_t *floc_off; /* [nf + 1] into floc */
-    int32_t *floc;     /* local index of each face node */
-    int32_t nodes[PF_BASIS_MAX_NODES], slot[PF_BASIS_MAX_NODES];
-    pf_vec3 pos[PF_BASIS_MAX_NODES], nnrm[PF_BASIS_MAX_NODES];
-    double nlen[PF_BASIS_MAX_NODES]; /* shortest edge at each node */
-    double gcount[PF_BASIS_MAX_NODES];
-    int32_t grep[PF_BASIS_MAX_NODES]; /* representative node of each group */
-    edge3 *edges;
-    pf_vec3 c;
-    double h, diam, max_edge;
-} elem_ctx;
-
-static pf_vec3 face_out_normal(const elem_ctx *c, int32_t lf)
-{
-    pf_vec3 nn = c->faces[c->face_id[lf]].nrm;
-    return c->face_rev[lf] ? pf_v3_scale(nn, -1) : nn;
-}
 
 /* Ray parity against the element's faces (a fixed direction with no simple ratios, so a ray
  * through an edge or a vertex has probability zero for the points we test). */
@@ -256,6 +231,25 @@ static pf_status elem_setup(elem_ctx *c, const pf_basis_params *p, basis_ws *w, 
         }
     }
     PF_CHECK(c->ne > 0 && c->h > 0, err, PF_ERR_INVALID, "element %d is degenerate", (int)e);
+    for (int32_t i = 0; i < c->k; ++i)
+        c->nfeat[i] = c->nlen[i];
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        int64_t a = c->floc_off[lf], n = c->floc_off[lf + 1] - a;
+        for (int64_t q = 0; q < n; ++q) {
+            int32_t i = c->floc[a + q];
+            for (int64_t r = 0; r < n; ++r) {
+                int32_t u = c->floc[a + r], v = c->floc[a + (r + 1) % n];
+                if (c->slot[u] == c->slot[i] || c->slot[v] == c->slot[i] ||
+                    c->slot[u] == c->slot[v])
+                    continue;
+                pf_vec3 ev = pf_v3_sub(c->pos[v], c->pos[u]), dv = pf_v3_sub(c->pos[i], c->pos[u]);
+                double t = pf_v3_dot(dv, ev) / pf_v3_dot(ev, ev);
+                t = t < 0 ? 0 : t > 1 ? 1 : t;
+                double d = pf_v3_dist(c->pos[i], pf_v3_add(c->pos[u], pf_v3_scale(ev, t)));
+                c->nfeat[i] = fmin(c->nfeat[i], d);
+            }
+        }
+    }
     return PF_OK;
 }
 
@@ -335,24 +329,6 @@ static bool closed_hex(const elem_ctx *c, double tol, double *d, int32_t *slot)
 /* ---- boundary samples (paper sec. 5: nodes, points on edges, a uniform sampling of faces) -------
  */
 
-typedef struct pt_list {
-    pt3 *p;
-    int32_t n, cap;
-} pt_list;
-
-static pf_status pts_push(pt_list *l, pt3 v, pf_error *err)
-{
-    if (l->n == l->cap) {
-        int32_t cap = l->cap ? 2 * l->cap : 256;
-        pt3 *np = pf_realloc_array(l->p, (size_t)cap, sizeof *np);
-        PF_CHECK(np, err, PF_ERR_NOMEM, "boundary samples: no memory for %d points", (int)cap);
-        l->p = np;
-        l->cap = cap;
-    }
-    l->p[l->n++] = v;
-    return PF_OK;
-}
-
 /* Nodes (one per group); on each edge of length L, n = max(edge_min, ceil(L / edge_spacing) - 1)
  * points
  * (edge_phase 0: t = j / (n + 1), j = 1..n; 0.5: t = (j + 0.5) / (n + 1), j = 0..n); and on each
@@ -368,10 +344,11 @@ static pf_status elem_samples(const elem_ctx *c, double edge_spacing, int32_t ed
         int32_t i = c->grep[g];
         pf_vec3 nn = c->nnrm[i];
         double l = pf_v3_norm(nn);
-        PF_TRY(pts_push(out,
-                        (pt3){c->pos[i], l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0), i, i,
-                              0, -1, c->nlen[i]},
-                        err));
+        PF_TRY(
+            pf_basis_pts_push(out,
+                              (pt3){c->pos[i], l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0),
+                                    i, i, 0, -1, c->nlen[i]},
+                              err));
     }
     for (int32_t s = 0; s < c->ne; ++s) {
         const edge3 *ed = &c->edges[s];
@@ -385,10 +362,10 @@ static pf_status elem_samples(const elem_ctx *c, double edge_spacing, int32_t ed
             double t = (j + edge_phase) / (n + 1);
             pf_vec3 x =
                 pf_v3_add(c->pos[ed->a], pf_v3_scale(pf_v3_sub(c->pos[ed->b], c->pos[ed->a]), t));
-            PF_TRY(pts_push(out,
-                            (pt3){x, nn, ed->a, ed->b, t, -1,
-                                  pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / (n + 1)},
-                            err));
+            PF_TRY(pf_basis_pts_push(out,
+                                     (pt3){x, nn, ed->a, ed->b, t, -1,
+                                           pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / (n + 1)},
+                                     err));
         }
     }
     for (int32_t lf = 0; lf < c->nf; ++lf) {
@@ -411,7 +388,7 @@ static pf_status elem_samples(const elem_ctx *c, double edge_spacing, int32_t ed
                     continue;
                 pf_vec3 x = pf_v3_add(
                     f->o, pf_v3_add(pf_v3_scale(f->u, pu * f->s), pf_v3_scale(f->v, pv * f->s)));
-                PF_TRY(pts_push(out, (pt3){x, nn, -1, -1, 0, lf, own * spacing}, err));
+                PF_TRY(pf_basis_pts_push(out, (pt3){x, nn, -1, -1, 0, lf, own * spacing}, err));
             }
     }
     return PF_OK;
@@ -422,6 +399,10 @@ static pf_status elem_samples(const elem_ctx *c, double edge_spacing, int32_t ed
 static void boundary_values(const elem_ctx *c, const pt3 *pt, double *faceval, double *B,
                             size_t ldb)
 {
+    if (pf_basis_patch_has(c, pt)) {
+        pf_basis_patch_values(c, pt, faceval, B, ldb);
+        return;
+    }
     for (int32_t g = 0; g < c->ng; ++g)
         B[(size_t)g * ldb] = 0;
     if (pt->face < 0) {
@@ -469,14 +450,25 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
         if (f->kind == FACE_NONE)
             PF_TRY(pf_face_solve(f, c->m, c->face_id[lf], p, w, err));
     }
+    for (int32_t g = 0; g < c->ng; ++g)
+        pf_v3_store(pf_v3_scale(pf_v3_sub(c->pos[c->grep[g]], c->c), 1 / c->h), c->gpos + 3 * g);
+    PF_CHECK(pf_exactness_projection(3, c->ng, c->gpos, c->gq) == PF_OK, err, PF_ERR_INVALID,
+             "element %d: nodes are coplanar", (int)e);
+    PF_TRY(pf_basis_patch_build(c, p->patch_angle, p, w, err));
     double rho = p->collocation_density;
     double spacing = c->max_edge / (p->edge_samples + 1), fsp = spacing * p->face_spacing;
     /* Kernels (eq. 12): samples moved outward by xi * size, size the element's diameter, scaled
      * down where the local sample spacing (short edges, small faces: the facets of a sliced
      * surface) is finer than the element's: a kernel resolves boundary data on the scale of its
      * distance. Kept only outside the element and at least 0.2 offsets clear of its boundary
-     * (non-convex cells), else moved back by halves, else dropped. */
-    PF_TRY(elem_samples(c, spacing, 1, 0, fsp, 0.5, 0.5 * fsp, pts, err));
+     * (non-convex cells), else moved back by halves, else dropped. The samples are graded by
+     * feature size (pf_basis_graded_samples) unless grading < 0 (uniform: every edge and face
+     * at one spacing). */
+    bool graded = p->grading > 0;
+    if (graded)
+        PF_TRY(pf_basis_graded_samples(c, spacing, fsp, p->grading, 1, 1, 1, 0.5, pts, err));
+    else
+        PF_TRY(elem_samples(c, spacing, 1, 0, fsp, 0.5, 0.5 * fsp, pts, err));
     int32_t ns = pts->n, ng = c->ng;
     PF_TRY(grow_data(data, cap, at + HDR + 3 * (int64_t)ns, err));
     double *kern = *data + at + HDR;
@@ -502,7 +494,11 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
 
     /* Collocation points, about rho times denser (eq. 13), and the system of eq. 14. */
     double sc = fsp / sqrt(rho);
-    PF_TRY(elem_samples(c, spacing / rho, (int32_t)ceil(rho), 0, sc, 0.5, 0.5 * sc, pts, err));
+    if (graded)
+        PF_TRY(pf_basis_graded_samples(c, spacing, fsp, p->grading, rho, sqrt(rho),
+                                       (int32_t)ceil(rho), 0.5, pts, err));
+    else
+        PF_TRY(elem_samples(c, spacing / rho, (int32_t)ceil(rho), 0, sc, 0.5, 0.5 * sc, pts, err));
     int32_t m = pts->n, cols = nk + N_POLY;
     size_t ldb = (size_t)(m > cols ? m : cols);
     st->m = m;
@@ -680,6 +676,7 @@ typedef struct create_state {
     pt_list pts;
     elem_ctx *ctx;
     int64_t data_cap, nodes_cap;
+    uint8_t *face_uses;
 } create_state;
 
 static pf_status grow_nodes(pf_basis *b, int64_t *cap, int64_t need, pf_error *err)
@@ -708,6 +705,8 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
     c->m = m;
     c->faces = cs->faces;
     c->e = e;
+    c->has_patch = false;
+    c->face_uses = cs->face_uses;
     PF_TRY(elem_setup(c, p, &cs->ws, err));
     int64_t at = b->data_offsets[e];
     PF_TRY(grow_data(&b->data, &cs->data_cap, at + 12, err));
@@ -746,7 +745,11 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
     b->data_offsets[e + 1] = end;
     b->kind[e] = (uint8_t)kind;
     st->setup_ms = 1e3 * (pf_time_seconds() - t0);
-    return p->no_check_stats ? PF_OK : elem_stats(b, c, p, &cs->pts, st, err);
+    pf_status sst = p->no_check_stats ? PF_OK : elem_stats(b, c, p, &cs->pts, st, err);
+    if (c->has_patch)
+        pf_face_release(&c->patch);
+    c->has_patch = false;
+    return sst;
 }
 
 pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,
@@ -769,6 +772,17 @@ pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *
         goto done;
     }
     memset(cs.faces, 0, (size_t)m->n_faces * sizeof *cs.faces);
+    memset(cs.ctx, 0, sizeof *cs.ctx);
+    if (!PF_ALLOC_N(cs.face_uses, m->n_faces + 1)) {
+        s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "basis: no memory");
+        goto done;
+    }
+    memset(cs.face_uses, 0, (size_t)m->n_faces);
+    for (int64_t q = 0; q < m->elem_offsets[ne]; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        if (f >= 0 && f < m->n_faces && cs.face_uses[f] < 255)
+            cs.face_uses[f]++;
+    }
     b->node_offsets[0] = 0;
     b->data_offsets[0] = 0;
     /* One BLAS thread: small systems, and bits independent of the core count (pf/base.h). */
@@ -781,11 +795,14 @@ pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *
         b->n_face_closed += cs.faces[f].kind == FACE_LINEAR || cs.faces[f].kind == FACE_BILINEAR;
     }
 done:
+    if (cs.ctx && cs.ctx->has_patch)
+        pf_face_release(&cs.ctx->patch);
     if (cs.faces)
         for (int32_t f = 0; f < m->n_faces; ++f)
             pf_face_release(&cs.faces[f]);
     pf_free(cs.faces);
     pf_free(cs.ctx);
+    pf_free(cs.face_uses);
     pf_free(cs.pts.p);
     pf_ws_release(&cs.ws);
     if (s < 0) {

@@ -129,7 +129,7 @@ typedef struct face_fn {
 pf_status pf_face_init(face_fn *f, const pf_mesh *m, int32_t face, pf_error *err);
 /* Solves the face's functions (closed form or 2D MFS). */
 pf_status pf_face_solve(face_fn *f, const pf_mesh *m, int32_t face, const pf_basis_params *p,
-                     basis_ws *w, pf_error *err);
+                        basis_ws *w, pf_error *err);
 void pf_face_release(face_fn *f);
 
 /* Scaled 2D coordinates of a model point on (or projected onto) the face. */
@@ -152,8 +152,8 @@ double pf_polygon_boundary_distance(const double *p, int32_t n, double x, double
  * dimension ldb >= max(m, cols)), both overwritten; X in B's first cols rows. Blocked QR (dgeqrt),
  * SVD (dgelsd) when the QR factor's reciprocal condition is below rcond. A0 / B0 are untouched
  * copies used for the SVD retry. */
-pf_status pf_lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond, bool *used_svd,
-                    pf_error *err);
+pf_status pf_lsq_solve(basis_ws *w, int32_t m, int32_t cols, int32_t g, double rcond,
+                       bool *used_svd, pf_error *err);
 
 /* q[(dim+1) g + c] = ((P^T P)^-1 P^T)[c][g] for P with rows (1, pos_g), g < ng. PF_ERR_NUMERIC
  * when the positions do not span dim dimensions. */
@@ -188,5 +188,93 @@ static inline void apply_projection(int dim, int32_t ng, const double *pos, cons
     for (int32_t g = 0; g < ng; ++g)
         G[g] += r0 * q[3 * g] + r1 * q[3 * g + 1] + r2 * q[3 * g + 2];
 }
+
+/* ---- element context (basis.c), boundary samples and the surface patch (sample.c) ---------- */
+
+typedef struct edge3 {
+    int32_t a, b;   /* local nodes */
+    int32_t f1, f2; /* local faces */
+} edge3;
+
+typedef struct pt3 {
+    pf_vec3 x, nrm; /* position, outward direction for kernels */
+    int32_t a, b;   /* node a (a == b) or edge a-b at parameter t; face point when face >= 0 */
+    double t;
+    int32_t face; /* local face index, -1 for node / edge points */
+    double len;   /* local sample spacing: shortest edge at a node, the spacing along the edge
+                     or of the face's grid */
+} pt3;
+
+typedef struct pt_list {
+    pt3 *p;
+    int32_t n, cap;
+} pt_list;
+
+/* Inner patch vertices (surface vertices inside a cell) handled by the smooth patch data; a
+ * patch with more keeps the per-facet data. Faces of an element the patch test looks at. */
+enum { PATCH_MAX_INNER = 32, PATCH_MAX_FACES = 512 };
+
+typedef struct elem_ctx {
+    const pf_mesh *m;
+    face_fn *faces;           /* all mesh faces, frames made lazily */
+    const uint8_t *face_uses; /* [n_faces] elements using each face (1: on the mesh boundary) */
+    int32_t e, nf, k, ng, ne;
+    int32_t *face_id;  /* [nf] */
+    int8_t *face_rev;  /* [nf] */
+    int64_t *floc_off; /* [nf + 1] into floc */
+    int32_t *floc;     /* local index of each face node */
+    int32_t nodes[PF_BASIS_MAX_NODES], slot[PF_BASIS_MAX_NODES];
+    pf_vec3 pos[PF_BASIS_MAX_NODES], nnrm[PF_BASIS_MAX_NODES];
+    double nlen[PF_BASIS_MAX_NODES];  /* shortest edge at each node */
+    double nfeat[PF_BASIS_MAX_NODES]; /* feature size at each node: nlen, or less when the node
+                                         is closer to an edge of one of its faces */
+    double gcount[PF_BASIS_MAX_NODES];
+    int32_t grep[PF_BASIS_MAX_NODES]; /* representative node of each group */
+    edge3 *edges;
+    pf_vec3 c;
+    double h, diam, max_edge;
+    /* group positions (scaled) and their exactness projection (pf_exactness_projection) */
+    double gpos[3 * PF_BASIS_MAX_NODES], gq[4 * PF_BASIS_MAX_NODES];
+    /* The surface patch (sample.c): the element's mesh-boundary faces as one curved face. */
+    bool has_patch;
+    int8_t in_patch[PATCH_MAX_FACES];      /* [nf] face belongs to the patch */
+    face_fn patch;                         /* the loop, projected on the patch's mean plane */
+    int32_t patch_loc[PF_BASIS_MAX_NODES]; /* element-local node of each loop vertex */
+    uint32_t patch_nodes[PF_BASIS_MAX_NODES];
+    int32_t n_inner, inner[PATCH_MAX_INNER];                /* patch nodes off the loop */
+    double inner_q[2 * PATCH_MAX_INNER];                    /* their scaled 2D positions */
+    double inner_sig[PATCH_MAX_INNER];                      /* bump widths */
+    double inner_D[PATCH_MAX_INNER * PATCH_MAX_INNER];      /* bump combination: Kronecker */
+    double inner_phi[PATCH_MAX_INNER * PF_BASIS_MAX_NODES]; /* loop functions at inner nodes */
+} elem_ctx;
+
+static inline pf_vec3 face_out_normal(const elem_ctx *c, int32_t lf)
+{
+    pf_vec3 nn = c->faces[c->face_id[lf]].nrm;
+    return c->face_rev[lf] ? pf_v3_scale(nn, -1) : nn;
+}
+
+pf_status pf_basis_pts_push(pt_list *l, pt3 v, pf_error *err);
+
+/* Boundary samples graded by feature size (sample.c): nodes, points on every edge and a
+ * quadtree sampling of every face, with the local spacing
+ *   h(x) = min(h0, feat_i + grading |x - x_i|) over the nodes i, divided by div_edge on edges
+ * and div_face on faces (h0 = h0_edge on edges, h0_face on faces); at least edge_min points
+ * inside every edge; face points at least margin * (their cell size) inside the face. */
+pf_status pf_basis_graded_samples(const elem_ctx *c, double h0_edge, double h0_face, double grading,
+                                  double div_edge, double div_face, int32_t edge_min, double margin,
+                                  pt_list *out, pf_error *err);
+
+/* Sets c->has_patch and the patch of element c when its mesh-boundary faces form one patch
+ * whose normals lie within angle_deg of their mean, bounded by one loop, with at most
+ * PATCH_MAX_INNER nodes off the loop; needs c->gpos / c->gq. Statuses of pf_face_solve. */
+pf_status pf_basis_patch_build(elem_ctx *c, double angle_deg, const pf_basis_params *p, basis_ws *w,
+                               pf_error *err);
+/* Whether sample pt lies on the patch (a patch face, or an edge between two patch faces). */
+bool pf_basis_patch_has(const elem_ctx *c, const pt3 *pt);
+/* Patch data at pt (a row of c->ng group values, stride ldb). faceval: PF_BASIS_MAX_NODES
+ * doubles of scratch. */
+void pf_basis_patch_values(const elem_ctx *c, const pt3 *pt, double *faceval, double *B,
+                           size_t ldb);
 
 #endif

@@ -45,6 +45,31 @@
  * (corner-cut cube: 0.38 % at 4, 0.18 % at 6, with 2.3x and 5x the kernels). Linear reproduction
  * and partition of unity are exact to round-off whatever the error.
  *
+ * Sliced cells (pf_basis_params_accurate). A sliced cell's boundary is partly the cut surface:
+ * many small, nearly coplanar facets. Per-facet data (one hat per facet) have a kink across each
+ * facet edge, and across an edge whose faces meet at 180 - theta degrees the harmonic extension
+ * of a kink needs a gradient of order kink / sin(theta) into the cell, which the kernels resolve
+ * only at a high count; short edges (where the surface crosses the grid) make hats of their own
+ * small size. Two settings, both off by default:
+ *   - grading: samples (kernels and collocation points) graded by feature size, dense and close
+ *     to the boundary at short edges and small facets, at the uniform spacing away from them;
+ *   - patch_angle: the element's faces on the mesh boundary (used by no other element) become
+ *     one curved patch when their normals lie within patch_angle of their mean. Its data: the 2D
+ *     harmonic coordinates of its boundary loop projected on the mean plane (the loop nodes),
+ *     minus their values at the nodes inside the patch times those nodes' bumps (the smooth
+ *     distance to the loop times a Gaussian, combined to be 1 at their own node and 0 at the
+ *     others), then the exactness projection below, so that the data sum to 1 and reproduce x
+ *     exactly on the facets. No kinks inside the patch; faces shared with a neighbour keep their
+ *     face functions, so conformity is unchanged. A patch with a crease (patch_angle exceeded),
+ *     more than one loop or more than 32 inner nodes keeps per-facet data.
+ * Measured on every harmonic cell of the 8 x 16 sphere sliced 6 across (pf-slice --res 6, 128
+ * cells; bench/bench_sliced.c): median boundary error 12 % at the defaults; 0.68 % (worst decile
+ * from 1.6 %, largest 2.4 %) with pf_basis_params_accurate, at 6x the kernels and 10x the CPU
+ * time of the basis (grading 0.3: 0.91 %, 2.6 % and 2.9 % at 5x the CPU time). The CG
+ * simulator keeps the defaults for now: its quadrature degree was chosen so that the
+ * quadrature error stays below the basis error of the default functions, which the accurate
+ * functions are well below (tests/test_cg.c, quadrature_order_converges).
+ *
  * Exact partition of unity and linear reproduction. In exact arithmetic the least-squares
  * solution already has both (the data b_i sum to 1 and reproduce x on the boundary, and 1 and x
  * lie in the span of the linear polynomial columns), but an MFS matrix is ill-conditioned, so
@@ -108,6 +133,15 @@ typedef struct pf_basis_params {
                                    1e-9 */
     double rank_rcond;          /* switch from QR to SVD when the reciprocal condition of the QR
                                    factor falls below this; also the SVD cut-off; default 1e-13 */
+    double grading;             /* > 0: boundary samples graded by feature size, the spacing
+                                   at x being min(uniform, feat_i + grading |x - x_i|) over the
+                                   nodes i (feat_i: the shortest edge at node i, or its distance
+                                   to an edge of one of its faces when shorter); 0: one uniform
+                                   spacing (the default) */
+    double patch_angle;         /* > 0: an element's mesh-boundary faces whose normals lie
+                                   within this many degrees of their mean get smooth data as one
+                                   curved patch ("Sliced cells" above); 0: per-face data (the
+                                   default) */
     bool force_mfs;             /* harmonic MFS also for tets and parallelepipeds (tests, study) */
     bool no_check_stats;        /* true: skip the check-point statistics of pf_basis_elem_stats
                                    (boundary, linear and unity errors, min_value stay 0; counts
@@ -116,6 +150,8 @@ typedef struct pf_basis_params {
 } pf_basis_params;
 
 pf_basis_params pf_basis_params_default(void);
+/* The defaults with the settings of "Sliced cells" above: xi 0.2, grading 0.2, patch_angle 60. */
+pf_basis_params pf_basis_params_accurate(void);
 
 /* Numerical health of one element's functions. Errors are measured at check points distinct from
  * the collocation points: the nodes, boundary points (half-way between collocation points on

@@ -34,7 +34,7 @@ set ylabel 'ms'
 set style data histograms
 set style histogram rowstacked
 set style fill solid 0.7
-set key top left
+set key outside right
 set xtics rotate by -30
 plot events using 11:xtic(sprintf("%s %s %s", strcol(1), strcol(2), strcol(3))) every ::1 title 'mesh', \
      '' using 12 every ::1 title 'method', '' using 13 every ::1 title 'set-up', \

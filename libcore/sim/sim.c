@@ -17,6 +17,7 @@
 
 #include "contact.h"
 #include "method.h"
+#include "sim_state.h"
 
 struct pf_sim {
     const pf_scene *scene;
@@ -467,6 +468,31 @@ pf_status pf_sim_solve_static(pf_sim *s, pf_error *err)
                             (int)worst_element(s));
     s->frame++;
     return PF_OK;
+}
+
+/* ---- checkpoints (sim_state.c) ------------------------------------------------------------ */
+
+void pf_sim_state_view_of(pf_sim *s, pf_sim_state_view *v)
+{
+    *v = (pf_sim_state_view){.scene = s->scene,
+                             .mesh = s->mesh,
+                             .n = s->n,
+                             .u = s->u,
+                             .v = s->v,
+                             .dv = s->dv,
+                             .time = &s->time,
+                             .frame = &s->frame,
+                             .energy_started = &s->energy_started,
+                             .kinetic0 = &s->kinetic0,
+                             .work = &s->work,
+                             .fixed_energy = &s->fixed_energy,
+                             .energy_floor = &s->energy_floor};
+}
+
+void pf_sim_restart_point(pf_sim *s)
+{
+    pf_solver_reset(s->solver);
+    s->assembled = false;
 }
 
 /* ---- output and diagnostics -------------------------------------------------------------- */

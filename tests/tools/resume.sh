@@ -111,7 +111,7 @@ cuts static "$tmp/static.pfs" 3
 "$bin/pf-shape" sphere --segments 12 >"$tmp/sphere.pfs" &&
   "$bin/pf-voxelize" --res 4 --quiet "$tmp/sphere.pfs" | "$bin/pf-embed" --quiet - >"$tmp/emb.pfs" ||
   { echo "FAIL: embedded stream"; exit 1; }
-cp "$data/scenes/wedge.obj" "$tmp/wedge.obj"
+cp "$(dirname "$0")/../../data/scenes/wedge.obj" "$tmp/wedge.obj"
 cat >"$tmp/emb.json" <<'JSON'
 {"material": {"E": 30000, "nu": 0.4, "density": 1000},
  "gravity": [0, 0, -9.81],

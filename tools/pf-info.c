@@ -16,6 +16,7 @@ static const char USAGE[] =
     "        coordinate is a float32 value (the surface came through single precision)\n"
     "  FRAM  consecutive frames as one entry: frame count, time range, largest displacement\n"
     "  STRS  consecutive stress chunks as one entry: count, largest value\n"
+    "  CKPT  pf-sim's checkpoints among those frames: count, the last one's frame\n"
     "  SCEN  the scene as simulated (JSON, every key, overrides applied)\n"
     "  others: tag, version, size; unknown chunks are listed, not interpreted\n"
     "and at the end every mesh of the stream (a refining or cutting run has several) with the\n"
@@ -49,7 +50,8 @@ typedef struct info {
     pf_stream_state st;    /* the latest MESH (for probes), SURF, ...; the meshes and frames */
     int32_t probe_node;    /* nearest node of mesh to the probe point, -1 before a mesh */
     /* The current run of FRAM / STRS chunks. */
-    int64_t frames, stresses;
+    int64_t frames, stresses, checkpoints;
+    uint32_t checkpoint_frame; /* the frame the latest CKPT follows */
     uint64_t frame_mesh_id;
     uint64_t first_offset;
     double t0, t1, max_u, max_stress;
@@ -233,7 +235,15 @@ static void print_frames(info *in)
             printf("STRS  %lld stress chunks, largest value %.6g\n", (long long)in->stresses,
                    in->max_stress);
     }
-    in->frames = in->stresses = in->n_samples = 0;
+    if (in->checkpoints) {
+        if (in->json)
+            printf("{\"chunk\":\"CKPT\",\"count\":%lld,\"last_frame\":%u}\n",
+                   (long long)in->checkpoints, (unsigned)in->checkpoint_frame);
+        else
+            printf("CKPT  %lld checkpoints (pf-sim --resume), the last after frame %u\n",
+                   (long long)in->checkpoints, (unsigned)in->checkpoint_frame);
+    }
+    in->frames = in->stresses = in->checkpoints = in->n_samples = 0;
 }
 
 static int32_t nearest_node(const pf_mesh *m, const double *p)
@@ -296,6 +306,19 @@ static pf_status add_stress(info *in, const pf_chunk *c, pf_error *err)
     in->stresses++;
     for (int64_t i = 0; i < (int64_t)st->n_elems * st->components; ++i)
         in->max_stress = fmax(in->max_stress, fabs(st->values[i]));
+    return PF_OK;
+}
+
+/* CKPT: pf-sim's checkpoint of the latest MESH, counted with the frames around it. */
+static pf_status add_checkpoint(info *in, const pf_chunk *c, pf_error *err)
+{
+    pf_checkpoint_header h;
+    PF_TRY(pf_stream_checkpoint_header(c, &h, err));
+    PF_CHECK(in->st.have_mesh && h.mesh_id == in->st.mesh.id, err, PF_ERR_FORMAT,
+             "chunk CKPT at byte %llu: checkpoint of mesh %llu, which is not the latest MESH",
+             (unsigned long long)c->offset, (unsigned long long)h.mesh_id);
+    in->checkpoints++;
+    in->checkpoint_frame = h.frame;
     return PF_OK;
 }
 
@@ -407,6 +430,8 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
         return add_frame(in, c, err);
     if (strcmp(c->tag, "STRS") == 0)
         return add_stress(in, c, err);
+    if (strcmp(c->tag, "CKPT") == 0)
+        return add_checkpoint(in, c, err);
     print_frames(in);
     PF_TRY(pf_stream_state_take(&in->st, c, err)); /* the id checks of WGHT and the others */
     if (strcmp(c->tag, "MESH") == 0) {

@@ -1,25 +1,30 @@
 /* pf-sim: the simulator. A stream with a MESH in, the same stream out with SCEN, one FRAM (and
  * STRS) per frame, flushed as each frame is made. */
-#define _POSIX_C_SOURCE 200809L /* getpid */
+#define _POSIX_C_SOURCE 200809L /* fileno */
+
+#include <errno.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
+#include <sys/stat.h>
 
 #include <pf/io.h>
 #include <pf/sim.h>
 
 #include "cli.h"
 #include "obstacle_shape.h"
+#include "sim_resume.h"
 
 static const char USAGE[] =
     "Usage: pf-sim [SCENE.json] [options] < mesh.pfs > out.pfs\n"
+    "       pf-sim --resume PARTIAL.pfs [--output FILE | > out.pfs]\n"
     "\n"
     "Simulates the stream's MESH as the scene says (docs/scene.md) and writes the stream on:\n"
-    "every input chunk except earlier frames, then SCEN, and one FRAM (stitched nodal\n"
-    "displacements) and STRS (von Mises stress per element) per frame. Without a scene file,\n"
-    "the defaults drop the body under gravity onto a ground plane below it. Contact with the\n"
-    "ground and the scene's obstacles acts at the mesh's boundary nodes or, when the stream\n"
-    "carries embedding weights (WGHT, from pf-embed) for its SURF, at the surface's vertices.\n"
+    "every input chunk except earlier frames, then INFO, SCEN, and one FRAM (stitched nodal\n"
+    "displacements) and STRS (von Mises stress per element) per frame, and checkpoints (CKPT).\n"
+    "Without a scene file, the defaults drop the body under gravity onto a ground plane below\n"
+    "it. Contact with the ground and the scene's obstacles acts at the mesh's boundary nodes or,\n"
+    "when the stream carries embedding weights (WGHT, from pf-embed) for its SURF, at the\n"
+    "surface's vertices.\n"
     "\n"
     "Overrides of scene keys:\n"
     "  --method dg|cg     discretisation (cg: harmonic basis functions, nodal unknowns)\n"
@@ -41,15 +46,24 @@ static const char USAGE[] =
     "                     that pays; auto (default) picks pcg where the matrix changes; petsc:\n"
     "                     PETSc's CG + GAMG over the MPI ranks (builds with -DPF_PETSC=ON)\n"
     "  --tolerance TOL    pcg, petsc: residual relative to the right-hand side (default 1e-10)\n"
+    "Checkpoints and resuming (crash-safe long runs):\n"
+    "  --checkpoint-every N  a CKPT chunk (the state a run continues from) after frames 0, N,\n"
+    "                     2N, ... and the last (default 10; 0: none); under pcg the last bits\n"
+    "                     of later frames depend on N (a checkpoint restarts the solver). A\n"
+    "                     scene that refines writes none (its mesh changes between frames)\n"
+    "  --resume PARTIAL   continue the run that wrote PARTIAL (cut anywhere: killed, full disk)\n"
+    "                     from its last checkpoint with the scene stored in it, to the bytes of\n"
+    "                     the uninterrupted run (same pf build and thread counts); reads no\n"
+    "                     input; a scene file or overrides, if given, must make the same scene\n"
     "Other options:\n"
     "  --input FILE       read the stream from FILE instead of stdin\n"
-    "  --output FILE      write the stream to FILE (through a temporary file renamed at the\n"
-    "                     end) instead of stdout; needed under mpirun\n"
+    "  --output FILE      write the stream to FILE instead of stdout, through FILE.part renamed\n"
+    "                     when complete (a killed run leaves FILE.part, which --resume\n"
+    "                     continues); needed under mpirun\n"
     "  --quiet            no progress or summary on stderr\n"
     "  --stats FILE       write the run's statistics to FILE as JSON (docs/scene.md, \"Run\n"
     "                     statistics\"), also after a diverged run\n"
     "  --help, --version\n"
-    "\n"
     "\n"
     "MPI (builds with -DPF_PETSC=ON): mpirun -n N pf-sim SCENE.json --solver petsc\n"
     "--input in.pfs --output out.pfs (mpirun's forwarding of stdout is not byte-exact);\n"
@@ -81,8 +95,13 @@ enum {
     OPT_INPUT,
     OPT_OUTPUT,
     OPT_QUIET,
-    OPT_STATS
+    OPT_STATS,
+    OPT_CHECKPOINT_EVERY,
+    OPT_RESUME
 };
+
+/* Frames between checkpoints by default (docs/stream-format.md, CKPT: what they cost). */
+enum { DEFAULT_CHECKPOINT_EVERY = 10 };
 
 typedef struct run {
     pf_cli cli;
@@ -99,6 +118,15 @@ typedef struct run {
     bool embedded;         /* contact at the surface's vertices */
     pf_stream_writer *out;
     uint64_t written_mesh; /* the id of the last MESH written: a refined mesh is written anew */
+    int32_t checkpoint_every;
+    bool checkpoint_given; /* --checkpoint-every was given */
+    int32_t checkpoints;   /* CKPT chunks written (or copied, when resuming) */
+    pf_buffer checkpoint;  /* scratch for CKPT payloads */
+    const char *resume_path;
+    /* the scene file's overrides, applied in build_scene */
+    int n_overrides;
+    int override_ids[64];
+    const char *override_values[64];
     pf_error err;
 } run;
 
@@ -167,12 +195,12 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"output", true, OPT_OUTPUT},
                                             {"quiet", false, OPT_QUIET},
                                             {"stats", true, OPT_STATS},
+                                            {"checkpoint-every", true, OPT_CHECKPOINT_EVERY},
+                                            {"resume", true, OPT_RESUME},
                                             {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
+    r->checkpoint_every = -1; /* DEFAULT_CHECKPOINT_EVERY, or the resumed run's */
     /* Overrides apply after the scene file, wherever they stand: collect them first. */
-    int ids[64];
-    const char *values[64];
-    int n = 0;
     const char *value;
     for (int id; (id = pf_cli_next(&r->cli, options, &value)) != PF_CLI_END;) {
         if (id == PF_CLI_POSITIONAL) {
@@ -188,28 +216,47 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->quiet = true;
         } else if (id == OPT_STATS) {
             r->stats_path = value;
-        } else if (n < 64) {
-            ids[n] = id;
+        } else if (id == OPT_CHECKPOINT_EVERY) {
+            r->checkpoint_every =
+                (int32_t)pf_cli_parse_long(&r->cli, "--checkpoint-every", value, 0, INT32_MAX);
+            r->checkpoint_given = true;
+        } else if (id == OPT_RESUME) {
+            r->resume_path = value;
+        } else if (r->n_overrides < 64) {
+            r->override_ids[r->n_overrides] = id;
             /* --static and --corotation alone mean true (the empty value, docs/scene.md) */
-            values[n++] = id == OPT_NO_COROTATION ? "false" : value ? value : "";
+            r->override_values[r->n_overrides++] = id == OPT_NO_COROTATION ? "false"
+                                                   : value                 ? value
+                                                                           : "";
         } else {
             pf_cli_usage_error(&r->cli, "too many options");
         }
     }
+    if (r->checkpoint_every < 0 && !r->resume_path)
+        r->checkpoint_every = DEFAULT_CHECKPOINT_EVERY;
+    if (r->resume_path && r->input_path)
+        pf_cli_usage_error(&r->cli, "--resume reads no input stream: the mesh is in '%s'",
+                           r->resume_path);
+}
+
+/* The scene: the file (or the defaults) with the overrides applied. Usage errors exit 2. */
+static void build_scene(run *r, pf_scene *scene)
+{
     pf_error err = {0};
     if (r->scene_path) {
-        if (pf_scene_load(&r->scene, r->scene_path, &err) < 0)
+        if (pf_scene_load(scene, r->scene_path, &err) < 0)
             pf_cli_fail(&r->cli, &err);
     } else {
-        pf_scene_default(&r->scene);
+        pf_scene_default(scene);
     }
-    for (int k = 0; k < n; ++k)
-        if (pf_scene_override(&r->scene, override_key(ids[k]), values[k], &err) < 0)
+    for (int k = 0; k < r->n_overrides; ++k)
+        if (pf_scene_override(scene, override_key(r->override_ids[k]), r->override_values[k],
+                              &err) < 0)
             pf_cli_usage_error(&r->cli, "%s", err.msg);
 }
 
-/* Passes every input chunk on except the ones this run replaces (scene, frames, stress, END_),
- * keeping the last MESH. */
+/* Passes every input chunk on except the ones this run replaces (scene, frames, stress,
+ * checkpoints, END_), keeping the last MESH. */
 static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
 {
     for (;;) {
@@ -220,7 +267,8 @@ static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
             return PF_OK;
         if (!strcmp(c.tag, "END_"))
             continue;
-        if (!strcmp(c.tag, "FRAM") || !strcmp(c.tag, "STRS") || !strcmp(c.tag, "SCEN"))
+        if (!strcmp(c.tag, "FRAM") || !strcmp(c.tag, "STRS") || !strcmp(c.tag, "SCEN") ||
+            !strcmp(c.tag, "CKPT"))
             continue;
         PF_TRY(pf_stream_state_take(&r->input, &c, err)); /* MESH, SURF, WGHT and their ids */
         PF_TRY(pf_stream_write_raw(r->out, &c, err));
@@ -389,8 +437,80 @@ static pf_status load_obstacles(pf_scene *sc, pf_error *err)
     return PF_OK;
 }
 
-/* The frames: one for a static scene, the rest state and scene->frames more otherwise. */
-static pf_status simulate(run *r, pf_error *err)
+/* A CKPT after frames 0, N, 2N, ... and the last one (the stream format's CKPT); none in a
+ * scene that refines: its mesh changes between frames, which a checkpoint does not hold. */
+static pf_status write_checkpoint(run *r, pf_sim *sim, int32_t index, bool last, pf_error *err)
+{
+    if (r->checkpoint_every <= 0 || r->scene.refine.enabled ||
+        (index % r->checkpoint_every != 0 && !last))
+        return PF_OK;
+    r->checkpoint.size = 0;
+    pf_checkpoint_header h = {.mesh_id = pf_sim_mesh(sim)->id,
+                              .frame = (uint32_t)index,
+                              .every = (uint32_t)r->checkpoint_every};
+    PF_TRY(pf_stream_encode_checkpoint_header(&h, &r->checkpoint, err));
+    PF_TRY(pf_sim_checkpoint(sim, &r->checkpoint, err));
+    PF_TRY(pf_stream_write_chunk(r->out, "CKPT", 1, r->checkpoint.data, r->checkpoint.size, err));
+    r->checkpoints++;
+    return PF_OK;
+}
+
+/* A frame made and written, with its checkpoint. */
+static pf_status emit_frame(run *r, pf_sim *sim, int32_t index, pf_error *err)
+{
+    PF_TRY(write_frame(r, sim, index, err));
+    bool last = r->scene.is_static || index == r->scene.frames;
+    return write_checkpoint(r, sim, index, last, err);
+}
+
+/* The simulator in the state of the checkpoint restore (a CKPT chunk of r->resume_path). */
+static pf_status restore_checkpoint(run *r, pf_sim *sim, const pf_chunk *restore, int32_t *frame,
+                                    pf_error *err)
+{
+    pf_checkpoint_header h = {0};
+    pf_status st = pf_stream_checkpoint_header(restore, &h, err);
+    if (st >= 0)
+        st = pf_sim_restore(sim, h.state, h.state_size, err);
+    if (st < 0)
+        pf_error_prefix(err, "%s: chunk CKPT at byte %llu", r->resume_path,
+                        (unsigned long long)restore->offset);
+    *frame = (int32_t)h.frame;
+    return st;
+}
+
+/* The dynamic frames after first, and whether the body came to rest: the last frame's kinetic
+ * energy against the largest (of the frames this run made). */
+static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
+{
+    bool progress = pf_cli_show_progress(r->quiet);
+    pf_status st = PF_OK;
+    double kinetic = 0, peak = 0;
+    int32_t peak_frame = 0;
+    for (int32_t k = first + 1; st >= 0 && k <= r->scene.frames; ++k) {
+        st = pf_sim_frame(sim, err);
+        if (st >= 0)
+            st = emit_frame(r, sim, k, err);
+        if (progress)
+            fprintf(stderr, "\rpf-sim: frame %d / %d", (int)k, (int)r->scene.frames);
+        pf_vec3 linear, angular;
+        pf_sim_momentum(sim, &kinetic, &linear, &angular);
+        if (kinetic > peak)
+            peak = kinetic, peak_frame = k;
+    }
+    if (progress && first < r->scene.frames)
+        fputc('\n', stderr);
+    if (st >= 0 && !r->quiet && first < r->scene.frames)
+        fprintf(
+            stderr,
+            "pf-sim: kinetic energy %.6g at the last frame, %.3g of its peak %.6g (frame %d%s)\n",
+            kinetic, peak > 0 ? kinetic / peak : 0.0, peak, (int)peak_frame,
+            first > 0 ? ", among the frames resumed" : "");
+    return st;
+}
+
+/* The frames: one for a static scene, the rest state and scene->frames more otherwise; when
+ * resuming, those after the checkpoint's frame (restore: the CKPT payload). */
+static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
 {
     pf_vec3 lo, hi;
     pf_mesh_bounds(&r->mesh, &lo, &hi);
@@ -404,36 +524,19 @@ static pf_status simulate(run *r, pf_error *err)
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
                                   embedded ? w : NULL, err));
-    bool progress = pf_cli_show_progress(r->quiet);
+    if (r->scene.refine.enabled && r->checkpoint_given && r->checkpoint_every > 0 && !r->quiet)
+        fprintf(stderr, "pf-sim: the scene refines (its mesh changes between frames): no "
+                        "checkpoints, whatever --checkpoint-every says\n");
     pf_status st = PF_OK;
-    if (r->scene.is_static) {
+    int32_t first = 0;
+    if (restore)
+        st = restore_checkpoint(r, sim, restore, &first, err);
+    else if (r->scene.is_static)
         st = pf_sim_solve_static(sim, err);
-        if (st >= 0)
-            st = write_frame(r, sim, 0, err);
-    } else {
-        st = write_frame(r, sim, 0, err);
-        double kinetic = 0, peak = 0;
-        int32_t peak_frame = 0;
-        for (int32_t k = 1; st >= 0 && k <= r->scene.frames; ++k) {
-            st = pf_sim_frame(sim, err);
-            if (st >= 0)
-                st = write_frame(r, sim, k, err);
-            if (progress)
-                fprintf(stderr, "\rpf-sim: frame %d / %d", (int)k, (int)r->scene.frames);
-            pf_vec3 linear, angular;
-            pf_sim_momentum(sim, &kinetic, &linear, &angular);
-            if (kinetic > peak)
-                peak = kinetic, peak_frame = k;
-        }
-        if (progress)
-            fputc('\n', stderr);
-        /* whether the body came to rest: the last frame's kinetic energy against the largest */
-        if (st >= 0 && !r->quiet && r->scene.frames > 0)
-            fprintf(stderr,
-                    "pf-sim: kinetic energy %.6g at the last frame, %.3g of its peak %.6g "
-                    "(frame %d)\n",
-                    kinetic, peak > 0 ? kinetic / peak : 0.0, peak, (int)peak_frame);
-    }
+    if (st >= 0 && !restore)
+        st = emit_frame(r, sim, 0, err);
+    if (st >= 0 && !r->scene.is_static)
+        st = advance(r, sim, first, err);
     if (!r->quiet)
         print_summary(r, sim);
     if (r->stats_path) { /* also after a failed frame: the statistics of what was done */
@@ -457,6 +560,46 @@ static pf_status prepare_mesh(run *r, const char *input_name, pf_error *err)
     if (st < 0)
         pf_error_prefix(err, "%s: MESH", input_name);
     return st;
+}
+
+/* The stream's own SCEN as the scene, which must read back into the same JSON (so the resumed
+ * scene is bit for bit the one simulated), and equal the scene given, if any. */
+static pf_status resume_scene(run *r, pf_error *err)
+{
+    const pf_stream_state *in = &r->input;
+    PF_CHECK(in->have_scene, err, PF_ERR_FORMAT, "%s: no SCEN chunk", r->resume_path);
+    pf_status st = pf_scene_parse(&r->scene, in->scene_json, in->scene_size, "SCEN", err);
+    char *json = NULL;
+    if (st >= 0)
+        st = pf_scene_to_json(&r->scene, &json, err);
+    if (st >= 0 && strcmp(json, in->scene_json) != 0)
+        st = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__,
+                          "the stored scene does not read back into the same numbers, so the run "
+                          "cannot continue exactly");
+    if (st < 0)
+        pf_error_prefix(err, "%s", r->resume_path);
+    pf_free(json);
+    PF_TRY(st);
+    if (!r->scene_path && r->n_overrides == 0)
+        return PF_OK;
+    pf_scene given = {0};
+    build_scene(r, &given);
+    json = NULL;
+    st = pf_scene_to_json(&given, &json, err);
+    pf_scene_release(&given);
+    PF_TRY(st);
+    size_t at = 0;
+    while (json[at] && json[at] == in->scene_json[at])
+        ++at;
+    bool same = json[at] == in->scene_json[at];
+    pf_free(json);
+    PF_CHECK(same, err, PF_ERR_INVALID,
+             "%s: the scene given (%s%s) differs from the one stored in its SCEN chunk (from "
+             "byte %zu of the JSON; pf-info --scene prints it): resume without a scene file and "
+             "overrides, or with the ones of the run",
+             r->resume_path, r->scene_path ? r->scene_path : "defaults",
+             r->n_overrides ? " and overrides" : "", at);
+    return PF_OK;
 }
 
 /* PETSc's options (one dash and a letter: -ksp_rtol 1e-12, -ksp_monitor) are PETSc's to read;
@@ -520,6 +663,120 @@ static void start_mpi(int *argc, char ***argv)
     }
 }
 
+/* The same file (device and inode) as the stream resumed. */
+static bool same_file(FILE *f, const char *path)
+{
+    struct stat a, b;
+    if (fstat(fileno(f), &a) != 0 || stat(path, &b) != 0)
+        return false;
+    return a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
+/* The output: stdout, or FILE through FILE.part. */
+static pf_status open_output(run *r, pf_atomic_file *file, FILE *resumed, pf_error *err)
+{
+    FILE *out = NULL;
+    const char *name = "stdout";
+    if (r->output_path) {
+        char part[4096];
+        snprintf(part, sizeof part, "%s.part", r->output_path);
+        PF_CHECK(!resumed || !same_file(resumed, part), err, PF_ERR_INVALID,
+                 "--output %s would overwrite %s, the stream being resumed: move it first",
+                 r->output_path, part);
+        PF_TRY(pf_atomic_file_open(file, r->output_path, err));
+        out = file->f;
+        name = r->output_path;
+    } else {
+        if (launcher_rank() >= 0)
+            pf_cli_usage_error(&r->cli, "under mpirun, write the stream with --output FILE "
+                                        "(mpirun's forwarding of stdout is not byte-exact)");
+        out = pf_cli_binary_stdout(&r->cli);
+        PF_CHECK(!resumed || !same_file(stdout, r->resume_path), err, PF_ERR_INVALID,
+                 "stdout is %s, the stream being resumed: write to another file", r->resume_path);
+    }
+    return pf_stream_writer_create(&r->out, out, name, err);
+}
+
+/* A new run: the input stream's chunks, INFO, SCEN, the frames. */
+static pf_status run_new(run *r, pf_atomic_file *file, pf_error *err)
+{
+    build_scene(r, &r->scene);
+    FILE *in_file = NULL;
+    const char *in_name = NULL;
+    PF_TRY(pf_cli_open_input(r->input_path, &in_file, &in_name, err));
+    pf_stream_reader *in = NULL;
+    char *command = pf_cli_command_line(&r->cli);
+    pf_status st = pf_stream_reader_create(&in, in_file, in_name, err);
+    if (st >= 0)
+        st = open_output(r, file, NULL, err);
+    if (st >= 0)
+        st = copy_input(r, in, err);
+    take_input_mesh(r);
+    if (st >= 0)
+        st = prepare_mesh(r, in_name, err);
+    if (st >= 0)
+        st = pf_stream_write_info(r->out, "pf-sim", PF_VERSION_STRING, command ? command : "", err);
+    if (st >= 0)
+        st = write_scene(r, err);
+    if (st >= 0)
+        st = simulate(r, NULL, err);
+    pf_free(command);
+    pf_stream_reader_destroy(&in);
+    pf_cli_close_input(in_file);
+    return st;
+}
+
+/* --resume: the partial stream up to its last checkpoint, then the frames after it. */
+static pf_status run_resumed(run *r, pf_atomic_file *file, pf_error *err)
+{
+    FILE *f = fopen(r->resume_path, "rb");
+    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", r->resume_path, strerror(errno));
+    pf_resume_point p;
+    pf_stream_reader *in = NULL;
+    pf_chunk ckpt;
+    pf_status st = pf_resume_find(f, r->resume_path, &p, err);
+    if (st >= 0 && fseek(f, 0, SEEK_SET) != 0)
+        st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot seek: %s", r->resume_path,
+                          strerror(errno));
+    if (st >= 0)
+        st = pf_stream_reader_create(&in, f, r->resume_path, err);
+    if (st >= 0)
+        st = open_output(r, file, f, err);
+    if (st >= 0)
+        st = pf_resume_copy(in, &p, r->out, &r->input, &ckpt, err);
+    take_input_mesh(r);
+    pf_checkpoint_header h = {0};
+    if (st >= 0)
+        st = pf_stream_checkpoint_header(&ckpt, &h, err);
+    if (st >= 0 && h.mesh_id != r->mesh.id)
+        st = pf_error_set(err, PF_ERR_UNSUPPORTED, __FILE__, __LINE__,
+                          "%s: chunk CKPT at byte %llu is of mesh %llu, not the input's MESH %llu: "
+                          "resuming a run whose mesh changed (refinement) is not supported yet",
+                          r->resume_path, (unsigned long long)p.offset,
+                          (unsigned long long)h.mesh_id, (unsigned long long)r->mesh.id);
+    if (st >= 0)
+        r->checkpoints = 1; /* copied: the output can be resumed again */
+    if (st >= 0 && r->checkpoint_every >= 0 && (uint32_t)r->checkpoint_every != p.every)
+        st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                          "--checkpoint-every %d: %s was written with %u; resume without it",
+                          (int)r->checkpoint_every, r->resume_path, (unsigned)p.every);
+    r->checkpoint_every = (int32_t)p.every;
+    if (st >= 0)
+        st = prepare_mesh(r, r->resume_path, err);
+    if (st >= 0)
+        st = resume_scene(r, err);
+    if (st >= 0 && !r->quiet)
+        fprintf(stderr,
+                "pf-sim: resuming %s after frame %u (chunk CKPT at byte %llu) of %lld; %s\n",
+                r->resume_path, (unsigned)p.frame, (unsigned long long)p.offset,
+                (long long)p.frames, p.complete ? "the stream was complete" : p.cut);
+    if (st >= 0)
+        st = simulate(r, &ckpt, err);
+    pf_stream_reader_destroy(&in);
+    fclose(f);
+    return st;
+}
+
 int main(int argc, char **argv)
 {
     start_mpi(&argc, &argv);
@@ -535,70 +792,39 @@ int main(int argc, char **argv)
     r.cpu0 = pf_cpu_seconds();
     parse_arguments(&r, n_args, args);
     pf_error *err = &r.err;
-    FILE *in_file = NULL;
-    const char *in_name = NULL;
-    if (pf_cli_open_input(r.input_path, &in_file, &in_name, err) < 0)
-        pf_cli_fail(&r.cli, err);
-    /* --output: a temporary file beside it, renamed when the stream is complete */
-    char *out_tmp = NULL;
-    FILE *out = NULL;
-    if (r.output_path) {
-        size_t len = strlen(r.output_path) + 32;
-        out_tmp = pf_alloc(len);
-        if (out_tmp)
-            snprintf(out_tmp, len, "%s.tmp%ld", r.output_path, (long)getpid());
-        out = out_tmp ? fopen(out_tmp, "wb") : NULL;
-        if (!out)
-            pf_cli_usage_error(&r.cli, "cannot write '%s'", r.output_path);
-    } else {
-        if (launcher_rank() >= 0)
-            pf_cli_usage_error(&r.cli, "under mpirun, write the stream with --output FILE "
-                                       "(mpirun's forwarding of stdout is not byte-exact)");
-        out = pf_cli_binary_stdout(&r.cli);
-    }
-    pf_stream_reader *in = NULL;
-    char *command = pf_cli_command_line(&r.cli);
-    pf_status st = pf_stream_reader_create(&in, in_file, in_name, err);
-    if (st >= 0)
-        st = pf_stream_writer_create(&r.out, out, r.output_path ? r.output_path : "stdout", err);
-    if (st >= 0)
-        st = copy_input(&r, in, err);
-    take_input_mesh(&r);
-    if (st >= 0)
-        st = prepare_mesh(&r, in_name, err);
-    if (st >= 0)
-        st = pf_stream_write_info(r.out, "pf-sim", PF_VERSION_STRING, command ? command : "", err);
-    if (st >= 0)
-        st = write_scene(&r, err);
-    if (st >= 0)
-        st = simulate(&r, err);
+    pf_atomic_file file = {0};
+    pf_status st = r.resume_path ? run_resumed(&r, &file, err) : run_new(&r, &file, err);
     /* Close the stream even after a failed frame: the frames written stay readable. */
     pf_error finish_err = {0};
     if (r.out && pf_stream_writer_finish(r.out, &finish_err) < 0 && st >= 0) {
         *err = finish_err;
         st = finish_err.status;
     }
-    /* --output: kept when it holds a closed stream (frames before a failure stay usable) */
-    bool streamed = r.out != NULL;
+    bool closed = r.out && finish_err.status == PF_OK;
     pf_stream_writer_destroy(&r.out);
-    if (out_tmp) {
-        bool closed = fclose(out) == 0;
-        if (!streamed)
-            remove(out_tmp);
-        else if (!closed || rename(out_tmp, r.output_path) != 0) {
-            remove(out_tmp);
-            if (st >= 0)
-                st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "cannot write '%s'",
-                                  r.output_path);
+    if (file.f && closed && (st >= 0 || err->status == PF_ERR_NUMERIC)) {
+        /* complete, or closed after a diverged frame (its frames kept, as on stdout) */
+        pf_error commit_err = {0};
+        if (pf_atomic_file_commit(&file, "stream", &commit_err) < 0 && st >= 0) {
+            *err = commit_err;
+            st = commit_err.status;
         }
-        pf_free(out_tmp);
+    } else if (file.f && r.checkpoints > 0) {
+        /* FILE.part keeps what was written (a full disk): the frames up to its last checkpoint
+         * can be resumed */
+        fclose(file.f);
+        fprintf(stderr,
+                "pf-sim: %s keeps the stream written so far; to continue it: mv %s partial.pfs; "
+                "pf-sim --resume partial.pfs --output %s\n",
+                file.part, file.part, r.output_path);
+        pf_free(file.part);
+    } else {
+        pf_atomic_file_abort(&file); /* nothing to resume from: no file */
     }
-    pf_stream_reader_destroy(&in);
-    pf_cli_close_input(in_file);
-    pf_free(command);
     pf_mesh_release(&r.mesh);
     pf_stream_state_release(&r.input);
     pf_scene_release(&r.scene);
+    pf_buffer_release(&r.checkpoint);
     if (st < 0)
         pf_cli_fail(&r.cli, err);
     pf_cli_close_stdout(r.cli.tool);

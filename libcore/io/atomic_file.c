@@ -1,14 +1,13 @@
 /* "Write to path.part, then rename": rename(2) replaces path atomically on POSIX file systems, so
  * a reader (ParaView watching a series, a render farm picking up frames) never sees half a file,
  * and a failed or interrupted export leaves the previous file intact. */
-#include "atomic_file.h"
+#include <pf/io.h>
 
 #include <errno.h>
 #include <stdbool.h>
 #include <string.h>
 
 #include <pf/base.h>
-#include <pf/io.h>
 
 pf_status pf_atomic_file_open(pf_atomic_file *a, const char *path, pf_error *err)
 {

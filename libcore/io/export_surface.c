@@ -6,7 +6,6 @@
 #include <math.h>
 #include <string.h>
 
-#include "atomic_file.h"
 
 /* Indices in range and finite positions; for PLY also representable as float32 (a double beyond
  * FLT_MAX would turn into an infinity that no viewer can place). */

@@ -10,7 +10,6 @@
 #include <stdarg.h>
 #include <string.h>
 
-#include "atomic_file.h"
 
 struct pf_usd_writer {
     char *path;

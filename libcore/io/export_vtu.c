@@ -15,7 +15,6 @@
 
 #include <zlib.h>
 
-#include "atomic_file.h"
 
 enum { VTK_TETRA = 10, VTK_HEXAHEDRON = 12, VTK_POLYHEDRON = 42 };
 

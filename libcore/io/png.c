@@ -2,7 +2,6 @@
  * stamp) and a reader for any PNG into 8-bit RGBA. */
 #include <pf/io.h>
 
-#include "atomic_file.h"
 
 #include <errno.h>
 #include <stdlib.h>

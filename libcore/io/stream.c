@@ -37,6 +37,7 @@ static const tag_entry TAGS[] = {
     {"INFO", 1, false, false}, {"SCEN", 1, true, false}, {"MESH", 1, true, false},
     {"SURF", 1, true, false},  {"WGHT", 1, true, true},  {"FRAM", 1, true, true},
     {"STRS", 1, false, true},  {"END_", 1, true, false}, {"GRPS", 1, false, true},
+    {"CKPT", 1, false, true},
 };
 
 static const tag_entry *find_tag(const char *tag)
@@ -86,7 +87,12 @@ pf_status pf_stream_check_version(const pf_chunk *c, pf_error *err)
 
 uint32_t pf_stream_crc32(const unsigned char *p, uint64_t n)
 {
-    uLong crc = crc32(0L, Z_NULL, 0);
+    return pf_stream_crc32_continue((uint32_t)crc32(0L, Z_NULL, 0), p, n);
+}
+
+uint32_t pf_stream_crc32_continue(uint32_t start, const unsigned char *p, uint64_t n)
+{
+    uLong crc = start;
     while (n > 0) {
         uInt piece = n > (1u << 30) ? (1u << 30) : (uInt)n;
         crc = crc32(crc, p, piece);

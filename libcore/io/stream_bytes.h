@@ -1,5 +1,5 @@
 /* Little-endian byte access for the pf stream, independent of host byte order and struct layout,
- * and the CRC-32 of payloads. Private to io/stream*.c. */
+ * and the CRC-32 of payloads. Private to io/stream*.c and sim/sim_state.c (the CKPT payload). */
 #ifndef PF_IO_STREAM_BYTES_H
 #define PF_IO_STREAM_BYTES_H
 
@@ -49,6 +49,8 @@ static inline void le_put_f64(unsigned char *p, double v)
 
 /* zlib's CRC-32 (polynomial 0xedb88320, reflected) of n bytes, in pieces that fit zlib's uInt. */
 uint32_t pf_stream_crc32(const unsigned char *p, uint64_t n);
+/* The CRC-32 of the bytes before (start) followed by these n: crc(a b) = continue(crc(a), b). */
+uint32_t pf_stream_crc32_continue(uint32_t start, const unsigned char *p, uint64_t n);
 
 /* Index of the first byte of s[0..n) that is NUL or breaks UTF-8 (RFC 3629), n when none. */
 size_t pf_stream_utf8_invalid_at(const unsigned char *s, size_t n);

@@ -508,6 +508,30 @@ pf_status pf_stream_frame_index(const pf_chunk *c, uint32_t *index, pf_error *er
     return PF_OK;
 }
 
+pf_status pf_stream_checkpoint_header(const pf_chunk *c, pf_checkpoint_header *h, pf_error *err)
+{
+    cursor k;
+    PF_TRY(begin(c, "CKPT", &k, err));
+    const unsigned char *hp = NULL;
+    PF_TRY(take(&k, 1, PF_CHECKPOINT_HEADER_BYTES, &hp, "header", err));
+    h->mesh_id = le_get_u64(hp);
+    h->frame = le_get_u32(hp + 8);
+    h->every = le_get_u32(hp + 12);
+    h->state = hp + PF_CHECKPOINT_HEADER_BYTES;
+    h->state_size = k.left;
+    return PF_OK;
+}
+
+pf_status pf_stream_encode_checkpoint_header(const pf_checkpoint_header *h, pf_buffer *out,
+                                             pf_error *err)
+{
+    unsigned char b[PF_CHECKPOINT_HEADER_BYTES];
+    le_put_u64(b, h->mesh_id);
+    le_put_u32(b + 8, h->frame);
+    le_put_u32(b + 12, h->every);
+    return pf_buffer_append(out, b, sizeof b, err);
+}
+
 pf_status pf_stream_decode_frame(const pf_chunk *c, pf_frame_data *f, pf_error *err)
 {
     memset(f, 0, sizeof *f);

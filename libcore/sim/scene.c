@@ -201,15 +201,13 @@ static pf_status read_vec3(reader *r, const cJSON *v, pf_vec3 *out)
     return PF_OK;
 }
 
-/* A direction: non-zero, returned as a unit vector. */
+/* A direction: non-zero, returned as a unit vector (pf_scene_unit_direction). */
 static pf_status read_normal(reader *r, const cJSON *v, pf_vec3 *out)
 {
     pf_vec3 n;
     PF_TRY(read_vec3(r, v, &n));
-    pf_plane pl = pf_plane_from_point_normal(pf_v3(0, 0, 0), n);
-    if (pf_v3_max_abs(pl.n) == 0)
+    if (!pf_scene_unit_direction(n, out))
         return fail(r, "must be a non-zero vector");
-    *out = pl.n;
     return PF_OK;
 }
 
@@ -430,7 +428,8 @@ static pf_status read_plane(reader *r, const cJSON *v, pf_region *out)
     if (!has_point || !has_normal)
         return fail(r, "missing key \"%s\"", has_point ? "normal" : "point");
     out->kind = PF_REGION_PLANE;
-    out->plane = pf_plane_from_point_normal(point, normal);
+    out->plane = (pf_plane){.n = normal, .d = pf_v3_dot(normal, point)}; /* normal: unit */
+    out->point = point;
     return PF_OK;
 }
 
@@ -815,10 +814,10 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
         return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__,
                             "%s: the scene must be a JSON object, got %s", r->name, got);
     }
-    static const char *const keys[] = {"material",   "materials", "method", "corotation", "gravity",
-                                       "body_force", "damping",   "fixed",  "loads",      "ground",
-                                       "obstacles",  "time",      "static", "solver",     "refine",
-                                       NULL};
+    static const char *const keys[] = {"material", "materials",  "method",    "corotation",
+                                       "gravity",  "body_force", "damping",   "fixed",
+                                       "loads",    "ground",     "obstacles", "time",
+                                       "static",   "solver",     "refine",    NULL};
     PF_TRY(begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;

@@ -1,6 +1,7 @@
 /* Value rules of scenes shared by the reader and the overrides (scene_values.h). */
 #include "scene_values.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -156,4 +157,17 @@ void pf_scene_default(pf_scene *s)
                    .coarsen_fraction = 0.5,
                    .coarsen_after = 10},
     };
+}
+
+bool pf_scene_unit_direction(pf_vec3 n, pf_vec3 *out)
+{
+    if (fabs(pf_v3_dot(n, n) - 1) <= 8 * DBL_EPSILON) {
+        *out = n;
+        return true;
+    }
+    pf_plane pl = pf_plane_from_point_normal(pf_v3(0, 0, 0), n);
+    if (pf_v3_max_abs(pl.n) == 0)
+        return false;
+    *out = pl.n;
+    return true;
 }

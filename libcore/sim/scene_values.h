@@ -34,6 +34,13 @@ bool pf_scene_parse_mass_name(const char *text, pf_mass *out);
 bool pf_scene_parse_solver_name(const char *text, pf_solver_method *out);
 bool pf_scene_parse_split_name(const char *text, pf_split_kind *out);
 
+/* n as a unit vector into out; false for the zero vector (out untouched). A unit vector (to 8
+ * ulps) is kept as it is: normalising again is not idempotent in floating point ((0, 0.2, 1)
+ * normalised, written with 17 digits and normalised again moved from ...404 to ...407 in its
+ * last digits), and the scene a stream's SCEN stores must read back into the same bits (pf-sim
+ * --resume). */
+bool pf_scene_unit_direction(pf_vec3 n, pf_vec3 *out);
+
 /* A static scene has no ground unless the file asks for one; override of "static" re-applies
  * this rule, hence ground_given. */
 void pf_scene_apply_static_ground_rule(pf_scene *s);

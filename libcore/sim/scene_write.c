@@ -35,6 +35,15 @@ static cJSON *vector(pf_vec3 v)
     return a;
 }
 
+/* The plane's point: the one the scene gave when it is on the plane (n . point = d, as read), so
+ * that the plane reads back into the same bits; n d for a region made in code without one. */
+static pf_vec3 plane_point(const pf_region *r)
+{
+    if (pf_v3_dot(r->plane.n, r->point) == r->plane.d)
+        return r->point;
+    return pf_v3_scale(r->plane.n, r->plane.d);
+}
+
 static cJSON *region(const pf_region *r)
 {
     cJSON *o = cJSON_CreateObject();
@@ -49,7 +58,7 @@ static cJSON *region(const pf_region *r)
         cJSON_AddItemToArray(box, vector(r->hi));
     } else {
         cJSON *plane = cJSON_AddObjectToObject(o, "plane");
-        pf_vec3 point = pf_v3_scale(r->plane.n, r->plane.d);
+        pf_vec3 point = plane_point(r);
         cJSON_AddItemToObject(plane, "point", vector(point));
         cJSON_AddItemToObject(plane, "normal", vector(r->plane.n));
         if (r->tol >= 0)

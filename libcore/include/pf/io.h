@@ -50,11 +50,11 @@ typedef struct pf_chunk {
 } pf_chunk;
 
 /* ---- the chunk table ----------------------------------------------------------------------------
- * Known tags: INFO SCEN MESH SURF WGHT FRAM STRS END_ GRPS. Critical: a tool that consumes such a
- * chunk and cannot decode it (an unknown version) must stop rather than skip it (SCEN MESH SURF
- * WGHT FRAM END_). Mesh-dependent: refers to the nodes or elements of the latest MESH and is
- * dropped or recomputed by a tool that emits a new MESH (WGHT FRAM STRS GRPS). Unknown tags are
- * neither; tools pass them on byte for byte. tag is a NUL-terminated string; anything but 4
+ * Known tags: INFO SCEN MESH SURF WGHT FRAM STRS END_ GRPS CKPT. Critical: a tool that consumes
+ * such a chunk and cannot decode it (an unknown version) must stop rather than skip it (SCEN MESH
+ * SURF WGHT FRAM END_). Mesh-dependent: refers to the nodes or elements of the latest MESH and is
+ * dropped or recomputed by a tool that emits a new MESH (WGHT FRAM STRS GRPS CKPT). Unknown tags
+ * are neither; tools pass them on byte for byte. tag is a NUL-terminated string; anything but 4
  * characters is unknown. */
 bool pf_stream_tag_is_known(const char *tag);
 bool pf_stream_tag_is_critical(const char *tag);
@@ -196,6 +196,20 @@ pf_status pf_stream_decode_frame(const pf_chunk *c, pf_frame_data *f, pf_error *
  * size only (pf_stream_decode_frame checks the rest). */
 pf_status pf_stream_frame_index(const pf_chunk *c, uint32_t *index, pf_error *err);
 pf_status pf_stream_decode_stress(const pf_chunk *c, pf_stress_data *s, pf_error *err);
+/* CKPT: pf-sim's checkpoint, a 16-byte header and the simulator's state (pf_sim_checkpoint). */
+enum { PF_CHECKPOINT_HEADER_BYTES = 16 };
+typedef struct pf_checkpoint_header {
+    uint64_t mesh_id;           /* the MESH simulated */
+    uint32_t frame;             /* the FRAM index it follows */
+    uint32_t every;             /* the run's frames between checkpoints */
+    const unsigned char *state; /* decode: the simulator's state in the payload (borrowed) */
+    uint64_t state_size;
+} pf_checkpoint_header;
+/* Checks the tag, version and header size only (pf_sim_restore checks the state). */
+pf_status pf_stream_checkpoint_header(const pf_chunk *c, pf_checkpoint_header *h, pf_error *err);
+/* Appends the header's 16 bytes (state and state_size unused). */
+pf_status pf_stream_encode_checkpoint_header(const pf_checkpoint_header *h, pf_buffer *out,
+                                             pf_error *err);
 pf_status pf_stream_decode_end(const pf_chunk *c, pf_end_data *d, pf_error *err);
 
 /* GRPS: the regions (Gmsh physical groups) of a mesh, docs/stream-format.md. The encoder writes
@@ -285,6 +299,26 @@ const pf_stream_mesh_use *pf_stream_state_find_mesh(const pf_stream_state *s, ui
 
 /* Frees everything the state holds and zeroes it; safe on a zeroed state. */
 void pf_stream_state_release(pf_stream_state *s);
+
+/* ==== files that appear whole or not at all ====================================================
+ * Written to "path.part", renamed over path when complete (libcore/io/atomic_file.c). */
+typedef struct pf_atomic_file {
+    FILE *f;          /* open on part, for writing (binary mode) */
+    const char *path; /* borrowed: the final name */
+    char *part;       /* path + ".part", owned */
+} pf_atomic_file;
+
+/* Creates (truncates) "path.part" for writing. path is borrowed until commit or abort.
+ * PF_ERR_IO "PATH.part: cannot create: REASON", PF_ERR_NOMEM. a is zeroed after a failure. */
+pf_status pf_atomic_file_open(pf_atomic_file *a, const char *path, pf_error *err);
+
+/* Flushes and closes the file and renames it over path. Any failure of the writes before (the
+ * stream's error flag), of the flush, the close or the rename removes the .part file and returns
+ * PF_ERR_IO "PATH: cannot write WHAT: REASON" (what: "VTU file", "PNG", ...). a is zeroed. */
+pf_status pf_atomic_file_commit(pf_atomic_file *a, const char *what, pf_error *err);
+
+/* Closes and removes the .part file without touching path; safe on a zeroed a. a is zeroed. */
+void pf_atomic_file_abort(pf_atomic_file *a);
 
 /* ==== importers and exporters ==================================================================
  * Importers name the file and the line (text formats) or the reason assimp gives in every error,

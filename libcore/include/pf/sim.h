@@ -44,8 +44,10 @@ typedef struct pf_region {
     char group_name[PF_GROUP_NAME_MAX]; /* group: its name ("" when given by number) */
     pf_vec3 lo, hi;                     /* box corners, lo <= hi componentwise */
     pf_plane plane;                     /* unit normal */
-    double tol; /* plane: distance tolerance, model units, >= 0; -1 when the scene did not
-                   give one: pf_scene_resolve then sets 1e-6 x the bounding-box diagonal */
+    pf_vec3 point; /* plane: the point the scene gave (n . point = d), which pf_scene_to_json
+                      writes back so that the plane reads back into the same bits */
+    double tol;    /* plane: distance tolerance, model units, >= 0; -1 when the scene did not
+                      give one: pf_scene_resolve then sets 1e-6 x the bounding-box diagonal */
 } pf_region;
 
 /* A fixed region: weak Dirichlet on its faces (DG) or every node of its faces fixed (CG), to
@@ -343,6 +345,21 @@ pf_status pf_sim_solve_static(pf_sim *sim, pf_error *err);
  * non-finite or exploding state: PF_ERR_NUMERIC naming the frame and the element where it
  * started; the state before the frame is kept. */
 pf_status pf_sim_frame(pf_sim *sim, pf_error *err);
+
+/* Checkpoints (pf-sim --resume; the payload of the stream's CKPT chunk, docs/stream-format.md).
+ * pf_sim_checkpoint appends to out the state the next frames depend on (unknowns, velocities,
+ * time, frame, the energy check's sums, a fingerprint of scene, mesh and obstacle surfaces), and
+ * makes the current state a restart point: the solver drops its factor so that the next step
+ * factorises afresh, as a restored simulator's does (which changes the last bits of later frames
+ * under pcg, never their accuracy). pf_sim_restore sets a simulator made for the same scene, mesh
+ * and surface from such bytes; it then makes the same frames, bit for bit, as the run that wrote
+ * them (same pf build and thread counts). PF_ERR_FORMAT for bytes that are not such a state
+ * (sizes, counts, non-finite numbers, another mesh id or number of unknowns), PF_ERR_INVALID
+ * when the fingerprint differs (another scene, mesh or obstacle file); s is unchanged then.
+ * pf_sim_checkpoint refuses (PF_ERR_UNSUPPORTED) a simulator whose scene refines or whose mesh
+ * changed (pf_sim_split, pf_sim_merge): the refinement's state is not stored. */
+pf_status pf_sim_checkpoint(pf_sim *sim, pf_buffer *out, pf_error *err);
+pf_status pf_sim_restore(pf_sim *sim, const void *bytes, size_t size, pf_error *err);
 
 /* Simulated time and the number of frames advanced. */
 double pf_sim_time(const pf_sim *sim);

@@ -28,6 +28,8 @@
 #include <pf/mesh.h>
 #include <pf/refine.h>
 
+#include "test_prism.h"
+
 /* ---- helpers -----------------------------------------------------------------------------------
  */
 
@@ -436,37 +438,6 @@ static void test_plane_near_vertex(void **state)
 /* ---- non-convex elements ----------------------------------------------------------------------
  */
 
-/* One element: the prism z in [0, 1] over the counter-clockwise polygon xy[n]. */
-static pf_mesh make_prism(const double *xy, int n)
-{
-    pf_mesh m = {0};
-    pf_error err = {0};
-    assert_int_equal(pf_mesh_alloc(&m, 2 * n, n + 2, 6 * (int64_t)n, 1, n + 2, &err), PF_OK);
-    for (int i = 0; i < n; ++i)
-        for (int z = 0; z < 2; ++z) {
-            m.x[3 * (i + z * n)] = xy[2 * i];
-            m.x[3 * (i + z * n) + 1] = xy[2 * i + 1];
-            m.x[3 * (i + z * n) + 2] = z;
-        }
-    int64_t k = 0;
-    for (int i = 0; i < n; ++i) /* bottom, seen from below */
-        m.face_nodes[k++] = (uint32_t)(n - 1 - i);
-    m.face_offsets[1] = k;
-    for (int i = 0; i < n; ++i)
-        m.face_nodes[k++] = (uint32_t)(n + i);
-    m.face_offsets[2] = k;
-    for (int i = 0; i < n; ++i) {
-        uint32_t a = (uint32_t)i, b = (uint32_t)((i + 1) % n);
-        uint32_t q[4] = {a, b, b + (uint32_t)n, a + (uint32_t)n};
-        memcpy(m.face_nodes + k, q, sizeof q);
-        k += 4;
-        m.face_offsets[3 + i] = k;
-    }
-    for (int f = 0; f < n + 2; ++f)
-        m.elem_faces[f] = (uint32_t)f;
-    m.elem_offsets[1] = n + 2;
-    return m;
-}
 
 /* An L (areas 2 + 1, centroid x = y = 5/6) by halves along x: a rectangle 5/6 x 2 and an L. */
 static void test_l_shape(void **state)

@@ -76,9 +76,11 @@ typedef struct pf_method_ops {
     void (*affine)(const void *m, const double a[9], const double b[3], double *u);
     /* Largest disagreement between elements at a node (0 for a conforming method). */
     double (*max_node_jump)(const void *m, const double *u);
-    /* Refinement (sim_refine.c). The principal stress of largest magnitude in element e
-     * (corotated, sampled at its centroid and vertices), its direction in the rest frame. */
-    double (*principal_stress)(const void *m, const double *u, int32_t e, pf_vec3 *direction);
+    /* Refinement (sim_refine.c). For every element e, the principal stress of largest magnitude
+     * (corotated, sampled at its centroid and vertices) in value[e] and its direction in the rest
+     * frame in direction[e]. */
+    void (*principal_stresses)(const void *m, const double *u, double *value,
+                               pf_vec3 *direction);
     /* The field u_old of old (this method on the mesh before a change, pf_mesh_change) carried
      * over to this method's unknowns u_new. DG: each child its parent's polynomial (exact), each
      * merged element the L2 projection of its children (momentum exact); CG: old nodes keep

@@ -337,20 +337,21 @@ static void stress_sample(const cg_method *c, const double *u, int32_t e, pf_vec
         *best = value, *direction = dir;
 }
 
-/* At the centroid and at every node of the element. */
-static double principal_stress(const void *m, const double *u, int32_t e, pf_vec3 *direction)
+/* At each element's centroid and at every node of it. */
+static void principal_stresses(const void *m, const double *u, double *value, pf_vec3 *direction)
 {
     const cg_method *c = m;
     to_nodal(c, u, c->u_full);
-    double best = 0;
-    *direction = pf_v3(1, 0, 0);
-    stress_sample(c, c->u_full, e, c->cg.centroid[e], &best, direction);
-    const int32_t *nodes;
-    int32_t k = pf_basis_elem_nodes(&c->cg.basis, e, &nodes);
-    for (int32_t a = 0; a < k; ++a)
-        stress_sample(c, c->u_full, e, pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]), &best,
-                      direction);
-    return best;
+    for (int32_t e = 0; e < c->cg.n_elems; ++e) {
+        value[e] = 0;
+        direction[e] = pf_v3(1, 0, 0);
+        stress_sample(c, c->u_full, e, c->cg.centroid[e], &value[e], &direction[e]);
+        const int32_t *nodes;
+        int32_t k = pf_basis_elem_nodes(&c->cg.basis, e, &nodes);
+        for (int32_t a = 0; a < k; ++a)
+            stress_sample(c, c->u_full, e, pf_v3_load(c->mesh->x + 3 * (size_t)nodes[a]), &value[e],
+                          &direction[e]);
+    }
 }
 
 /* Node i of the new mesh takes the old field of old element p at its position. */
@@ -461,7 +462,7 @@ static const pf_method_ops CG_OPS = {
     .momentum = momentum,
     .affine = affine,
     .max_node_jump = max_node_jump,
-    .principal_stress = principal_stress,
+    .principal_stresses = principal_stresses,
     .transfer = transfer,
     .setup_stats = setup_stats,
     .destroy = destroy,

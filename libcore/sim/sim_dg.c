@@ -309,22 +309,25 @@ static void stress_sample(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x
         *best = value, *direction = dir;
 }
 
-/* The centroid and, for degree 2 (degree 1 has a constant gradient), every vertex. */
-static double principal_stress(const void *m, const double *u, int32_t e, pf_vec3 *direction)
+/* At each element's centroid and, for degree 2 (degree 1 has a constant gradient), every
+ * vertex. */
+static void principal_stresses(const void *m, const double *u, double *value, pf_vec3 *direction)
 {
     const dg_method *d = m;
     const pf_mesh *mesh = d->mesh;
-    double best = 0;
-    *direction = pf_v3(1, 0, 0);
-    stress_sample(&d->dg, u, e, pf_v3_load(d->dg.centroid + 3 * (size_t)e), &best, direction);
-    for (int64_t q = mesh->elem_offsets[e]; d->dg.degree >= 2 && q < mesh->elem_offsets[e + 1];
-         ++q) {
-        int32_t f = PF_FACE_INDEX(mesh->elem_faces[q]);
-        for (int64_t k = mesh->face_offsets[f]; k < mesh->face_offsets[f + 1]; ++k)
-            stress_sample(&d->dg, u, e, pf_v3_load(mesh->x + 3 * (size_t)mesh->face_nodes[k]),
-                          &best, direction);
+    for (int32_t e = 0; e < d->dg.n_elems; ++e) {
+        value[e] = 0;
+        direction[e] = pf_v3(1, 0, 0);
+        pf_vec3 centroid = pf_v3_load(d->dg.centroid + 3 * (size_t)e);
+        stress_sample(&d->dg, u, e, centroid, &value[e], &direction[e]);
+        for (int64_t q = mesh->elem_offsets[e]; d->dg.degree >= 2 && q < mesh->elem_offsets[e + 1];
+             ++q) {
+            int32_t f = PF_FACE_INDEX(mesh->elem_faces[q]);
+            for (int64_t k = mesh->face_offsets[f]; k < mesh->face_offsets[f + 1]; ++k)
+                stress_sample(&d->dg, u, e, pf_v3_load(mesh->x + 3 * (size_t)mesh->face_nodes[k]),
+                              &value[e], &direction[e]);
+        }
     }
-    return best;
 }
 
 /* Every child takes its parent's polynomial and unchanged elements their own (exact); a merged
@@ -409,7 +412,7 @@ static const pf_method_ops DG_OPS = {
     .momentum = momentum,
     .affine = affine,
     .max_node_jump = max_node_jump,
-    .principal_stress = principal_stress,
+    .principal_stresses = principal_stresses,
     .transfer = transfer,
     .setup_stats = setup_stats,
     .destroy = destroy,
@@ -477,8 +480,7 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                                      .same_solid = reuse->same_solid,
                                      .same_faces = reuse->same_faces,
                                      .face_src = reuse->face_src};
-        st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, &mat, reuse ? &dg_reuse : NULL,
-                                  err);
+        st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, &mat, reuse ? &dg_reuse : NULL, err);
     }
     pf_free(table);
     pf_free(elem);

@@ -324,21 +324,25 @@ pf_status pf_sim_refine(pf_sim *s, int32_t *n_changed, pf_error *err)
     }
     candidate *c = pf_alloc_array((size_t)ne + 1, sizeof *c);
     int32_t *group = pf_alloc_array((size_t)ne + 1, sizeof *group);
-    if (!c || !group) {
-        pf_free(c), pf_free(group);
+    double *stress = pf_alloc_array((size_t)ne + 1, sizeof *stress);
+    pf_vec3 *dir = pf_alloc_array((size_t)ne + 1, sizeof *dir);
+    if (!c || !group || !stress || !dir) {
+        pf_free(c), pf_free(group), pf_free(stress), pf_free(dir);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "cannot allocate %d refinement candidates", (int)ne);
     }
+    s->ops->principal_stresses(s->method, s->u, stress, dir);
     int32_t n = 0;
     double calm_stress = p->coarsen_fraction * p->threshold;
     for (int32_t e = 0; e < ne; ++e) {
-        pf_vec3 dir;
-        double stress = fabs(s->ops->principal_stress(s->method, s->u, e, &dir));
-        s->calm[e] = stress < calm_stress ? s->calm[e] + 1 : 0;
+        double value = fabs(stress[e]);
+        s->calm[e] = value < calm_stress ? s->calm[e] + 1 : 0;
         bool small = p->min_size > 0 && cbrt(fabs(pf_mesh_elem_volume(m, e))) <= p->min_size;
-        if (stress > p->threshold && s->level[e] < p->max_level && !small)
-            c[n++] = (candidate){e, stress, dir};
+        if (value > p->threshold && s->level[e] < p->max_level && !small)
+            c[n++] = (candidate){e, value, dir[e]};
     }
+    pf_free(stress);
+    pf_free(dir);
     double criterion_seconds = pf_cpu_seconds() - t0;
     /* merging first; splits wait for the next frame (their stresses are the old mesh's) */
     int32_t n_groups = 0;

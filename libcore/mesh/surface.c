@@ -25,6 +25,7 @@ void pf_surface_release(pf_surface *s)
 {
     pf_free(s->x);
     pf_free(s->tri);
+    pf_free(s->tri_part);
     memset(s, 0, sizeof *s);
 }
 

@@ -165,7 +165,12 @@ typedef struct pf_surface {
     int32_t n_tris;
     double *x;     /* [3 * n_verts] */
     uint32_t *tri; /* [3 * n_tris] vertex indices */
+    /* [n_tris] what each triangle is (PF_SURFACE_MODEL, PF_SURFACE_CAP), or NULL: all the model's
+     * own surface. Caps close a cut (pf_surface_cut); renderers colour them, exports group them. */
+    uint8_t *tri_part;
 } pf_surface;
+
+enum { PF_SURFACE_MODEL = 0, PF_SURFACE_CAP = 1 };
 
 pf_status pf_surface_alloc(pf_surface *s, int32_t n_verts, int32_t n_tris, pf_error *err);
 void pf_surface_release(pf_surface *s);

@@ -1,0 +1,128 @@
+/* pf/cut.h: cutting a mesh and its embedded surface without remeshing (DG paper sec. 9.4,
+ * harmonic paper sec. 8 "Progressive Cutting").
+ *
+ * A cut is a list of requests, each an element and a plane. Every requested element is split by
+ * its plane into pieces on either side (pf_mesh_refine's exact split; pieces may be non-convex),
+ * and the material is separated across the cut: a face between two elements of the cut that lie
+ * on opposite sides of it (the caps between two pieces of one element, a face of the mesh the
+ * plane runs along, the parts of a face between neighbouring cut elements) becomes two boundary
+ * faces, one per side, and every node on such a face is duplicated, one copy per connected group
+ * of the elements around it. A face between a cut element and one the cut did not reach stays
+ * interior: that is where the crack ends, so a cut can stop half way (progressive cutting: the
+ * caller requests the elements the blade has passed through).
+ *
+ * Element granularity: an element is cut through entirely by its plane, the blade's position
+ * inside it is not tracked further (as in Wicke et al. 2007 and the harmonic paper).
+ *
+ * Slivers are never made (the sliver rules of DG paper sec. 9.4 and 9.6): a plane that would cut
+ * off a piece smaller than min_fraction of its element is not applied to that element (the
+ * element is "snapped": it stays whole, on the side of its centroid, and the crack follows its
+ * faces toward the pieces on the other side). A piece that ends up alone in a body (a connected
+ * group of elements) of less than min_fraction of the median element volume is dropped, its
+ * volume reported.
+ */
+#ifndef PF_CUT_H
+#define PF_CUT_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include <pf/base.h>
+#include <pf/embed.h>
+#include <pf/geom.h>
+#include <pf/mesh.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct pf_cut_request {
+    int32_t elem;   /* element of src (each at most once per call) */
+    pf_plane plane; /* side +1 where the signed distance is positive */
+} pf_cut_request;
+
+/* Zero values mean "default". */
+typedef struct pf_cut_params {
+    /* Smallest piece a plane may make, as a fraction of its element's volume; <= 0:
+     * PF_REFINE_MIN_FRACTION (5 %, the slicer's and refinement's sliver rule). Also the
+     * smallest body kept, as a fraction of the median element volume. */
+    double min_fraction;
+    /* [src->n_faces] the faces earlier cuts opened (pf_cut_result.cut_face of the cut that made
+     * src), or NULL: none. Carried into res->cut_face. */
+    const uint8_t *src_cut_face;
+} pf_cut_params;
+
+typedef struct pf_cut_result {
+    int32_t *parent;   /* [dst->n_elems] the src element each dst element comes from */
+    uint8_t *split;    /* [src->n_elems] 1 for an element split into pieces */
+    uint8_t *changed;  /* [dst->n_elems] 0 exactly for elements whose faces are those of their
+                          parent node for node (pf_refine_result.changed, and also 1 for
+                          elements that got a duplicated node) */
+    int32_t *face_src; /* [dst->n_faces] the src face a dst face is, node for node (same node
+                          indices), or -1 */
+    int32_t *node_map; /* [src->n_nodes] the dst index of each src node (its first copy when it
+                          was duplicated), -1 when it was dropped with a dropped piece */
+    int32_t *node_src; /* [dst->n_nodes] the src node a dst node is or is a copy of, -1 for the
+                          nodes the planes made */
+    uint8_t *cut_face; /* [dst->n_faces] 1 for boundary faces opened by this cut or earlier ones
+                          (params.src_cut_face) */
+    uint8_t *opened;   /* [dst->n_faces] 1 for the faces this cut opened (a subset of cut_face:
+                          what a surface cut must cap now) */
+    int32_t n_split;       /* requests that split their element */
+    int32_t n_snapped;     /* requests whose plane was not applied by the sliver rule, or that
+                              missed their element (the element then lies on one side) */
+    int32_t n_opened;      /* faces opened by this cut (each counted once, as two dst faces) */
+    int32_t n_duplicated;  /* node copies made */
+    int32_t n_bodies;      /* connected groups of elements in dst (through shared faces) */
+    int32_t n_dropped;     /* pieces dropped as too small alone */
+    double dropped_volume; /* their volume, model units */
+} pf_cut_result;
+
+/* Cuts src into dst (zeroed or released first; written derived, with src's groups carried: an
+ * element its parent's, a face its source face's or, for a part of a boundary face, that face's)
+ * and describes the change in *res (overwritten; arrays from pf_alloc). src must be valid
+ * (pf_mesh_validate) and derived. n_req may be 0 (dst is then a copy with a new id).
+ * Volume: the elements of dst have src's volume to rounding, minus res->dropped_volume.
+ * Numbering: src's nodes keep their indices (a duplicated node's first copy is the node itself,
+ * the others are appended); elements in src order with each split element replaced by its
+ * pieces; dst->id = src->id + 1.
+ * Statuses: PF_ERR_INVALID for a request naming an element out of range or twice, a plane that
+ * is not finite or has a zero normal; PF_ERR_NUMERIC when an element's split is inconsistent at
+ * the split tolerance; PF_ERR_NOMEM. Messages name the request and element. On failure dst is
+ * released and *res zeroed. */
+pf_status pf_mesh_cut(const pf_mesh *src, const pf_cut_request *req, int32_t n_req,
+                      const pf_cut_params *params, pf_mesh *dst, pf_cut_result *res,
+                      pf_error *err);
+
+/* Frees the arrays and zeroes *r. Safe on a zeroed result. */
+void pf_cut_result_release(pf_cut_result *r);
+
+/* ---- the embedded render surface ------------------------------------------------------------
+ *
+ * The surface a user sees is cut where the mesh was: s (rest positions, as it was before the
+ * cut; it may hold earlier caps) is split along the faces the cut opened (cut->opened on m, the
+ * mesh after the cut): a triangle crossing such a face is split exactly by the face's plane, and
+ * the vertices made on an opened face are duplicated, one copy per side, so that nothing of the
+ * surface moves with material across the cut. Where the cut ends inside a triangle (the crack
+ * front) its vertices are shared. The cut is capped: each opened face, clipped to the inside of
+ * s when s is closed, is triangulated into cap triangles (tri_part PF_SURFACE_CAP). The weights
+ * of every vertex of out over m's nodes are computed with pf_embed_compute's parameters (embed,
+ * NULL: defaults) and the visibility rule: no vertex takes a node whose segment to it crosses a
+ * face in cut->cut_face; a vertex on a cut takes only nodes of its own side.
+ * out (zeroed or released) gets id s->id + 1 and w (zeroed or released) rows for out's vertices,
+ * columns m's nodes, surface_id out->id, mesh_id m->id. */
+typedef struct pf_surface_cut_stats {
+    int32_t n_split_tris;  /* triangles of s split by opened faces */
+    int32_t n_duplicated;  /* vertex copies made on the cut */
+    int32_t n_cap_tris;    /* cap triangles added */
+    double cap_area;       /* their area, model units */
+} pf_surface_cut_stats;
+
+pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_result *cut,
+                         const pf_embed_params *embed, pf_surface *out, pf_weights *w,
+                         pf_surface_cut_stats *stats, pf_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -12,6 +12,11 @@ void pf_blade_at(const pf_blade *b, double t, pf_vec3 *a, pf_vec3 *bb)
     *bb = pf_v3_add(b->b, shift);
 }
 
+bool pf_scene_changes_mesh(const pf_scene *s)
+{
+    return s->refine.enabled || s->n_cuts > 0;
+}
+
 void pf_scene_release_cuts(pf_scene *s)
 {
     for (int32_t i = 0; i < s->n_cuts; ++i) {

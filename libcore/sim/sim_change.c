@@ -24,6 +24,11 @@ const pf_weights *pf_sim_weights(const pf_sim *s)
     return s->weights;
 }
 
+const pf_surface *pf_sim_surface(const pf_sim *s)
+{
+    return s->surface;
+}
+
 /* Statistics: cumulative ones from s, what describes the mesh from t. */
 static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
 {

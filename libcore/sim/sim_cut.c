@@ -61,6 +61,7 @@ pf_status pf_sim_cut(pf_sim *s, const pf_cut_request *req, int32_t n_req, pf_cut
         s->stats.dropped_volume += r.dropped_volume;
         s->stats.dropped_mass += r.dropped_volume * s->scene->density;
         s->stats.cut_seconds += pf_cpu_seconds() - t0;
+        s->stats.refine_seconds += pf_cpu_seconds() - t0;
     } else {
         pf_error_prefix(err, "cutting %d elements", (int)n_req);
     }
@@ -216,6 +217,45 @@ static pf_plane rest_plane(const pf_mesh *m, const double *y, const pf_cut_reque
     return (pf_plane){w->n, pf_v3_dot(w->n, w->o)};
 }
 
+/* The pieces of earlier cuts (elements with a cut face: the mesh's face group "cut") next to
+ * the elements crossed, req[0 .. *k), are requested too, appended in element order. The plane of
+ * a blade is fitted anew at every frame, so a crack made over several frames is a few planes a
+ * rounding apart: where this frame's plane leaves a thin strip of a face between an earlier
+ * piece and a new one on the other side, the strip must open too, or the crack would stay
+ * bridged there. An earlier piece the new plane only grazes is not split (the sliver rule) but
+ * takes its side. */
+static void add_earlier_pieces(const pf_mesh *m, pf_cut_request *req, int32_t *k)
+{
+    const pf_mesh_group *g = pf_mesh_find_group(m, 2, "cut", 0);
+    if (!g || *k == 0)
+        return;
+    uint8_t *in = pf_calloc((size_t)m->n_elems + 1, 1);
+    if (!in)
+        return; /* the cut is then only less clean; nothing is wrong */
+    for (int32_t i = 0; i < *k; ++i)
+        in[req[i].elem] = 1;
+    int32_t n0 = *k;
+    for (int32_t i = 0; i < n0; ++i) {
+        int32_t e = req[i].elem;
+        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            int32_t nb =
+                m->face_elems[2 * f] == e ? m->face_elems[2 * f + 1] : m->face_elems[2 * f];
+            if (nb < 0 || in[nb])
+                continue;
+            for (int64_t p = m->elem_offsets[nb]; p < m->elem_offsets[nb + 1]; ++p)
+                if (m->face_group[PF_FACE_INDEX(m->elem_faces[p])] == g->number) {
+                    in[nb] = 2;
+                    break;
+                }
+        }
+    }
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        if (in[e] == 2)
+            req[(*k)++].elem = e;
+    pf_free(in);
+}
+
 /* The elements the sweep passes through, each with the sweep's plane in the rest shape. */
 static pf_status blade_requests(pf_sim *s, const sweep *w, pf_cut_request **req, int32_t *k,
                                 pf_error *err)
@@ -249,6 +289,7 @@ static pf_status blade_requests(pf_sim *s, const sweep *w, pf_cut_request **req,
         if (element_crossed(m, y, e, w, tol, pt, hull))
             (*req)[(*k)++].elem = e;
     pf_plane pl = rest_plane(m, y, *req, *k, w);
+    add_earlier_pieces(m, *req, k);
     for (int32_t i = 0; i < *k; ++i)
         (*req)[i].plane = pl;
     pf_free(y), pf_free(pt), pf_free(hull);
@@ -259,7 +300,9 @@ static pf_status blade_requests(pf_sim *s, const sweep *w, pf_cut_request **req,
 static bool blade_sweep(const pf_blade *b, double t0, double t1, bool first, sweep *w)
 {
     if (b->kind == PF_BLADE_PLANE) {
-        if (!(b->time <= t1 && (b->time > t0 || first)))
+        /* times reached by summing steps: compare within a millionth of the frame */
+        double eps = 1e-6 * (t1 - t0);
+        if (!(b->time <= t1 + eps && (b->time > t0 + eps || first)))
             return false;
         *w = (sweep){.o = b->point, .n = b->normal, .bounded = false};
         return true;

@@ -219,6 +219,9 @@ typedef struct pf_scene {
 /* The defaults above (no file). */
 void pf_scene_default(pf_scene *s);
 
+/* Whether a simulation of the scene changes its mesh between frames (refinement or cuts). */
+bool pf_scene_changes_mesh(const pf_scene *s);
+
 /* Parses JSON text (len bytes, need not be NUL-terminated) into s (defaults first, then every key
  * given). name (the file name; "scene" when NULL) prefixes every message. Errors: PF_ERR_FORMAT
  * "name:LINE:COL: JSON syntax error near '...'" for text that is not strict JSON (RFC 8259; LINE
@@ -428,6 +431,8 @@ const pf_sim_stats *pf_sim_get_stats(const pf_sim *sim);
  * surface's weights on it (NULL without an embedded surface). */
 const pf_mesh *pf_sim_mesh(const pf_sim *sim);
 const pf_weights *pf_sim_weights(const pf_sim *sim);
+/* The embedded surface in force: the caller's, or the cut one after a cut (NULL without). */
+const pf_surface *pf_sim_surface(const pf_sim *sim);
 
 /* Splits the requested elements of the current mesh (pf_mesh_refine) and carries the state over
  * (DG: each child the parent's polynomial, exact; CG: new nodes take the parent's field at their
@@ -460,7 +465,7 @@ pf_status pf_sim_cut(pf_sim *sim, const pf_cut_request *req, int32_t n_req, pf_c
  * through; each plane whose time lies in (t0, t1] (or at or before t1 when t0 is 0) cuts every
  * element it crosses. A blade's plane reaches the rest shape through the affine map that best
  * fits the deformation of the elements it cuts (exact when they move rigidly or deform
- * affinely). pf_sim_advance_frame calls it after each frame; *n_cut (may be NULL) receives the
+ * affinely). pf_sim_frame calls it after each frame; *n_cut (may be NULL) receives the
  * elements split. */
 pf_status pf_sim_apply_cuts(pf_sim *sim, double t0, double t1, int32_t *n_cut, pf_error *err);
 

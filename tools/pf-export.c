@@ -395,13 +395,14 @@ static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
     return s;
 }
 
-/* A pending frame is written on the mesh it came with, before a new MESH replaces it, or when the
- * STRS chunk of its index arrives. */
+/* A pending frame is written on the mesh and surface it came with, before a new MESH, SURF or
+ * WGHT replaces them, or when the STRS chunk of its index arrives. */
 static pf_status take_chunk(exporter *x, const pf_chunk *c, pf_error *err)
 {
     if (strcmp(c->tag, "FRAM") == 0)
         return take_frame(x, c, err);
-    if (strcmp(c->tag, "MESH") == 0 || strcmp(c->tag, "END_") == 0)
+    if (strcmp(c->tag, "MESH") == 0 || strcmp(c->tag, "SURF") == 0 || strcmp(c->tag, "WGHT") == 0 ||
+        strcmp(c->tag, "END_") == 0)
         PF_TRY(flush_pending(x, err));
     PF_TRY(pf_stream_state_take(&x->st, c, err));
     if (strcmp(c->tag, "STRS") == 0 && x->have_pending && x->st.stress.frame == x->pending.index)

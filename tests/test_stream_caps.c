@@ -26,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <pf/cut.h>
 #include <pf/io.h>
 #include <pf/render.h>
 
@@ -521,28 +522,44 @@ static void test_draw_caps(void **state)
 }
 
 /* Without an embedded surface the cut shows in the mesh boundary: the two boxes have 12 boundary
- * faces (the bar 10), the two on the cut opposite to each other. */
+ * faces (the bar 10), the two on the cut opposite to each other. The same for the bar cut by
+ * pf_mesh_cut along that face (its cut_face marks them). */
 static void test_cut_faces_in_boundary(void **state)
 {
     (void)state;
     cut_bar b;
     cut_bar_make(&b);
     pf_error err = {0};
-    for (int k = 0; k < 2; ++k) {
+    pf_mesh cut = {0};
+    pf_cut_result res;
+    pf_cut_request req[2];
+    for (int e = 0; e < 2; ++e)
+        req[e] = (pf_cut_request){e, {pf_v3(1, 0, 0), 1}}; /* the plane x = 1 */
+    assert_int_equal(pf_mesh_derive(&b.m[0], &err), PF_OK);
+    assert_int_equal(pf_mesh_cut(&b.m[0], req, 2, NULL, &cut, &res, &err), PF_OK);
+    assert_int_equal(res.n_bodies, 2);
+    const pf_mesh *meshes[3] = {&b.m[0], &b.m[1], &cut};
+    for (int k = 0; k < 3; ++k) {
         pf_boundary bd = {0};
-        assert_int_equal(pf_boundary_extract(&b.m[k], &bd, &err), PF_OK);
+        assert_int_equal(pf_boundary_extract(meshes[k], &bd, &err), PF_OK);
         assert_int_equal(bd.n_faces, k ? 12 : 10);
+        int marked = 0;
+        for (int32_t i = 0; k == 2 && i < bd.n_faces; ++i)
+            marked += res.cut_face[bd.face[i]];
+        assert_int_equal(marked, k == 2 ? 2 : 0);
         int on_cut = 0;
         for (int32_t i = 0; i < bd.n_faces; ++i) {
             bool all = true;
             for (int64_t t = bd.tri_offsets[i]; t < bd.tri_offsets[i + 1]; ++t)
                 for (int c = 0; c < 3; ++c)
-                    all = all && b.m[k].x[3 * bd.tri[3 * t + c]] == 1;
+                    all = all && meshes[k]->x[3 * bd.tri[3 * t + c]] == 1;
             on_cut += all;
         }
         assert_int_equal(on_cut, k ? 2 : 0);
         pf_boundary_release(&bd);
     }
+    pf_cut_result_release(&res);
+    pf_mesh_release(&cut);
     cut_bar_release(&b);
 }
 

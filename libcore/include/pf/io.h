@@ -459,8 +459,10 @@ pf_status pf_export_pvd(const char *path, const char *const *files, const double
 /* A triangle surface at positions x [3 n_verts] (NULL: s->x) as Wavefront OBJ (v, vn and f a//a
  * lines, 1-based, positions %.17g, normals %.9g) or binary little-endian PLY (float32 positions x
  * y z and normals nx ny nz per vertex, uint32 indices) for
- * Blender/Houdini sequences. PF_ERR_INVALID for an index out of range or a non-finite position
- * (for PLY also one beyond float32's range); PF_ERR_IO as above. */
+ * Blender/Houdini sequences. A surface with caps (tri_part, PF_SURFACE_CAP) gets "g cap" /
+ * "usemtl cap" runs (and "g model") and flat cap normals in OBJ, a face property "uchar part" in
+ * PLY; vertex normals from pf_surface_part_normals. PF_ERR_INVALID for an index out of range or a
+ * non-finite position (for PLY also one beyond float32's range); PF_ERR_IO as above. */
 pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err);
 pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, pf_error *err);
 
@@ -469,7 +471,9 @@ pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, 
  * Z) whose points and vertex normals are time samples, the time code being the frame index and
  * timeCodesPerSecond derived from the frames' times (24 for a single frame); faceVertexCounts /
  * faceVertexIndices sampled at the first frame and again whenever the triangles change; an
- * optional per-triangle primvar "stress" (interpolation uniform). Values as float32 (%.9g). */
+ * optional per-triangle primvar "stress" (interpolation uniform); a GeomSubset "cap" (family
+ * materialBind) of the cap triangles, sampled with the topology, when some sample has caps. Values
+ * as float32 (%.9g). */
 typedef struct pf_usd_writer pf_usd_writer;
 
 /* path is copied; nothing is written before pf_usd_writer_finish. PF_ERR_NOMEM. */

@@ -216,35 +216,42 @@ static void test_clamped_bar_falls_apart(void **state)
 }
 
 /* A blade comes down through a bar clamped at both ends and stops half way: several frames cut
- * (progressive), the bar stays one body, and no element below where the blade stopped is split;
- * the same blade going all the way through makes two bodies. */
-static void blade_through_bar(double stop, int bodies)
+ * (progressive), the bar stays one body and the mesh valid; the same blade going all the way
+ * through makes two bodies. On hexes and on Kuhn tetrahedra, with both methods. */
+static void blade_through_bar(double stop, int bodies, bool tets, const char *method)
 {
     char json[768];
     snprintf(json, sizeof json,
-             "{\"gravity\": [0, 0, -9.81], \"ground\": false,"
+             "{\"gravity\": [0, 0, -9.81], \"ground\": false, \"method\": \"%s\","
              " \"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}},"
              "             {\"plane\": {\"point\": [4, 0, 0], \"normal\": [1, 0, 0]}}],"
              " \"time\": {\"dt\": 0.01, \"substeps\": 2},"
              " \"cuts\": [{\"blade\": [[2.05, -1, 1.5], [2.05, 2, 1.5]],"
              "   \"path\": [{\"time\": 0, \"translation\": [0, 0, 0]},"
              "              {\"time\": 0.1, \"translation\": [0, 0, %.17g]}]}]}",
-             stop - 1.5);
+             method, stop - 1.5);
     pf_mesh m = {0};
     pf_scene sc;
-    make_box(&m, pf_v3(4, 1, 1), 8, 2, 4);
+    pf_error err = {0};
+    if (tets) {
+        assert_int_equal(pf_mesh_make_box_tets(&m, pf_v3(0, 0, 0), pf_v3(4, 1, 1), 8, 2, 4, &err),
+                         PF_OK);
+        assert_int_equal(pf_mesh_derive(&m, &err), PF_OK);
+    } else {
+        make_box(&m, pf_v3(4, 1, 1), 8, 2, 4);
+    }
     parse(&sc, json);
     pf_sim *sim = create(&sc, &m);
     run_frames(sim, 12);
     const pf_sim_stats *st = pf_sim_get_stats(sim);
-    print_message("blade to z = %g: %d cuts, %lld elements split, %d bodies\n", stop, (int)st->cuts,
-                  (long long)st->elements_cut, (int)st->bodies);
+    print_message("%s on %s, blade to z = %g: %d cuts, %lld elements split, %d bodies\n", method,
+                  tets ? "tets" : "hexes", stop, (int)st->cuts, (long long)st->elements_cut,
+                  (int)st->bodies);
     assert_true(st->cuts >= 3);
     assert_int_equal(st->bodies, bodies);
-    /* the pieces of the split elements all lie above the lowest point the blade reached, to
-     * the element granularity: nothing split below stop - one element height */
-    const pf_mesh *now = pf_sim_mesh(sim);
-    assert_true(now->n_elems == m.n_elems + st->elements_cut);
+    pf_mesh_validate_params vp = pf_mesh_validate_params_default();
+    if (pf_mesh_validate(pf_sim_mesh(sim), &vp, &err) < 0)
+        fail_msg("the cut mesh: %s", err.msg);
     pf_sim_destroy(&sim);
     pf_scene_release(&sc);
     pf_mesh_release(&m);
@@ -253,8 +260,54 @@ static void blade_through_bar(double stop, int bodies)
 static void test_progressive_blade(void **state)
 {
     (void)state;
-    blade_through_bar(0.5, 1);  /* stops half way: 2 of the 4 layers */
-    blade_through_bar(-0.5, 2); /* through */
+    blade_through_bar(0.5, 1, false, "dg"); /* stops half way: 2 of the 4 layers */
+    blade_through_bar(-0.5, 2, false, "dg");
+    blade_through_bar(0.5, 1, true, "dg"); /* Kuhn tetrahedra */
+    blade_through_bar(-0.5, 2, true, "dg");
+    blade_through_bar(-0.5, 2, false, "cg");
+    blade_through_bar(-0.5, 2, true, "cg");
+}
+
+/* The DG paper's pencil (fig. 10): a single hexahedron held at its foot, sharpened by four plane
+ * cuts around its top at successive times: each cut shaves off a piece that falls away (a body of
+ * its own), the mesh stays valid, and the volume of the pieces (and of any dropped as too small)
+ * stays the pencil's to round-off. */
+static void test_pencil(void **state)
+{
+    (void)state;
+    pf_mesh m = {0};
+    pf_scene sc;
+    make_box(&m, pf_v3(0.2, 0.2, 1), 1, 1, 1);
+    parse(&sc, "{\"ground\": false, \"time\": {\"dt\": 0.02, \"frames\": 10},"
+               " \"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [0, 0, 1]}}],"
+               " \"cuts\": ["
+               "  {\"plane\": {\"point\": [0.08, 0.1, 1], \"normal\": [-1, 0, 0.15]},"
+               "   \"time\": 0.02},"
+               "  {\"plane\": {\"point\": [0.12, 0.1, 1], \"normal\": [1, 0, 0.15]},"
+               "   \"time\": 0.04},"
+               "  {\"plane\": {\"point\": [0.1, 0.08, 1], \"normal\": [0, -1, 0.15]},"
+               "   \"time\": 0.06},"
+               "  {\"plane\": {\"point\": [0.1, 0.12, 1], \"normal\": [0, 1, 0.15]},"
+               "   \"time\": 0.08}]}");
+    pf_sim *sim = create(&sc, &m);
+    run_frames(sim, 6);
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    const pf_mesh *now = pf_sim_mesh(sim);
+    double v = st->dropped_volume;
+    for (int32_t e = 0; e < now->n_elems; ++e)
+        v += pf_mesh_elem_volume(now, e);
+    print_message("pencil: %d cuts, %d elements, %d bodies, dropped %g\n", (int)st->cuts,
+                  (int)now->n_elems, (int)st->bodies, st->dropped_volume);
+    assert_int_equal(st->cuts, 4);
+    assert_true(st->bodies >= 5);
+    assert_true(rel(v, 0.04) < 1e-12);
+    pf_error err = {0};
+    pf_mesh_validate_params vp = pf_mesh_validate_params_default();
+    if (pf_mesh_validate(now, &vp, &err) < 0)
+        fail_msg("the sharpened pencil: %s", err.msg);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
 }
 
 /* An embedded box surface inside a bar clamped at one end, cut through: the surface is cut with
@@ -355,6 +408,7 @@ int main(void)
         cmocka_unit_test(test_affine_state_survives_cut),
         cmocka_unit_test(test_clamped_bar_falls_apart),
         cmocka_unit_test(test_progressive_blade),
+        cmocka_unit_test(test_pencil),
         cmocka_unit_test(test_embedded_surface_cut),
         cmocka_unit_test(test_scene_errors),
     };

@@ -138,6 +138,8 @@ pf_status pf_sim_change_mesh(pf_sim *s, pf_mesh *next, const pf_mesh_change *cha
     t->stats.refinements++;
     t->stats.refine_method_seconds += t->method_seconds;
     t->stats.refine_setup_seconds += build_seconds - t->method_seconds;
+    t->blade_locks = s->blade_locks; /* the blades' planes go on */
+    s->blade_locks = NULL;
     if (!t->owned_surface) { /* the surface of an earlier cut goes on */
         t->owned_surface = s->owned_surface;
         s->owned_surface = NULL;

@@ -170,10 +170,7 @@ static bool element_crossed(const pf_mesh *m, const double *y, int32_t e, const 
 }
 
 /* The rest-shape plane of the world plane n . (y - o) = 0 over the nodes of the elements
- * req[0 .. k): y = F x + t fitted by least squares (centred), then n . (F x + t - o) = 0. Each
- * element gets its own (k = 1): the deformation of a body is not one affine map, and one plane
- * for all would miss elements the blade passes through; neighbours' planes then differ a little,
- * and the faces between them open wherever their sides differ (pf_mesh_cut). */
+ * req[0 .. k): y = F x + t fitted by least squares (centred), then n . (F x + t - o) = 0. */
 static pf_plane rest_plane(const pf_mesh *m, const double *y, const pf_cut_request *req, int32_t k,
                            const sweep *w)
 {
@@ -259,9 +256,40 @@ static void add_earlier_pieces(const pf_mesh *m, pf_cut_request *req, int32_t *k
     pf_free(in);
 }
 
+/* A blade's plane in the rest shape, fixed at its first cut (the affine fit of the elements it
+ * crossed then) for as long as it sweeps the same world plane: a crack made over many frames is
+ * then one plane, exactly, and the nodes of neighbouring cuts coincide. Planes fitted anew at
+ * each frame, or per element, differ by the body's motion between frames and from affine:
+ * where they meet, the faces between them get strips a rounding wide (degenerate faces, which
+ * harmonic elements cannot have). The price: a body that turns under a blade moving in a fixed
+ * plane is cut along the material plane the blade entered. */
+typedef struct blade_lock {
+    bool locked;
+    pf_plane world; /* the sweep's world plane when the rest plane was fitted */
+    pf_plane rest;
+} blade_lock;
+
+static bool same_plane(pf_plane a, pf_plane b, double size)
+{
+    return pf_v3_norm(pf_v3_sub(a.n, b.n)) < 1e-9 && fabs(a.d - b.d) < 1e-9 * size;
+}
+
+static pf_plane locked_plane(pf_sim *s, int32_t blade, const sweep *w, const pf_mesh *m,
+                             const double *y, const pf_cut_request *req, int32_t k)
+{
+    pf_plane world = {w->n, pf_v3_dot(w->n, w->o)};
+    blade_lock *lk = s->blade_locks ? &s->blade_locks[blade] : NULL;
+    if (lk && lk->locked && same_plane(lk->world, world, s->model_size))
+        return lk->rest;
+    pf_plane rest = rest_plane(m, y, req, k, w);
+    if (lk)
+        *lk = (blade_lock){.locked = true, .world = world, .rest = rest};
+    return rest;
+}
+
 /* The elements the sweep passes through, each with the sweep's plane in the rest shape. */
-static pf_status blade_requests(pf_sim *s, const sweep *w, pf_cut_request **req, int32_t *k,
-                                pf_error *err)
+static pf_status blade_requests(pf_sim *s, int32_t blade, const sweep *w, pf_cut_request **req,
+                                int32_t *k, pf_error *err)
 {
     const pf_mesh *m = s->mesh;
     *k = 0;
@@ -291,9 +319,10 @@ static pf_status blade_requests(pf_sim *s, const sweep *w, pf_cut_request **req,
     for (int32_t e = 0; e < m->n_elems; ++e)
         if (element_crossed(m, y, e, w, tol, pt, hull))
             (*req)[(*k)++].elem = e;
+    pf_plane pl = locked_plane(s, blade, w, m, y, *req, *k);
     add_earlier_pieces(m, *req, k);
     for (int32_t i = 0; i < *k; ++i)
-        (*req)[i].plane = rest_plane(m, y, *req + i, 1, w);
+        (*req)[i].plane = pl;
     pf_free(y), pf_free(pt), pf_free(hull);
     return PF_OK;
 }
@@ -324,6 +353,11 @@ pf_status pf_sim_apply_cuts(pf_sim *s, double t0, double t1, int32_t *n_cut, pf_
 {
     if (n_cut)
         *n_cut = 0;
+    if (!s->blade_locks && s->scene->n_cuts > 0) {
+        s->blade_locks = pf_calloc((size_t)s->scene->n_cuts, sizeof *s->blade_locks);
+        PF_CHECK(s->blade_locks, err, PF_ERR_NOMEM, "cannot allocate %d blades",
+                 (int)s->scene->n_cuts);
+    }
     for (int32_t i = 0; i < s->scene->n_cuts; ++i) {
         double c0 = pf_cpu_seconds();
         sweep w;
@@ -331,7 +365,7 @@ pf_status pf_sim_apply_cuts(pf_sim *s, double t0, double t1, int32_t *n_cut, pf_
             continue;
         pf_cut_request *req = NULL;
         int32_t k = 0;
-        PF_TRY(blade_requests(s, &w, &req, &k, err));
+        PF_TRY(blade_requests(s, i, &w, &req, &k, err));
         s->stats.cut_seconds += pf_cpu_seconds() - c0;
         pf_cut_result r = {0};
         pf_status st = k > 0 ? pf_sim_cut(s, req, k, &r, err) : PF_OK;

@@ -312,9 +312,13 @@ typedef struct pf_sim_stats {
      * on a new mesh is the solver's (reason "first") */
     double refine_mesh_seconds, refine_method_seconds, refine_setup_seconds,
         refine_transfer_seconds;
-    /* DG: element and face integrals copied from the set-up of the mesh before a change, and
-     * computed (by every set-up, the first included) */
+    /* Element and face integrals (DG), element matrices (CG: K_e, M_e, int N_a, centroid
+     * gradients) copied from the set-up of the mesh before a change, and computed (by every
+     * set-up, the first included) */
     int64_t integrals_reused, integrals_computed;
+    /* CG: elements whose shape functions were copied from the mesh before a change (the same
+     * element node for node), and built (by every set-up, the first included) */
+    int64_t basis_reused, basis_computed;
 } pf_sim_stats;
 
 /* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles' triangles handed

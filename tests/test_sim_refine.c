@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <pf/cut.h>
 #include <pf/embed.h>
 #include <pf/fem.h>
 #include <pf/sim.h>
@@ -792,6 +793,46 @@ static void test_cg_reuse_after_merge(void **state)
     pf_mesh_release(&m);
 }
 
+/* The same across a cut, which duplicates the nodes on the crack: a plane z = 0.05 through the
+ * elements it crosses on the side x < 0 (the crack stops half way). The uncut elements whose
+ * nodes kept their indices are copied, and the simulator is the fresh one bit for bit. */
+static void test_cg_reuse_after_cut(void **state)
+{
+    (void)state;
+    pf_mesh m = {0};
+    pf_scene sc;
+    int32_t hex, cell;
+    pf_sim *sim = sliced_sphere(&m, &sc, &hex, &cell);
+    pf_cut_request *req = calloc((size_t)m.n_elems, sizeof *req);
+    int32_t n = 0;
+    for (int32_t e = 0; e < m.n_elems; ++e) {
+        double zlo = INFINITY, zhi = -INFINITY, xhi = -INFINITY;
+        for (int64_t q = m.elem_offsets[e]; q < m.elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m.elem_faces[q]);
+            for (int64_t i = m.face_offsets[f]; i < m.face_offsets[f + 1]; ++i) {
+                const double *x = m.x + 3 * (size_t)m.face_nodes[i];
+                zlo = fmin(zlo, x[2]), zhi = fmax(zhi, x[2]), xhi = fmax(xhi, x[0]);
+            }
+        }
+        if (zlo < 0.05 && zhi > 0.05 && xhi <= 0)
+            req[n++] = (pf_cut_request){.elem = e, .plane = {.n = {0, 0, 1}, .d = 0.05}};
+    }
+    assert_true(n > 0);
+    pf_sim_stats before = *pf_sim_get_stats(sim);
+    pf_error err = {0};
+    pf_cut_result res = {0};
+    if (pf_sim_cut(sim, req, n, &res, &err) < 0)
+        fail_msg("cut: %s", err.msg);
+    assert_true(res.n_split > 0);
+    assert_true(pf_sim_mesh(sim)->n_nodes > m.n_nodes + res.n_split);
+    pf_cut_result_release(&res);
+    free(req);
+    matches_fresh(sim, &sc, before);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -808,6 +849,7 @@ int main(void)
         cmocka_unit_test(test_dg_reuse_matches_fresh),
         cmocka_unit_test(test_cg_reuse_matches_fresh),
         cmocka_unit_test(test_cg_reuse_after_merge),
+        cmocka_unit_test(test_cg_reuse_after_cut),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -113,7 +113,8 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
                              .same_faces = same + ne,
                              .face_src = change->face_src,
                              .node_map = change->node_map};
-    pf_status st = pf_sim_build(t, t->owned_mesh, &reuse, s->stats.penalty, err);
+    pf_status st = pf_sim_build(t, t->owned_mesh, s->scene->refine.rebuild ? NULL : &reuse,
+                                s->stats.penalty, err);
     pf_free(same);
     return st;
 }

@@ -146,6 +146,9 @@ typedef struct pf_refine_params {
     double min_size;      /* model units: the cube root of an element's volume; default 0 */
     double coarsen_fraction; /* [0, 1); 0: never (default 0.5) */
     int32_t coarsen_after;   /* frames, >= 1 (default 10) */
+    bool rebuild; /* true: the set-up after a change copies nothing from the mesh before (the
+                     same results, at the cost of a fresh set-up: for measurements); default
+                     false */
 } pf_refine_params;
 
 typedef struct pf_scene {

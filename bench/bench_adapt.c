@@ -28,7 +28,7 @@
  *                          (mode "reuse", the default) and with every set-up from scratch
  *                          (scene key refine.rebuild: mode "rebuild"), on the bending bar of
  *                          "events" (40 hexes, closed forms) and on a sliced sphere (radius 1,
- *                          8 x 16 facets, sliced 6 across: harmonic boundary cells), fixed at
+ *                          8 x 16 facets, sliced 5 across: harmonic boundary cells), fixed at
  *                          the bottom, sagging under gravity: after 5 frames refined until nothing
  *                          more splits (octs, threshold half the largest von Mises stress,
  *                          max_level 2), then 3 frames more. Per case and mode: elements before
@@ -272,7 +272,7 @@ static int reuse(bool quick)
     pf_mesh bar = {0}, sphere = {0};
     pf_surface s = {0};
     pf_slice_params sp = pf_slice_params_default();
-    sp.grid.res = quick ? 3 : 6;
+    sp.grid.res = quick ? 3 : 5;
     if (pf_mesh_make_box(&bar, pf_v3(0, 0, 0), pf_v3(5, 1, 1), 10, 2, 2, &err) < 0 ||
         pf_mesh_derive(&bar, &err) < 0 || pf_surface_make_sphere(&s, 1, 8, 16, &err) < 0 ||
         pf_mesh_slice(&sphere, &s, &sp, NULL, &err) < 0 || pf_mesh_derive(&sphere, &err) < 0)

@@ -23,6 +23,24 @@
  *                          largest von Mises stress of the last solve), tip error
  *                          against the 3-D limit against unknowns:
  *                          method,mesh,level,elems,dofs,tip,error,cpu_s
+ *   bench_adapt reuse      CSV: the CPU cost of the mesh changes of a CG run with the set-up
+ *                          taking over the shape functions and matrices of unchanged elements
+ *                          (mode "reuse", the default) and with every set-up from scratch
+ *                          (scene key refine.rebuild: mode "rebuild"), on the bending bar of
+ *                          "events" (40 hexes, closed forms) and on a sliced sphere (radius 1,
+ *                          8 x 16 facets, sliced 5 across: harmonic boundary cells), fixed at
+ *                          the bottom, sagging under gravity: after 5 frames refined until nothing
+ *                          more splits (octs, threshold a fraction, 0.8 then 0.5, of the largest
+ *                          von Mises stress, max_level 2), then 3 frames more. Per case, fraction
+ *                          and mode: elements before and after, changes, split elements, CPU
+ *                          seconds of all changes and of their method set-ups, per change, the
+ *                          elements whose functions and matrices were copied and computed, and a
+ *                          hash of the nodal displacements after the last frame (the same in
+ *                          both modes: reuse changes no bit). The first row, "warm-up", is a
+ *                          quick run that takes the process's start-up costs out of the others:
+ *                          case,fraction,mode,elems_before,elems_after,changes,split_elems,
+ *                          change_cpu_s,method_cpu_s,change_ms_per_change,basis_reused,
+ *                          basis_built,matrices_reused,matrices_computed,hash
  *   bench_adapt ... quick  smaller cases (a check that the program runs)
  *
  * Timings are CPU seconds of the process (pf_sim_stats' refinement parts, the first
@@ -33,6 +51,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <pf/mesh.h>
 #include <pf/sim.h>
 
 #include "machine.h"
@@ -174,6 +193,109 @@ static int events(bool quick)
     return 0;
 }
 
+/* FNV-1a over the bytes of n doubles. */
+static uint64_t hash_doubles(const double *v, size_t n)
+{
+    uint64_t h = 1469598103934665603ull;
+    const unsigned char *b = (const unsigned char *)v;
+    for (size_t i = 0; i < n * sizeof *v; ++i)
+        h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
+
+/* One CG run of "reuse" on mesh m (borrowed) with the scene json, refining with the set-up's
+ * reuse on or off (rebuild). */
+static int reuse_case(const char *name, const pf_mesh *m, const char *json, double fraction,
+                      bool rebuild, bool quick)
+{
+    pf_error err = {0};
+    pf_scene sc;
+    if (parse(&sc, json, &err) < 0)
+        return fail(&err);
+    sc.method = PF_METHOD_CG;
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(m, &lo, &hi);
+    pf_scene_resolve(&sc, lo, hi);
+    pf_sim *sim = NULL;
+    pf_status st = pf_sim_create(&sim, &sc, m, &err);
+    for (int f = 0; st >= 0 && f < (quick ? 2 : 5); ++f)
+        st = pf_sim_frame(sim, &err);
+    pf_sim_stats s0 = st >= 0 ? *pf_sim_get_stats(sim) : (pf_sim_stats){0};
+    if (st >= 0)
+        st = set_threshold(sim, &sc, PF_SPLIT_OCTS, fraction, quick ? 1 : 2, &err);
+    sc.refine.rebuild = rebuild;
+    for (int32_t split = 1; st >= 0 && split > 0;)
+        st = pf_sim_refine(sim, &split, &err);
+    sc.refine.enabled = false;
+    pf_sim_stats s1 = st >= 0 ? *pf_sim_get_stats(sim) : (pf_sim_stats){0};
+    for (int f = 0; st >= 0 && f < 3; ++f)
+        st = pf_sim_frame(sim, &err);
+    double *u = NULL;
+    if (st >= 0) {
+        u = pf_alloc_array(3 * (size_t)pf_sim_mesh(sim)->n_nodes, sizeof *u);
+        st = u ? PF_OK : pf_error_set(&err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+    }
+    if (st < 0) {
+        pf_sim_destroy(&sim);
+        pf_scene_release(&sc);
+        return fail(&err);
+    }
+    pf_sim_nodal_displacements(sim, u);
+    int32_t changes = s1.refinements - s0.refinements;
+    double change = s1.refine_seconds - s0.refine_seconds;
+    double method = s1.refine_method_seconds - s0.refine_method_seconds;
+    printf("%s,%.2f,%s,%d,%d,%d,%lld,%.4f,%.4f,%.2f,%lld,%lld,%lld,%lld,%016llx\n", name, fraction,
+           rebuild ? "rebuild" : "reuse", (int)m->n_elems, (int)pf_sim_mesh(sim)->n_elems,
+           (int)changes, (long long)(s1.elements_split - s0.elements_split), change, method,
+           changes > 0 ? 1e3 * change / changes : 0.0,
+           (long long)(s1.basis_reused - s0.basis_reused),
+           (long long)(s1.basis_computed - s0.basis_computed),
+           (long long)(s1.integrals_reused - s0.integrals_reused),
+           (long long)(s1.integrals_computed - s0.integrals_computed),
+           (unsigned long long)hash_doubles(u, 3 * (size_t)pf_sim_mesh(sim)->n_nodes));
+    fflush(stdout);
+    pf_free(u);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    return 0;
+}
+
+static int reuse(bool quick)
+{
+    static const char SAG[] =
+        "{\"fixed\": [{\"box\": [[-9, -9, -9], [9, 9, -0.75]]}], \"ground\": false,"
+        " \"material\": {\"E\": 1e6}, \"damping\": {\"beta\": 0.02}}";
+    static const char BENDING[] =
+        "{\"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}},"
+        " {\"plane\": {\"point\": [5, 0, 0], \"normal\": [1, 0, 0]}}], \"ground\": false,"
+        " \"material\": {\"E\": 1e6}, \"damping\": {\"beta\": 0.02}}";
+    pf_error err = {0};
+    pf_mesh bar = {0}, sphere = {0};
+    pf_surface s = {0};
+    pf_slice_params sp = pf_slice_params_default();
+    sp.grid.res = quick ? 3 : 5;
+    if (pf_mesh_make_box(&bar, pf_v3(0, 0, 0), pf_v3(5, 1, 1), 10, 2, 2, &err) < 0 ||
+        pf_mesh_derive(&bar, &err) < 0 || pf_surface_make_sphere(&s, 1, 8, 16, &err) < 0 ||
+        pf_mesh_slice(&sphere, &s, &sp, NULL, &err) < 0 || pf_mesh_derive(&sphere, &err) < 0)
+        return fail(&err);
+    pf_surface_release(&s);
+    printf(
+        "case,fraction,mode,elems_before,elems_after,changes,split_elems,change_cpu_s,method_cpu_s,"
+        "change_ms_per_change,basis_reused,basis_built,matrices_reused,matrices_computed,"
+        "hash\n");
+    /* a first run, not timed in the table: the process's first set-up pays page faults and
+     * library start-up that would bias whichever mode ran first */
+    int rc = reuse_case("warm-up", &bar, BENDING, 0.8, true, true);
+    const double fractions[2] = {0.8, 0.5};
+    for (int k = 0; k < 2 && !rc; ++k)
+        for (int rebuild = 0; rebuild < 2 && !rc; ++rebuild)
+            rc = reuse_case("bending", &bar, BENDING, fractions[k], rebuild, quick) ||
+                 reuse_case("sphere", &sphere, SAG, fractions[k], rebuild, quick);
+    pf_mesh_release(&bar);
+    pf_mesh_release(&sphere);
+    return rc;
+}
+
 /* The mean u_z over the nodes of the end face x = 4. */
 static double tip(const pf_sim *sim)
 {
@@ -264,6 +386,8 @@ int main(int argc, char **argv)
         return events(quick);
     if (!strcmp(mode, "accuracy"))
         return accuracy(quick);
-    fprintf(stderr, "usage: bench_adapt events|accuracy [quick]\n");
+    if (!strcmp(mode, "reuse"))
+        return reuse(quick);
+    fprintf(stderr, "usage: bench_adapt events|accuracy|reuse [quick]\n");
     return 2;
 }

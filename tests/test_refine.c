@@ -438,7 +438,6 @@ static void test_plane_near_vertex(void **state)
 /* ---- non-convex elements ----------------------------------------------------------------------
  */
 
-
 /* An L (areas 2 + 1, centroid x = y = 5/6) by halves along x: a rectangle 5/6 x 2 and an L. */
 static void test_l_shape(void **state)
 {
@@ -697,6 +696,89 @@ static void test_random_requests(void **state)
     pf_surface_release(&s);
 }
 
+/* A Kuhn cube (6 tets around its diagonal): one tet split by halves, then a neighbour by octs, in
+ * two calls (the neighbour's faces carry the first split's nodes, on the diagonal too): every
+ * ordered pair, with halves planes along an axis, a face diagonal, through a tet edge, through a
+ * vertex and generic. */
+static void test_kuhn_halves_then_octs(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0};
+    assert_int_equal(pf_mesh_make_box_tets(&src, pf_v3(0, 0, 0), pf_v3(1, 1, 1), 1, 1, 1, &err),
+                     PF_OK);
+    assert_int_equal(src.n_elems, 6);
+    assert_int_equal(pf_mesh_derive(&src, &err), PF_OK);
+    const pf_vec3 normals[] = {{0, 1, 0}, {1, -1, 0}, {1, 1, -2}, {1, -2, 1}, {0.3, -0.8, 0.5}};
+    for (int32_t a = 0; a < 6; ++a)
+        for (int32_t b = 0; b < 6; ++b)
+            for (size_t k = 0; k < sizeof normals / sizeof *normals && a != b; ++k) {
+                pf_mesh mid = {0}, dst = {0};
+                pf_refine_result r1, r2;
+                pf_refine_request req = {.elem = a, .kind = PF_SPLIT_HALVES, .normal = normals[k]};
+                refine_ok(&src, &req, 1, &mid, &r1);
+                req = (pf_refine_request){.elem = -1, .kind = PF_SPLIT_OCTS};
+                for (int32_t e = 0; e < mid.n_elems && req.elem < 0; ++e)
+                    req.elem = r1.parent[e] == b ? e : -1;
+                refine_ok(&mid, &req, 1, &dst, &r2);
+                assert_int_equal(r2.n_split, 1);
+                pf_refine_result_release(&r1), pf_refine_result_release(&r2);
+                pf_mesh_release(&mid), pf_mesh_release(&dst);
+            }
+    pf_mesh_release(&src);
+}
+
+/* 200 random sequences of 4 calls, each of 1 to 3 requests (either kind, halves normals random
+ * or along an axis), on a Kuhn cube and on the sphere sliced 3 across: every result is valid
+ * and keeps the volume (check_refined). */
+static void test_random_sequences(void **state)
+{
+    (void)state;
+    rng r = {0x2545f4914f6cdd1dull};
+    pf_error err = {0};
+    pf_surface s = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
+    for (int seq = 0; seq < 200; ++seq) {
+        pf_mesh m = {0};
+        if (seq % 2 == 0) {
+            assert_int_equal(
+                pf_mesh_make_box_tets(&m, pf_v3(0, 0, 0), pf_v3(1, 1, 1), 1, 1, 1, &err), PF_OK);
+        } else {
+            pf_slice_params sp = pf_slice_params_default();
+            sp.grid.res = 3;
+            assert_int_equal(pf_mesh_slice(&m, &s, &sp, NULL, &err), PF_OK);
+        }
+        for (int call = 0; call < 4; ++call) {
+            pf_refine_request req[3];
+            int32_t n = 0, want = 1 + (int32_t)(3 * uniform01(&r));
+            for (int32_t k = 0; k < want; ++k) {
+                int32_t e = (int32_t)(uniform01(&r) * m.n_elems),
+                        axis = (int32_t)(4 * uniform01(&r));
+                bool seen = false;
+                for (int32_t j = 0; j < n; ++j)
+                    seen |= req[j].elem == e;
+                pf_vec3 normal = axis < 3 ? pf_v3(axis == 0, axis == 1, axis == 2)
+                                          : pf_v3(uniform(&r), uniform(&r), uniform(&r));
+                if (!seen)
+                    req[n++] = (pf_refine_request){.elem = e,
+                                                   .kind = uniform01(&r) < 0.5 ? PF_SPLIT_OCTS
+                                                                               : PF_SPLIT_HALVES,
+                                                   .normal = normal};
+            }
+            pf_mesh dst = {0};
+            pf_refine_result res;
+            pf_status st = pf_mesh_refine(&m, req, n, &dst, &res, &err);
+            CHECKF(st == PF_OK, "sequence %d call %d: %s", seq, call, err.msg);
+            check_refined(&m, &dst, &res);
+            pf_refine_result_release(&res);
+            pf_mesh_release(&m);
+            m = dst;
+        }
+        pf_mesh_release(&m);
+    }
+    pf_surface_release(&s);
+}
+
 /* The same call twice gives byte-identical meshes and results. */
 static void test_deterministic(void **state)
 {
@@ -781,6 +863,8 @@ int main(void)
         cmocka_unit_test(test_tets),
         cmocka_unit_test(test_sliced_sphere),
         cmocka_unit_test(test_random_requests),
+        cmocka_unit_test(test_kuhn_halves_then_octs),
+        cmocka_unit_test(test_random_sequences),
         cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_bad_requests),
     };

@@ -14,9 +14,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <pf/cut.h>
 #include <pf/embed.h>
 #include <pf/fem.h>
 #include <pf/sim.h>
+
+#include "basis_meshes.h"
+#include "sim/sim_internal.h"
 
 static void parse(pf_scene *sc, const char *json)
 {
@@ -570,6 +574,265 @@ static void test_dg_reuse_matches_fresh(void **state)
     pf_mesh_release(&m);
 }
 
+/* The method's arrays of s at rest, bit for bit comparable: the unrotated stiffness (values of
+ * the upper triangle) and its constant terms, the product of the mass with a fixed vector, and
+ * the constant forces. */
+typedef struct method_arrays {
+    pf_block_matrix k;
+    double *f, *mx, *ext;
+} method_arrays;
+
+static void get_arrays(pf_sim *s, method_arrays *a)
+{
+    pf_error err = {0};
+    int64_t n = s->ops->n_dofs(s->method);
+    memset(a, 0, sizeof *a);
+    assert_int_equal(s->ops->pattern(s->method, &a->k, &err), PF_OK);
+    a->f = calloc((size_t)n, sizeof *a->f);
+    a->mx = calloc((size_t)n, sizeof *a->mx);
+    a->ext = calloc((size_t)n, sizeof *a->ext);
+    double *zero = calloc((size_t)n, sizeof *zero), *x = malloc((size_t)n * sizeof *x);
+    for (int64_t i = 0; i < n; ++i)
+        x[i] = sin(0.37 * (double)i + 0.1);
+    s->ops->stiffness(s->method, zero, false, &a->k, a->f);
+    s->ops->mass_mul(s->method, 1, x, a->mx);
+    s->ops->external_forces(s->method, a->ext);
+    free(zero);
+    free(x);
+}
+
+static void release_arrays(method_arrays *a)
+{
+    pf_block_matrix_release(&a->k);
+    free(a->f);
+    free(a->mx);
+    free(a->ext);
+}
+
+static bool same_bits(const double *a, const double *b, int64_t n)
+{
+    return memcmp(a, b, (size_t)n * sizeof *a) == 0;
+}
+
+/* sim (CG, at rest, after changes) against a simulator built from scratch on a copy of its mesh:
+ * the stiffness, mass, forces and three frames of stepping agree bit for bit. before: sim's
+ * statistics before the last change (they add up over changes). */
+static void matches_fresh(pf_sim *sim, const pf_scene *sc, pf_sim_stats before)
+{
+    pf_error err = {0};
+    pf_mesh copy = {0};
+    const pf_mesh *now = pf_sim_mesh(sim);
+    assert_int_equal(pf_mesh_copy(&copy, now, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(&copy, &err), PF_OK);
+    pf_sim *fresh = NULL;
+    if (pf_sim_create(&fresh, sc, &copy, &err) < 0)
+        fail_msg("fresh: %s", err.msg);
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    int64_t taken = st->basis_reused - before.basis_reused;
+    int64_t built = st->basis_computed - before.basis_computed;
+    int64_t copied = st->integrals_reused - before.integrals_reused;
+    print_message("    cg reuse: %d elements, functions %lld copied %lld built, matrices %lld "
+                  "copied\n",
+                  (int)now->n_elems, (long long)taken, (long long)built, (long long)copied);
+    assert_int_equal(taken + built, now->n_elems);
+    assert_true(3 * taken >= now->n_elems);
+    assert_true(copied > 0 && copied <= taken);
+    int64_t n = sim->ops->n_dofs(sim->method);
+    assert_int_equal(n, fresh->ops->n_dofs(fresh->method));
+    method_arrays a, b;
+    get_arrays(sim, &a);
+    get_arrays(fresh, &b);
+    assert_int_equal(a.k.col_ptr[n], b.k.col_ptr[n]);
+    assert_memory_equal(a.k.row_idx, b.k.row_idx, (size_t)a.k.col_ptr[n] * sizeof *a.k.row_idx);
+    assert_true(same_bits(a.k.val, b.k.val, a.k.col_ptr[n]));
+    assert_true(same_bits(a.f, b.f, n));
+    assert_true(same_bits(a.mx, b.mx, n));
+    assert_true(same_bits(a.ext, b.ext, n));
+    release_arrays(&a);
+    release_arrays(&b);
+    for (int frame = 0; frame < 3; ++frame) {
+        if (pf_sim_frame(sim, &err) < 0 || pf_sim_frame(fresh, &err) < 0)
+            fail_msg("frame: %s", err.msg);
+        assert_true(same_bits(sim->u, fresh->u, n));
+        assert_true(same_bits(sim->v, fresh->v, n));
+    }
+    pf_sim_destroy(&fresh);
+    pf_mesh_release(&copy);
+}
+
+static bool on_boundary(const pf_mesh *m, int32_t e)
+{
+    for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        if (m->face_elems[2 * f] < 0 || m->face_elems[2 * f + 1] < 0)
+            return true;
+    }
+    return false;
+}
+
+static bool share_a_node(const pf_mesh *m, int32_t a, int32_t b)
+{
+    for (int64_t p = m->elem_offsets[a]; p < m->elem_offsets[a + 1]; ++p)
+        for (int64_t q = m->elem_offsets[b]; q < m->elem_offsets[b + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[p]), g = PF_FACE_INDEX(m->elem_faces[q]);
+            for (int64_t i = m->face_offsets[f]; i < m->face_offsets[f + 1]; ++i)
+                for (int64_t j = m->face_offsets[g]; j < m->face_offsets[g + 1]; ++j)
+                    if (m->face_nodes[i] == m->face_nodes[j])
+                        return true;
+        }
+    return false;
+}
+
+/* The sphere sliced 4 across (its boundary cells harmonic polyhedra) under CG, fixed at the
+ * bottom: an interior hexahedron and a harmonic boundary cell apart from it. */
+static pf_sim *sliced_sphere(pf_mesh *m, pf_scene *sc, int32_t *hex, int32_t *cell)
+{
+    make_sphere_mesh_res(m, 4);
+    parse(sc, "{\"method\": \"cg\", \"ground\": false, \"time\": {\"dt\": 0.01},"
+              " \"fixed\": [{\"box\": [[-2, -2, -2], [2, 2, -0.7]]}]}");
+    pf_sim *sim = create(sc, m);
+    assert_int_equal(pf_sim_get_stats(sim)->basis_computed, m->n_elems);
+    assert_int_equal(pf_sim_get_stats(sim)->basis_reused, 0);
+    *hex = *cell = -1;
+    for (int32_t e = 0; e < m->n_elems && *hex < 0; ++e)
+        if (!on_boundary(m, e))
+            *hex = e;
+    for (int32_t e = 0; e < m->n_elems && *cell < 0; ++e)
+        if (on_boundary(m, e) && pf_mesh_classify_elem(m, e) != PF_ELEM_HEX &&
+            !share_a_node(m, e, *hex))
+            *cell = e;
+    assert_true(*hex >= 0 && *cell >= 0);
+    return sim;
+}
+
+static void split_one(pf_sim *sim, pf_refine_request req)
+{
+    pf_error err = {0};
+    int32_t split = 0;
+    if (pf_sim_split(sim, &req, 1, &split, &err) < 0)
+        fail_msg("split: %s", err.msg);
+    assert_int_equal(split, 1);
+}
+
+/* CG on a changed mesh takes over the functions and matrices of every element that is its old
+ * element node for node (pf_cg_create_reusing) and computes only the split elements, the
+ * neighbours whose faces gained nodes, and (matrices only) the elements with a face whose
+ * traces come from a recomputed neighbour. Split by halves at a boundary cell and by octs at an
+ * interior hexahedron in one change, the sliced sphere's new simulator is the fresh one bit for
+ * bit. The sphere is small (56 elements), so the two splits touch much of it: at least a third
+ * of the elements' functions are copied (measured: half), and some matrices. */
+static void test_cg_reuse_matches_fresh(void **state)
+{
+    (void)state;
+    pf_mesh m = {0};
+    pf_scene sc;
+    int32_t hex, cell;
+    pf_sim *sim = sliced_sphere(&m, &sc, &hex, &cell);
+    pf_sim_stats before = *pf_sim_get_stats(sim);
+    pf_refine_request req[2] = {{.elem = cell, .kind = PF_SPLIT_HALVES, .normal = {1, 0.3, 0}},
+                                {.elem = hex, .kind = PF_SPLIT_OCTS}};
+    pf_error err = {0};
+    int32_t split = 0;
+    if (pf_sim_split(sim, req, 2, &split, &err) < 0)
+        fail_msg("split: %s", err.msg);
+    assert_int_equal(split, 2);
+    matches_fresh(sim, &sc, before);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+}
+
+/* The same across a merge whose node map moves indices: the hexahedron split first (its nodes
+ * numbered first), the cell then, and the hexahedron's children merged back, which drops its
+ * nodes and renumbers the cell's children's nodes: those children are copied through the node
+ * map, and the simulator is the fresh one bit for bit. */
+static void test_cg_reuse_after_merge(void **state)
+{
+    (void)state;
+    pf_mesh m = {0};
+    pf_scene sc;
+    int32_t hex, cell;
+    pf_sim *sim = sliced_sphere(&m, &sc, &hex, &cell);
+    pf_vec3 lo = pf_v3(INFINITY, INFINITY, INFINITY), hi = pf_v3(-INFINITY, -INFINITY, -INFINITY);
+    for (int64_t q = m.elem_offsets[hex]; q < m.elem_offsets[hex + 1]; ++q) {
+        int32_t f = PF_FACE_INDEX(m.elem_faces[q]);
+        for (int64_t i = m.face_offsets[f]; i < m.face_offsets[f + 1]; ++i) {
+            lo = pf_v3_min(lo, pf_v3_load(m.x + 3 * (size_t)m.face_nodes[i]));
+            hi = pf_v3_max(hi, pf_v3_load(m.x + 3 * (size_t)m.face_nodes[i]));
+        }
+    }
+    split_one(sim, (pf_refine_request){.elem = hex, .kind = PF_SPLIT_OCTS});
+    int32_t shifted = cell > hex ? cell + 7 : cell;
+    split_one(sim,
+              (pf_refine_request){.elem = shifted, .kind = PF_SPLIT_HALVES, .normal = {1, 0.3, 0}});
+    const pf_mesh *fine = pf_sim_mesh(sim);
+    int32_t *group = malloc((size_t)fine->n_elems * sizeof *group), merged = 0;
+    for (int32_t e = 0; e < fine->n_elems; ++e) {
+        pf_vec3 c = pf_v3(0, 0, 0);
+        int32_t count = 0;
+        for (int64_t q = fine->elem_offsets[e]; q < fine->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(fine->elem_faces[q]);
+            for (int64_t i = fine->face_offsets[f]; i < fine->face_offsets[f + 1]; ++i, ++count)
+                c = pf_v3_add(c, pf_v3_load(fine->x + 3 * (size_t)fine->face_nodes[i]));
+        }
+        c = pf_v3_scale(c, 1.0 / count);
+        bool inside =
+            c.x > lo.x && c.y > lo.y && c.z > lo.z && c.x < hi.x && c.y < hi.y && c.z < hi.z;
+        group[e] = inside ? 0 : -1;
+    }
+    pf_sim_stats before = *pf_sim_get_stats(sim);
+    pf_error err = {0};
+    if (pf_sim_merge(sim, group, &merged, &err) < 0)
+        fail_msg("merge: %s", err.msg);
+    free(group);
+    assert_int_equal(merged, 1);
+    assert_int_equal(pf_sim_mesh(sim)->n_elems, m.n_elems + 1);
+    matches_fresh(sim, &sc, before);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+}
+
+/* The same across a cut, which duplicates the nodes on the crack: a plane z = 0.05 through the
+ * elements it crosses on the side x < 0 (the crack stops half way). The uncut elements whose
+ * nodes kept their indices are copied, and the simulator is the fresh one bit for bit. */
+static void test_cg_reuse_after_cut(void **state)
+{
+    (void)state;
+    pf_mesh m = {0};
+    pf_scene sc;
+    int32_t hex, cell;
+    pf_sim *sim = sliced_sphere(&m, &sc, &hex, &cell);
+    pf_cut_request *req = calloc((size_t)m.n_elems, sizeof *req);
+    int32_t n = 0;
+    for (int32_t e = 0; e < m.n_elems; ++e) {
+        double zlo = INFINITY, zhi = -INFINITY, xhi = -INFINITY;
+        for (int64_t q = m.elem_offsets[e]; q < m.elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m.elem_faces[q]);
+            for (int64_t i = m.face_offsets[f]; i < m.face_offsets[f + 1]; ++i) {
+                const double *x = m.x + 3 * (size_t)m.face_nodes[i];
+                zlo = fmin(zlo, x[2]), zhi = fmax(zhi, x[2]), xhi = fmax(xhi, x[0]);
+            }
+        }
+        if (zlo < 0.05 && zhi > 0.05 && xhi <= 0)
+            req[n++] = (pf_cut_request){.elem = e, .plane = {.n = {0, 0, 1}, .d = 0.05}};
+    }
+    assert_true(n > 0);
+    pf_sim_stats before = *pf_sim_get_stats(sim);
+    pf_error err = {0};
+    pf_cut_result res = {0};
+    if (pf_sim_cut(sim, req, n, &res, &err) < 0)
+        fail_msg("cut: %s", err.msg);
+    assert_true(res.n_split > 0);
+    assert_true(pf_sim_mesh(sim)->n_nodes > m.n_nodes + res.n_split);
+    pf_cut_result_release(&res);
+    free(req);
+    matches_fresh(sim, &sc, before);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -584,6 +847,9 @@ int main(void)
         cmocka_unit_test(test_merge_bent),
         cmocka_unit_test(test_bend_and_release),
         cmocka_unit_test(test_dg_reuse_matches_fresh),
+        cmocka_unit_test(test_cg_reuse_matches_fresh),
+        cmocka_unit_test(test_cg_reuse_after_merge),
+        cmocka_unit_test(test_cg_reuse_after_cut),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -406,10 +406,12 @@ static void print_summary(const run *r, const pf_sim *sim)
     if (st->refinements > 0)
         fprintf(stderr,
                 "pf-sim: mesh changes: %d (%lld elements split, %lld groups merged back; %d -> "
-                "%d elements), %.3f s cpu; integrals %lld reused, %lld computed\n",
+                "%d elements), %.3f s cpu; integrals %lld reused, %lld computed; shape "
+                "functions %lld reused, %lld built\n",
                 (int)st->refinements, (long long)st->elements_split, (long long)st->elements_merged,
                 (int)r->mesh.n_elems, (int)st->elements, st->refine_seconds,
-                (long long)st->integrals_reused, (long long)st->integrals_computed);
+                (long long)st->integrals_reused, (long long)st->integrals_computed,
+                (long long)st->basis_reused, (long long)st->basis_computed);
     if (st->cuts > 0)
         fprintf(stderr,
                 "pf-sim: cuts: %d (%lld elements split), %d bodies, %.3g dropped (volume %.3g), "

@@ -1,6 +1,7 @@
 /* Nodal shape functions per element: closed forms (tet, parallelepiped hex) and harmonic
  * coordinates by the method of fundamental solutions (harmonic paper sec. 4-5, eq. 11-14): their
- * construction, statistics and summary. The MFS polynomial part is the linear polynomial of eq. 11
+ * construction (or their copy from a changed mesh's old functions) and statistics; the summary
+ * is summary.c. The MFS polynomial part is the linear polynomial of eq. 11
  * plus the harmonic polynomials of degree 2 and 3 (a departure from the paper, explained in
  * pf/basis.h: the smooth part of the boundary data no longer needs kernels). Element data
  * layouts: basis_internal.h; evaluation: eval.c.
@@ -667,6 +668,7 @@ void pf_basis_release(pf_basis *b)
     pf_free(b->data_offsets);
     pf_free(b->data);
     pf_free(b->stats);
+    pf_free(b->taken);
     memset(b, 0, sizeof *b);
 }
 
@@ -752,20 +754,76 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
     return sst;
 }
 
+static bool same_params(const pf_basis_params *a, const pf_basis_params *b)
+{
+    return a->xi == b->xi && a->edge_samples == b->edge_samples &&
+           a->face_spacing == b->face_spacing && a->collocation_density == b->collocation_density &&
+           a->parallel_tol == b->parallel_tol && a->merge_tol == b->merge_tol &&
+           a->rank_rcond == b->rank_rcond && a->grading == b->grading &&
+           a->patch_angle == b->patch_angle && a->force_mfs == b->force_mfs &&
+           a->no_check_stats == b->no_check_stats;
+}
+
+/* Element e takes old element o's functions: its data, node slots and statistics as they are
+ * (all in element-local order and coordinates), its nodes through the node map. */
+static pf_status take_elem(pf_basis *b, create_state *cs, const pf_basis_reuse *r, int32_t e,
+                           int32_t o, pf_error *err)
+{
+    const pf_basis *old = r->old;
+    int64_t at = b->data_offsets[e], len = old->data_offsets[o + 1] - old->data_offsets[o];
+    int64_t no = b->node_offsets[e], k = old->node_offsets[o + 1] - old->node_offsets[o];
+    PF_TRY(grow_data(&b->data, &cs->data_cap, at + len, err));
+    PF_TRY(grow_nodes(b, &cs->nodes_cap, no + k, err));
+    memcpy(b->data + at, old->data + old->data_offsets[o], (size_t)len * sizeof *b->data);
+    for (int64_t i = 0; i < k; ++i) {
+        int32_t node = old->nodes[old->node_offsets[o] + i];
+        b->nodes[no + i] = r->node_map ? r->node_map[node] : node;
+        b->node_slot[no + i] = old->node_slot[old->node_offsets[o] + i];
+    }
+    b->node_offsets[e + 1] = no + k;
+    b->data_offsets[e + 1] = at + len;
+    b->kind[e] = old->kind[o];
+    b->stats[e] = old->stats[o];
+    b->stats[e].setup_ms = 0;
+    b->taken[e] = o;
+    b->n_taken++;
+    return PF_OK;
+}
+
+/* The old element whose functions e can take, or -1. */
+static int32_t source_of(const pf_basis_reuse *r, const pf_basis_params *p, const pf_mesh *m,
+                         int32_t e)
+{
+    int32_t o = r && r->source ? r->source[e] : -1;
+    if (o < 0 || o >= r->old->n_elems || !same_params(&r->old->params, p))
+        return -1;
+    return pf_mesh_elem_same(r->old_mesh, o, m, e, r->node_map) ? o : -1;
+}
+
 pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,
                           pf_error *err)
+{
+    return pf_basis_create_reusing(b, m, params, NULL, err);
+}
+
+pf_status pf_basis_create_reusing(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,
+                                  const pf_basis_reuse *reuse, pf_error *err)
 {
     memset(b, 0, sizeof *b);
     double t0 = pf_time_seconds();
     pf_basis_params p = fill_defaults(params);
     PF_CHECK(m && m->n_elems >= 0 && (m->n_elems == 0 || (m->elem_offsets && m->face_offsets)), err,
              PF_ERR_INVALID, "basis: empty or malformed mesh");
+    PF_CHECK(!reuse || (reuse->old && reuse->old_mesh && reuse->old_mesh->face_elems &&
+                        m->face_elems && reuse->old->n_elems == reuse->old_mesh->n_elems),
+             err, PF_ERR_INVALID, "basis: reuse needs the old functions and both meshes derived");
     int32_t ne = m->n_elems;
     b->n_elems = ne;
+    b->params = p;
     create_state cs = {0};
     pf_status s = PF_OK;
     if (!PF_ALLOC_N(b->node_offsets, ne + 1) || !PF_ALLOC_N(b->data_offsets, ne + 1) ||
-        !PF_ALLOC_N(b->kind, ne) || !PF_ALLOC_N(b->stats, ne) ||
+        !PF_ALLOC_N(b->kind, ne) || !PF_ALLOC_N(b->stats, ne) || !PF_ALLOC_N(b->taken, ne + 1) ||
         !PF_ALLOC_N(cs.faces, m->n_faces) || !PF_ALLOC_N(cs.ctx, 1)) {
         s = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "basis: no memory for %d elements",
                          (int)ne);
@@ -787,8 +845,11 @@ pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *
     b->data_offsets[0] = 0;
     /* One BLAS thread: small systems, and bits independent of the core count (pf/base.h). */
     pf_blas_threads blas = pf_blas_threads_set(1, false);
-    for (int32_t e = 0; e < ne && s >= 0; ++e)
-        s = build_elem(b, &cs, m, e, &p, err);
+    for (int32_t e = 0; e < ne && s >= 0; ++e) {
+        int32_t o = source_of(reuse, &p, m, e);
+        b->taken[e] = -1;
+        s = o >= 0 ? take_elem(b, &cs, reuse, e, o, err) : build_elem(b, &cs, m, e, &p, err);
+    }
     pf_blas_threads_restore(blas);
     for (int32_t f = 0; f < m->n_faces; ++f) {
         b->n_face_mfs += cs.faces[f].kind == FACE_MFS;
@@ -810,58 +871,5 @@ done:
         return s;
     }
     b->setup_seconds = pf_time_seconds() - t0;
-    return PF_OK;
-}
-
-/* ---- summary
- * ------------------------------------------------------------------------------------- */
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int32_t n)
-{
-    if (n == 0)
-        return 0;
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-pf_status pf_basis_summarize(const pf_basis *b, pf_basis_summary *out, pf_error *err)
-{
-    memset(out, 0, sizeof *out);
-    out->n_elems = b->n_elems;
-    out->min_value = INFINITY;
-    double *be = NULL, *ms = NULL;
-    if (!PF_ALLOC_N(be, b->n_elems) || !PF_ALLOC_N(ms, b->n_elems)) {
-        pf_free(be);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "basis summary: no memory");
-    }
-    int32_t nh = 0;
-    for (int32_t e = 0; e < b->n_elems; ++e) {
-        const pf_basis_elem_stats *st = &b->stats[e];
-        out->n_by_kind[b->kind[e]]++;
-        out->max_linear_error = fmax(out->max_linear_error, st->linear_error);
-        out->max_unity_error = fmax(out->max_unity_error, st->unity_error);
-        out->min_value = fmin(out->min_value, st->min_value);
-        out->n_kernels += st->n_kernels;
-        out->n_collocation += st->n_collocation;
-        if (b->kind[e] == PF_BASIS_HARMONIC) {
-            out->max_boundary_error = fmax(out->max_boundary_error, st->boundary_error);
-            out->max_setup_ms = fmax(out->max_setup_ms, st->setup_ms);
-            be[nh] = st->boundary_error;
-            ms[nh] = st->setup_ms;
-            ++nh;
-        }
-    }
-    if (b->n_elems == 0)
-        out->min_value = 0;
-    out->median_boundary_error = median(be, nh);
-    out->median_setup_ms = median(ms, nh);
-    pf_free(be);
-    pf_free(ms);
     return PF_OK;
 }

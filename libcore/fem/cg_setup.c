@@ -544,7 +544,51 @@ static double half_diagonal(const pf_mesh *m, const int32_t *nodes, int32_t k)
     return 0.5 * pf_v3_dist(lo, hi);
 }
 
-static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, pf_error *err)
+/* The old element whose matrices element e can copy (pf_cg_reuse), or -1: its functions were
+ * taken, its material and the rules are the same, and each face's traces come from the same
+ * functions (trace_source: e itself as o itself, or a neighbour whose functions were taken from
+ * the old source). */
+static int32_t copy_source(const pf_cg *cg, const pf_mesh *m, int32_t e, const pf_cg_reuse *r)
+{
+    int32_t o = r && cg->basis.taken ? cg->basis.taken[e] : -1;
+    if (o < 0)
+        return -1;
+    const pf_cg *old = r->old;
+    const pf_material *a = pf_cg_material(cg, e), *b = pf_cg_material(old, o);
+    if (a->lambda != b->lambda || a->mu != b->mu || a->density != b->density ||
+        old->quadrature_degree != cg->quadrature_degree || old->consistency != cg->consistency)
+        return -1;
+    int64_t q0 = m->elem_offsets[e], p0 = r->old_mesh->elem_offsets[o];
+    for (int64_t k = 0; cg->consistency && k < m->elem_offsets[e + 1] - q0; ++k) {
+        int32_t src = trace_source(cg, m, PF_FACE_INDEX(m->elem_faces[q0 + k]), e);
+        int32_t old_src =
+            trace_source(old, r->old_mesh, PF_FACE_INDEX(r->old_mesh->elem_faces[p0 + k]), o);
+        if (src == e ? old_src != o : old_src == o || cg->basis.taken[src] != old_src)
+            return -1;
+    }
+    return o;
+}
+
+/* Element e's matrices and per-node data are old element o's (copy_source). */
+static void copy_elem(pf_cg *cg, int32_t e, const pf_cg *old, int32_t o)
+{
+    int32_t k = pf_basis_elem_nodes(&cg->basis, e, NULL);
+    int64_t to = cg->basis.node_offsets[e], from = old->basis.node_offsets[o];
+    memcpy(cg->ke + cg->ke_offsets[e], old->ke + old->ke_offsets[o],
+           9 * (size_t)k * k * sizeof *cg->ke);
+    memcpy(cg->me + cg->me_offsets[e], old->me + old->me_offsets[o],
+           (size_t)k * k * sizeof *cg->me);
+    memcpy(cg->n_int + to, old->n_int + from, (size_t)k * sizeof *cg->n_int);
+    memcpy(cg->grad_center + 3 * to, old->grad_center + 3 * from,
+           3 * (size_t)k * sizeof *cg->grad_center);
+    cg->volume[e] = old->volume[o];
+    cg->centroid[e] = old->centroid[o];
+    cg->elem_ms[e] = 0;
+    cg->n_reused++;
+}
+
+static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, const pf_cg_reuse *reuse,
+                                pf_error *err)
 {
     size_t entries = 0, eval = 0;
     for (int32_t e = 0; e < m->n_elems; ++e) {
@@ -564,23 +608,28 @@ static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, pf_error *err)
         const int32_t *nodes;
         int32_t k = pf_basis_elem_nodes(&cg->basis, e, &nodes);
         int64_t o = cg->basis.node_offsets[e];
-        st = elem_matrices(cg, m, e, cg->quadrature_degree, &a, &arena, &cg->n_quadrature_points,
-                           cg->ke + cg->ke_offsets[e], err);
-        if (st < 0)
-            break;
-        memcpy(cg->me + cg->me_offsets[e], a.me, (size_t)k * k * sizeof *a.me);
-        memcpy(cg->n_int + o, a.n_int, (size_t)k * sizeof *a.n_int);
-        for (int32_t p = 0; p < k; ++p)
-            cg->lumped[nodes[p]] += pf_cg_material(cg, e)->density * a.n_int[p];
-        cg->volume[e] = a.volume;
-        cg->centroid[e] = pf_v3_scale(a.moment, 1 / a.volume);
-        double *gc = cg->grad_center + 3 * o;
-        pf_basis_eval(&cg->basis, e, cg->centroid[e], NULL, gc);
-        for (int32_t p = 0; p < 3 * k; ++p)
-            gc[p] += a.flux[p];
         cg->size[e] = half_diagonal(m, nodes, k);
         cg->n_closed_form += pf_basis_elem_kind(&cg->basis, e) != PF_BASIS_HARMONIC;
-        cg->elem_ms[e] = 1e3 * (pf_time_seconds() - te);
+        int32_t from = copy_source(cg, m, e, reuse);
+        if (from >= 0) {
+            copy_elem(cg, e, reuse->old, from);
+        } else {
+            st = elem_matrices(cg, m, e, cg->quadrature_degree, &a, &arena,
+                               &cg->n_quadrature_points, cg->ke + cg->ke_offsets[e], err);
+            if (st < 0)
+                break;
+            memcpy(cg->me + cg->me_offsets[e], a.me, (size_t)k * k * sizeof *a.me);
+            memcpy(cg->n_int + o, a.n_int, (size_t)k * sizeof *a.n_int);
+            cg->volume[e] = a.volume;
+            cg->centroid[e] = pf_v3_scale(a.moment, 1 / a.volume);
+            double *gc = cg->grad_center + 3 * o;
+            pf_basis_eval(&cg->basis, e, cg->centroid[e], NULL, gc);
+            for (int32_t p = 0; p < 3 * k; ++p)
+                gc[p] += a.flux[p];
+            cg->elem_ms[e] = 1e3 * (pf_time_seconds() - te);
+        }
+        for (int32_t p = 0; p < k; ++p)
+            cg->lumped[nodes[p]] += pf_cg_material(cg, e)->density * cg->n_int[o + p];
     }
     cg->integrate_seconds = pf_time_seconds() - t0;
     pf_arena_release(&arena);
@@ -597,6 +646,12 @@ pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double 
 
 pf_status pf_cg_create_materials(pf_cg *cg, const pf_mesh *m, const pf_materials *materials,
                                  const pf_cg_params *params, pf_error *err)
+{
+    return pf_cg_create_reusing(cg, m, materials, params, NULL, err);
+}
+
+pf_status pf_cg_create_reusing(pf_cg *cg, const pf_mesh *m, const pf_materials *materials,
+                               const pf_cg_params *params, const pf_cg_reuse *reuse, pf_error *err)
 {
     memset(cg, 0, sizeof *cg);
     pf_cg_params p = params ? *params : pf_cg_params_default();
@@ -622,12 +677,18 @@ pf_status pf_cg_create_materials(pf_cg *cg, const pf_mesh *m, const pf_materials
     /* One BLAS thread: small products, and bits independent of the core count (pf/base.h). */
     pf_blas_threads blas = pf_blas_threads_set(1, false);
     double t0 = pf_time_seconds();
-    st = pf_basis_create(&cg->basis, m, &p.basis, err);
+    pf_basis_reuse basis_reuse = {0};
+    if (reuse)
+        basis_reuse = (pf_basis_reuse){.old = &reuse->old->basis,
+                                       .old_mesh = reuse->old_mesh,
+                                       .source = reuse->source,
+                                       .node_map = reuse->node_map};
+    st = pf_basis_create_reusing(&cg->basis, m, &p.basis, reuse ? &basis_reuse : NULL, err);
     cg->basis_seconds = pf_time_seconds() - t0;
     if (st >= 0)
         st = allocate(cg, err);
     if (st >= 0)
-        st = setup_elements(cg, m, err);
+        st = setup_elements(cg, m, reuse, err);
     pf_blas_threads_restore(blas);
     if (st < 0)
         pf_cg_release(cg);

@@ -195,6 +195,60 @@ pf_status pf_mesh_elem_polyhedron(const pf_mesh *m, int32_t e, pf_arena *scratch
     return PF_OK;
 }
 
+static bool on_boundary(const pf_mesh *m, int32_t f)
+{
+    return m->face_elems[2 * f] < 0 || m->face_elems[2 * f + 1] < 0;
+}
+
+bool pf_mesh_elem_same(const pf_mesh *a, int32_t ea, const pf_mesh *b, int32_t eb,
+                       const int32_t *node_map)
+{
+    int64_t qa = a->elem_offsets[ea], qb = b->elem_offsets[eb];
+    int64_t nf = a->elem_offsets[ea + 1] - qa;
+    if (nf != b->elem_offsets[eb + 1] - qb)
+        return false;
+    for (int64_t k = 0; k < nf; ++k) {
+        uint32_t fa = a->elem_faces[qa + k], fb = b->elem_faces[qb + k];
+        int32_t ia = PF_FACE_INDEX(fa), ib = PF_FACE_INDEX(fb);
+        int64_t n = a->face_offsets[ia + 1] - a->face_offsets[ia];
+        if ((fa & PF_FACE_REVERSED) != (fb & PF_FACE_REVERSED) ||
+            n != b->face_offsets[ib + 1] - b->face_offsets[ib] ||
+            on_boundary(a, ia) != on_boundary(b, ib))
+            return false;
+        const uint32_t *na = a->face_nodes + a->face_offsets[ia];
+        const uint32_t *nb = b->face_nodes + b->face_offsets[ib];
+        for (int64_t j = 0; j < n; ++j) {
+            int64_t mapped = node_map ? node_map[na[j]] : (int64_t)na[j];
+            if (mapped != (int64_t)nb[j] ||
+                memcmp(a->x + 3 * (size_t)na[j], b->x + 3 * (size_t)nb[j], 3 * sizeof *a->x))
+                return false;
+        }
+    }
+    if (!node_map)
+        return true;
+    /* the order of the element's node indices: every pair of face-node entries */
+    int64_t total = 0;
+    for (int64_t k = 0; k < nf; ++k) {
+        int32_t f = PF_FACE_INDEX(a->elem_faces[qa + k]);
+        total += a->face_offsets[f + 1] - a->face_offsets[f];
+    }
+    for (int64_t s = 0, ks = 0, js = 0; s < total; ++s) {
+        int32_t fs = PF_FACE_INDEX(a->elem_faces[qa + ks]);
+        uint32_t xs = a->face_nodes[a->face_offsets[fs] + js];
+        for (int64_t kt = ks, jt = js; kt < nf;) {
+            int32_t ft = PF_FACE_INDEX(a->elem_faces[qa + kt]);
+            uint32_t xt = a->face_nodes[a->face_offsets[ft] + jt];
+            if ((xs < xt) != (node_map[xs] < node_map[xt]))
+                return false;
+            if (++jt == a->face_offsets[ft + 1] - a->face_offsets[ft])
+                jt = 0, ++kt;
+        }
+        if (++js == a->face_offsets[fs + 1] - a->face_offsets[fs])
+            js = 0, ++ks;
+    }
+    return true;
+}
+
 double pf_mesh_elem_volume(const pf_mesh *m, int32_t e)
 {
     /* Divergence theorem: V = 1/3 sum_f (x_f - r) . N_f, with N_f the Newell area vector (exact

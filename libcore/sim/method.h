@@ -111,10 +111,10 @@ static inline void sort_row(int64_t *triple, double *w, int64_t n)
         }
 }
 
-/* What a method on a refined mesh may take over from the same method on the mesh before
- * (pf_sim_split): the old method's context and mesh, each new element's parent, and per new
- * element whether it is its parent's solid (not a child) and whether its faces are the parent's
- * node for node (pf_refine_result.changed == 0). */
+/* What a method on a changed mesh may take over from the same method on the mesh before
+ * (pf_sim_split, pf_sim_merge): the old method's context and mesh, each new element's parent, and
+ * per new element whether it is its parent's solid (not a child) and whether its faces are the
+ * parent's node for node (pf_refine_result.changed == 0), and the old nodes' new indices. */
 typedef struct pf_method_reuse {
     const void *old;
     const pf_mesh *old_mesh;
@@ -122,6 +122,7 @@ typedef struct pf_method_reuse {
     const uint8_t *same_solid;
     const uint8_t *same_faces;
     const int32_t *face_src; /* [new faces] the old face each is, node for node, or -1; NULL */
+    const int32_t *node_map; /* [old nodes] the new index of each, -1 removed; NULL: the same */
 } pf_method_reuse;
 
 /* Creates a method for the scene on the mesh: *ops and *ctx; fixed_faces and loaded_faces count

@@ -145,7 +145,7 @@ static pf_status read_refine(reader *r, const cJSON *v, pf_refine_params *p)
 {
     static const char *const keys[] = {"threshold",     "split",    "max_level",
                                        "max_elements",  "min_size", "coarsen_fraction",
-                                       "coarsen_after", NULL};
+                                       "coarsen_after", "rebuild",  NULL};
     PF_TRY(pf_scene_begin_object(r, v, keys));
     bool threshold = false;
     for (const cJSON *it = v->child; it; it = it->next) {
@@ -162,6 +162,8 @@ static pf_status read_refine(reader *r, const cJSON *v, pf_refine_params *p)
             READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_UNIT_INTERVAL, &p->coarsen_fraction));
         else if (!strcmp(it->string, "coarsen_after"))
             READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_INT_POS, &p->coarsen_after));
+        else if (!strcmp(it->string, "rebuild"))
+            READ_KEY(r, it, pf_scene_read_bool(r, it, &p->rebuild));
         else
             READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &p->min_size));
     }

@@ -164,6 +164,7 @@ static cJSON *scene_object(const pf_scene *s)
         add_number(refine, "min_size", s->refine.min_size);
         add_number(refine, "coarsen_fraction", s->refine.coarsen_fraction);
         add_number(refine, "coarsen_after", s->refine.coarsen_after);
+        cJSON_AddBoolToObject(refine, "rebuild", s->refine.rebuild);
     }
     cJSON *damping = cJSON_AddObjectToObject(root, "damping");
     add_number(damping, "alpha", s->damping_alpha);

@@ -411,10 +411,15 @@ static pf_status transfer(const void *m, const void *old, const pf_mesh_change *
 }
 
 /* Elements with closed-form functions (MFS skipped), harmonic elements, their MFS kernels,
- * seconds spent building the shape functions (added: a changed mesh builds them again). */
+ * seconds spent building the shape functions, and the element functions and matrices taken over
+ * from the mesh before a change and computed (the last three added over changes). */
 static void setup_stats(const void *m, pf_sim_stats *st)
 {
     const cg_method *c = m;
+    st->basis_reused += c->cg.basis.n_taken;
+    st->basis_computed += (int64_t)c->cg.n_elems - c->cg.basis.n_taken;
+    st->integrals_reused += c->cg.n_reused;
+    st->integrals_computed += (int64_t)c->cg.n_elems - c->cg.n_reused;
     st->closed_form_elems = c->cg.n_closed_form;
     st->harmonic_elems = c->cg.n_elems - c->cg.n_closed_form;
     st->kernels = 0;
@@ -507,7 +512,6 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                            const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
                            int32_t *loaded_faces, pf_error *err)
 {
-    (void)reuse; /* the basis is rebuilt on every element (see docs/scene.md, "refine") */
     *ops = &CG_OPS;
     *ctx = NULL;
     cg_method *c = pf_calloc(1, sizeof *c);
@@ -520,11 +524,29 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     params.basis.edge_samples = scene->edge_samples;
     pf_material *table = NULL;
     int32_t *elem = NULL, n_materials = 0;
+    /* an element whose faces are its parent's node for node may take its functions and
+     * matrices (pf_cg_create_reusing checks that they are the same element) */
+    int32_t *source = NULL;
     pf_status st = pf_scene_materials(scene, mesh, &table, &n_materials, &elem, err);
+    if (st >= 0 && reuse) {
+        source = pf_alloc_array((size_t)mesh->n_elems + 1, sizeof *source);
+        st = source ? PF_OK
+                    : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                   "cannot allocate %d element slots", (int)mesh->n_elems);
+        for (int32_t e = 0; source && e < mesh->n_elems; ++e)
+            source[e] = reuse->same_faces[e] ? reuse->parent[e] : -1;
+    }
     if (st >= 0) {
         pf_materials mat = {.n = n_materials, .table = table, .elem = elem};
-        st = pf_cg_create_materials(&c->cg, mesh, &mat, &params, err);
+        pf_cg_reuse cg_reuse = {0};
+        if (reuse)
+            cg_reuse = (pf_cg_reuse){.old = &((const cg_method *)reuse->old)->cg,
+                                     .old_mesh = reuse->old_mesh,
+                                     .source = source,
+                                     .node_map = reuse->node_map};
+        st = pf_cg_create_reusing(&c->cg, mesh, &mat, &params, reuse ? &cg_reuse : NULL, err);
     }
+    pf_free(source);
     pf_free(table);
     pf_free(elem);
     if (st >= 0) {

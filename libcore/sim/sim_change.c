@@ -4,9 +4,9 @@
  * A change is the new mesh and how its elements and nodes relate to the old ones
  * (pf_mesh_change). A complete simulator is built on the new mesh (pf_sim_build), taking over
  * from the old method what the change left as it was (DG: the integrals of unchanged elements
- * and faces), the state is carried over by the method, and only then is the new simulator
- * swapped in: until the swap nothing of the running simulator is touched, so a failure leaves it
- * as it was. */
+ * and faces; CG: the shape functions and matrices of unchanged elements), the state is carried over
+ * by the method, and only then is the new simulator swapped in: until the swap nothing of the
+ * running simulator is touched, so a failure leaves it as it was. */
 #include <pf/embed.h>
 
 #include <math.h>
@@ -46,6 +46,8 @@ static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
     t->stats.basis_seconds += mesh_stats.basis_seconds;
     t->stats.integrals_reused += mesh_stats.integrals_reused;
     t->stats.integrals_computed += mesh_stats.integrals_computed;
+    t->stats.basis_reused += mesh_stats.basis_reused;
+    t->stats.basis_computed += mesh_stats.basis_computed;
     t->stats.refine_transfer_seconds += transfer_seconds;
     t->solver_before = s->stats.solver;
     pf_sim_sync_solver_stats(t);
@@ -114,8 +116,10 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
                              .parent = change->parent,
                              .same_solid = same,
                              .same_faces = same + ne,
-                             .face_src = change->face_src};
-    pf_status st = pf_sim_build(t, t->owned_mesh, &reuse, s->stats.penalty, err);
+                             .face_src = change->face_src,
+                             .node_map = change->node_map};
+    pf_status st = pf_sim_build(t, t->owned_mesh, s->scene->refine.rebuild ? NULL : &reuse,
+                                s->stats.penalty, err);
     pf_free(same);
     return st;
 }

@@ -60,6 +60,10 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
         add_int(cg, "closed_form_elements", st->closed_form_elems);
         add_int(cg, "harmonic_elements", st->harmonic_elems);
         add_int(cg, "kernels", st->kernels);
+        add_int(cg, "basis_reused", st->basis_reused);
+        add_int(cg, "basis_computed", st->basis_computed);
+        add_int(root, "integrals_reused", st->integrals_reused);
+        add_int(root, "integrals_computed", st->integrals_computed);
         cJSON *sec = cJSON_AddObjectToObject(root, "seconds");
         wall_cpu(sec, "run", wall_seconds, cpu_seconds);
         cJSON_AddNumberToObject(sec, "setup", st->setup_seconds);

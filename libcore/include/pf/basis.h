@@ -193,6 +193,10 @@ typedef struct pf_basis {
     int64_t *data_offsets;      /* [n_elems + 1] into data */
     double *data;               /* per-element coefficients; layout private to libcore/basis */
     pf_basis_elem_stats *stats; /* [n_elems] */
+    int32_t *taken;             /* [n_elems] the element of an old basis whose functions e took
+                                   over (pf_basis_create_reusing), -1 where they were built */
+    int32_t n_taken;            /* elements whose functions were taken over */
+    pf_basis_params params;     /* the parameters, defaults filled in */
     int32_t n_face_mfs;         /* faces solved by 2D MFS (each once, whatever uses it) */
     int32_t n_face_closed;      /* faces with closed-form functions (triangles, parallelograms) */
     double setup_seconds;       /* total wall clock of pf_basis_create */
@@ -207,6 +211,27 @@ typedef struct pf_basis {
  * element or face. On failure b is released. */
 pf_status pf_basis_create(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,
                           pf_error *err);
+
+/* What a changed mesh (refinement, coarsening, cutting) takes over from the functions of the
+ * mesh before: element e of m may take old element source[e]'s functions (-1: build them) when
+ * the two are the same element node for node (pf_mesh_elem_same through node_map) and old was
+ * built with the same parameters. An element's functions depend only on its faces, their nodes
+ * and coordinates (harmonic paper: only the cut elements are computed again), so what is taken
+ * is bit for bit what a build would give. */
+typedef struct pf_basis_reuse {
+    const pf_basis *old;
+    const pf_mesh *old_mesh; /* the mesh old was built on */
+    const int32_t *source;   /* [m->n_elems] candidate old element of each element, or -1 */
+    const int32_t *node_map; /* [old_mesh->n_nodes] the m index of each old node, -1 for one
+                                removed; NULL: the same indices */
+} pf_basis_reuse;
+
+/* pf_basis_create, copying from reuse->old (NULL: nothing) the functions, node slots and
+ * statistics (setup_ms 0) of every element whose candidate is the same element (b->taken,
+ * b->n_taken). m
+ * must be derived. Statuses as pf_basis_create. */
+pf_status pf_basis_create_reusing(pf_basis *b, const pf_mesh *m, const pf_basis_params *params,
+                                  const pf_basis_reuse *reuse, pf_error *err);
 
 /* Frees every array and zeroes the struct. Safe on a zeroed struct. */
 void pf_basis_release(pf_basis *b);

@@ -377,6 +377,7 @@ typedef struct pf_cg {
     bool consistency;            /* the consistency correction is applied */
     int64_t n_quadrature_points; /* over all harmonic elements */
     int32_t n_closed_form;       /* elements with closed-form functions (MFS skipped) */
+    int32_t n_reused;            /* elements whose matrices were copied (pf_cg_create_reusing) */
     double basis_seconds;        /* pf_basis_create */
     double integrate_seconds;    /* element matrices */
 } pf_cg;
@@ -391,6 +392,26 @@ pf_status pf_cg_create(pf_cg *cg, const pf_mesh *m, double E, double nu, double 
 /* The same with several materials (pf_materials: one per element). */
 pf_status pf_cg_create_materials(pf_cg *cg, const pf_mesh *m, const pf_materials *materials,
                                  const pf_cg_params *params, pf_error *err);
+/* What a changed mesh takes over from the set-up of the mesh before (the harmonic paper: only
+ * the cut elements are computed again). Element e may take old element source[e]'s functions
+ * (pf_basis_reuse: the same element node for node) and then its K_e, M_e, int N_a, volume,
+ * centroid and centroid gradients, when its material is the same and, with the consistency
+ * correction, every face's traces come from the same functions as before (the face's trace
+ * source, cg_setup.c, is the element itself or a neighbour whose functions were taken from the
+ * old source). What is copied is bit for bit what pf_cg_create_materials computes. */
+typedef struct pf_cg_reuse {
+    const pf_cg *old;
+    const pf_mesh *old_mesh; /* the mesh old was set up on */
+    const int32_t *source;   /* [m->n_elems] candidate old element of each element, or -1 */
+    const int32_t *node_map; /* [old_mesh->n_nodes] new index of each old node, -1 for one
+                                removed; NULL: the same indices */
+} pf_cg_reuse;
+
+/* pf_cg_create_materials taking over what reuse allows (NULL: nothing); cg->basis.n_taken
+ * counts the elements whose functions were copied, cg->n_reused those whose matrices were. */
+pf_status pf_cg_create_reusing(pf_cg *cg, const pf_mesh *m, const pf_materials *materials,
+                               const pf_cg_params *params, const pf_cg_reuse *reuse,
+                               pf_error *err);
 /* Element e's material. */
 static inline const pf_material *pf_cg_material(const pf_cg *cg, int32_t e)
 {

@@ -115,6 +115,16 @@ const char *pf_elem_kind_name(pf_elem_kind k);
 pf_status pf_mesh_elem_polyhedron(const pf_mesh *m, int32_t e, pf_arena *scratch,
                                   pf_polyhedron *out, pf_error *err);
 
+/* Whether element eb of b is element ea of a node for node, so that anything computed from one
+ * element's geometry and node numbering (basis functions, element integrals) is the same bit for
+ * bit on both: the same number of faces, in the same order, each with the same orientation flag,
+ * on the mesh boundary in both or in neither, and with the same nodes in the same order (a's
+ * through node_map [a->n_nodes]: the b index of each a node, -1 for none; NULL: the same
+ * indices) at bitwise equal coordinates; and the map keeps the order of the element's node
+ * indices (pf_poly_split and the quadrature number by index). Needs both meshes derived. */
+bool pf_mesh_elem_same(const pf_mesh *a, int32_t ea, const pf_mesh *b, int32_t eb,
+                       const int32_t *node_map);
+
 /* Volume of element e (signed: negative when inside out), exact for planar faces. */
 double pf_mesh_elem_volume(const pf_mesh *m, int32_t e);
 

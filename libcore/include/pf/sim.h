@@ -146,6 +146,9 @@ typedef struct pf_refine_params {
     double min_size;      /* model units: the cube root of an element's volume; default 0 */
     double coarsen_fraction; /* [0, 1); 0: never (default 0.5) */
     int32_t coarsen_after;   /* frames, >= 1 (default 10) */
+    bool rebuild; /* true: the set-up after a change copies nothing from the mesh before (the
+                     same results, at the cost of a fresh set-up: for measurements); default
+                     false */
 } pf_refine_params;
 
 typedef struct pf_scene {
@@ -339,9 +342,13 @@ typedef struct pf_sim_stats {
      * on a new mesh is the solver's (reason "first") */
     double refine_mesh_seconds, refine_method_seconds, refine_setup_seconds,
         refine_transfer_seconds;
-    /* DG: element and face integrals copied from the set-up of the mesh before a change, and
-     * computed (by every set-up, the first included) */
+    /* Element and face integrals (DG), element matrices (CG: K_e, M_e, int N_a, centroid
+     * gradients) copied from the set-up of the mesh before a change, and computed (by every
+     * set-up, the first included) */
     int64_t integrals_reused, integrals_computed;
+    /* CG: elements whose shape functions were copied from the mesh before a change (the same
+     * element node for node), and built (by every set-up, the first included) */
+    int64_t basis_reused, basis_computed;
     /* cutting (the scene's "cuts"; each cut is also a mesh change above) */
     int32_t cuts;            /* cuts applied (a blade's sweep over one frame, or a plane) */
     int64_t elements_cut;    /* elements split by them */

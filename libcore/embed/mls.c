@@ -103,8 +103,8 @@ static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale,
     double q2 = pf_v3_dot(d, d) / (r * r);
     if (q2 >= 1)
         return PF_OK;
-    if (c->vis && c->vis->n_cand > 0 &&
-        pf_visibility_blocked(c->vis, c->seen_from, pf_v3_load(c->vis->node_x + 3 * (size_t)node)))
+    if (c->vis &&
+        pf_visibility_blocked(c->vis, c->seen_from, node, xi))
         return PF_OK;
     return support_push(&c->s, (uint32_t)node, pf_v3_scale(d, 1.0 / rho),
                         kernel(q2, c->p->sharpness), err);

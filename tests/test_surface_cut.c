@@ -443,14 +443,13 @@ static void test_box_cut_through(void **state)
 /* A sphere centred on the cut: its poles lie on the plane (vertices duplicated, not split
  * edges). The cap is the section polygon: its area is that of the 20-gon through the crossings,
  * computed here from the surface's own section (the split points and the poles). */
-static void test_sphere_poles_on_cut(void **state)
+static void sphere_on_cut(int n_lon)
 {
-    (void)state;
     cut_fixture fx;
     make_cut_bar(&fx, 4, 2, 1, 10);
     pf_surface s = {0};
     pf_error err = {0};
-    assert_int_equal(pf_surface_make_sphere(&s, 0.4, 8, 10, &err), PF_OK);
+    assert_int_equal(pf_surface_make_sphere(&s, 0.4, 8, n_lon, &err), PF_OK);
     for (int32_t i = 0; i < s.n_verts; ++i) {
         s.x[3 * i] += CUT_X;
         s.x[3 * i + 1] += 1;
@@ -477,6 +476,20 @@ static void test_sphere_poles_on_cut(void **state)
     pf_weights_release(&w);
     pf_surface_release(&s);
     fixture_release(&fx);
+}
+
+static void test_sphere_poles_on_cut(void **state)
+{
+    (void)state;
+    sphere_on_cut(10);
+}
+
+/* With 16 meridians, two of them lie in the cut plane: edges of the surface on the cut, between
+ * triangles of either side. */
+static void test_sphere_edges_on_cut(void **state)
+{
+    (void)state;
+    sphere_on_cut(16);
 }
 
 /* The bar's own boundary as the surface (a sliced mesh's surface is its boundary): the cut's
@@ -602,6 +615,31 @@ static void test_real_cut_through(void **state)
     pf_mesh_release(&bar);
 }
 
+/* The same on a bar of Kuhn tetrahedra cut at x = 2.4 (triangle and quadrilateral caps). */
+static void test_real_cut_tets(void **state)
+{
+    (void)state;
+    pf_mesh bar = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_mesh_make_box_tets(&bar, pf_v3(0, 0, 0), pf_v3(5, 2, 1), 5, 2, 1, &err),
+                     PF_OK);
+    assert_int_equal(pf_mesh_derive(&bar, &err), PF_OK);
+    cut_fixture fx;
+    make_real_cut(&fx, &bar, 2.4, 10);
+    pf_surface s = {0};
+    make_closed_box(&s, pf_v3(0.3, 0.25, 0.2), pf_v3(4.7, 1.65, 0.8));
+    pf_surface out = {0};
+    pf_weights w = {0};
+    pf_surface_cut_stats st;
+    run_cut(&fx, &s, NULL, &out, &w, &st);
+    check_cut_through(&fx, &s, &out, &w, &st, 1.4 * 0.6);
+    pf_surface_release(&out);
+    pf_weights_release(&w);
+    pf_surface_release(&s);
+    fixture_release(&fx);
+    pf_mesh_release(&bar);
+}
+
 /* pf_mesh_cut of the elements with y < 1 only: the crack front runs along y = 1. */
 static void test_real_partial_cut(void **state)
 {
@@ -699,8 +737,9 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_box_cut_through),     cmocka_unit_test(test_sphere_poles_on_cut),
-        cmocka_unit_test(test_boundary_surface),    cmocka_unit_test(test_partial_cut),
-        cmocka_unit_test(test_surface_missing_cut), cmocka_unit_test(test_real_cut_through),
+        cmocka_unit_test(test_sphere_edges_on_cut), cmocka_unit_test(test_boundary_surface),
+        cmocka_unit_test(test_partial_cut),         cmocka_unit_test(test_surface_missing_cut),
+        cmocka_unit_test(test_real_cut_through),    cmocka_unit_test(test_real_cut_tets),
         cmocka_unit_test(test_real_partial_cut),    cmocka_unit_test(test_sliced_sphere),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -99,7 +99,10 @@ typedef struct pf_embed_stats {
     int32_t n_fallback;      /* bary, harmonic: outside vertices weighted by the affine
                                 least-squares fit of their element's nodes (Newton or mean value
                                 coordinates failed; harmonic: farther outside than half the MFS
-                                kernel offset) */
+                                kernel offset); MLS with blocking faces: vertices whose visible
+                                nodes stayed too flat after max_growth steps (a thin piece cut
+                                off), weighted by any non-singular fit of them, else by the
+                                affine fit of their element's nodes */
     int32_t n_harmonic;      /* harmonic: elements whose harmonic functions were built */
     double basis_seconds;    /* harmonic: wall clock of building them */
     int64_t nnz;

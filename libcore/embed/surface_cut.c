@@ -425,12 +425,39 @@ pf_status pf_sc_node_point(sc_state *c, int32_t n, int32_t *out, pf_error *err)
                 node[g->side[k] > 0] = a;
         }
     }
-    bool dup = !(node[0] >= 0 && node[0] == node[1]);
+    bool dup = false;
     PF_TRY(
         pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1, dup, out, err));
     c->pt[*out].node[0] = node[0];
     c->pt[*out].node[1] = node[1];
     c->node_pt[n] = *out;
+    return PF_OK;
+}
+
+pf_status pf_sc_cap_point(sc_state *c, int32_t n, int32_t *out, pf_error *err)
+{
+    if (c->cap_pt[n] < 0) {
+        PF_TRY(pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1, false,
+                               &c->cap_pt[n], err));
+        sc_point *p = &c->pt[c->cap_pt[n]];
+        p->node[0] = n;
+        p->id[0] = p->id[1] = c->cap_vert[n]; /* a corner of faces of an earlier plane */
+    }
+    *out = c->cap_pt[n];
+    return PF_OK;
+}
+
+pf_status pf_sc_push_slit(sc_state *c, int32_t u, int32_t v, pf_error *err)
+{
+    if (c->n_slit == c->cap_slit) {
+        int64_t cap = c->cap_slit ? 2 * c->cap_slit : 256;
+        uint64_t *n = pf_realloc_array(c->slit, (size_t)cap, sizeof *n);
+        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for %lld slits", (long long)cap);
+        c->slit = n;
+        c->cap_slit = cap;
+    }
+    uint64_t a = (uint64_t)(u < v ? u : v), b = (uint64_t)(u < v ? v : u);
+    c->slit[c->n_slit++] = a << 32 | b;
     return PF_OK;
 }
 
@@ -485,7 +512,7 @@ static pf_status cut_by_groups(sc_state *c, const face_info *fi, const int32_t *
         c->n_points = c->n_sec = 0;
         c->n_seg = 0;
         for (int32_t i = 0; i < c->m->n_nodes && st >= 0; ++i)
-            c->node_pt[i] = -1;
+            c->node_pt[i] = c->cap_pt[i] = -1;
         if (st >= 0)
             st = pf_sc_split(c, split_src, err);
         if (st >= 0)
@@ -537,11 +564,14 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     c.stats = so;
     pf_status st = PF_OK;
     if (!PF_ALLOC_N(fi, (size_t)m->n_faces) || !PF_ALLOC_N(leader, (size_t)m->n_faces) ||
-        !PF_ALLOC_N(split_src, (size_t)s->n_tris) || !PF_ALLOC_N(c.node_pt, (size_t)m->n_nodes))
+        !PF_ALLOC_N(split_src, (size_t)s->n_tris) || !PF_ALLOC_N(c.node_pt, (size_t)m->n_nodes) ||
+        !PF_ALLOC_N(c.cap_pt, (size_t)m->n_nodes) || !PF_ALLOC_N(c.cap_vert, (size_t)m->n_nodes))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                           "out of memory for a surface cut (%d faces, %d triangles)",
                           (int)m->n_faces, (int)s->n_tris);
     if (st >= 0) {
+        for (int32_t i = 0; i < m->n_nodes; ++i)
+            c.cap_vert[i] = -1;
         if (s->n_tris)
             memset(split_src, 0, (size_t)s->n_tris);
         st = assign_groups(m, cut, fi, &n_groups, leader, err);
@@ -550,6 +580,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
         st = copy_input(s, &work, err);
     if (st >= 0)
         st = cut_by_groups(&c, fi, leader, n_groups, split_src, err);
+    if (st >= 0)
+        st = pf_sc_duplicate(&c, err);
     if (st >= 0)
         st = write_out(s, &work, out, err);
     if (st >= 0) {
@@ -564,6 +596,10 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     pf_free(leader);
     pf_free(split_src);
     pf_free(c.node_pt);
+    pf_free(c.cap_pt);
+    pf_free(c.cap_vert);
+    pf_free(c.slit);
+    pf_free(c.cap_normal);
     pf_free(c.pt);
     pf_free(c.sec);
     pf_free(c.seg);

@@ -72,6 +72,12 @@ typedef struct sc_state {
     int64_t n_seg, cap_seg;
     double *seg;       /* [4 cap_seg] the whole section of the surface, projected */
     int32_t *node_pt;  /* [m->n_nodes] point of a canonical node, -1 */
+    int32_t *cap_pt;   /* [m->n_nodes] point of a node as a cap corner, -1 */
+    int32_t *cap_vert; /* [m->n_nodes] vertex of a node as a cap corner (all planes), -1 */
+    int64_t n_slit, cap_slit;
+    uint64_t *slit;    /* the slits: surface edges (lo << 32 | hi) on opened faces */
+    int32_t n_caps, cap_caps;
+    double *cap_normal; /* [3 n_caps] outward normal of each cap triangle made, in order */
     bool closed;       /* the input surface is closed */
     pf_surface_cut_stats *stats;
 } sc_state;
@@ -94,6 +100,14 @@ pf_status pf_sc_point_id(sc_state *c, int32_t i, int sigma, int32_t *id, pf_erro
 pf_status pf_sc_node_point(sc_state *c, int32_t n, int32_t *out, pf_error *err);
 /* The first face of the group on side sigma holding the projected point (within tol), or -1. */
 int32_t pf_sc_face_at(const sc_group *g, double u, double v, int sigma);
+/* Records the slit u-v. */
+pf_status pf_sc_push_slit(sc_state *c, int32_t u, int32_t v, pf_error *err);
+/* The point of mesh node n (of the group's faces) as a cap corner (made on first use). */
+pf_status pf_sc_cap_point(sc_state *c, int32_t n, int32_t *out, pf_error *err);
+/* After every plane: each vertex on a slit gets one vertex per group of its triangles joined
+ * around it by edges that are not slits (cap triangles, src -1, take the copy on their side);
+ * copies get the direction into their triangles as their side. */
+pf_status pf_sc_duplicate(sc_state *c, pf_error *err);
 /* Caps of every face of the group (after its triangles are split). */
 pf_status pf_sc_caps(sc_state *c, pf_error *err);
 

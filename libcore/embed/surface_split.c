@@ -138,8 +138,8 @@ static pf_status vertex_point(split_ctx *k, int32_t w, int32_t *out, pf_error *e
     sc_state *c = k->c;
     if (k->vpt[w] < 0) {
         pf_vec3 x = pf_v3_load(c->s->x + 3 * (size_t)w);
-        PF_TRY(pf_sc_new_point(c, x, pf_v3_load(c->s->side + 3 * (size_t)w), w, pf_sc_on_cut(c, x),
-                               &k->vpt[w], err));
+        PF_TRY(pf_sc_new_point(c, x, pf_v3_load(c->s->side + 3 * (size_t)w), w, false, &k->vpt[w],
+                               err));
     }
     *out = k->vpt[w];
     return PF_OK;
@@ -168,7 +168,7 @@ static pf_status edge_point(split_ctx *k, int32_t a, int32_t b, int32_t *out, pf
             sb = pf_v3_load(c->s->side + 3 * (size_t)b);
     pf_vec3 side = pf_v3_add(pf_v3_scale(sa, 1 - t), pf_v3_scale(sb, t));
     int32_t p;
-    PF_TRY(pf_sc_new_point(c, x, side, -1, pf_sc_on_cut(c, x), &p, err));
+    PF_TRY(pf_sc_new_point(c, x, side, -1, false, &p, err));
     k->edges.n++;
     *edge_map_slot(&k->edges, (uint64_t)a << 32 | (uint64_t)b) = p;
     *out = p;
@@ -320,7 +320,7 @@ static pf_status make_line(split_ctx *k, int32_t P, int32_t Q, int32_t *line, pf
             pf_vec3 x = pf_v3_add(xp, pf_v3_scale(pf_v3_sub(xq, xp), tt));
             pf_vec3 side =
                 pf_v3_add(pf_v3_scale(c->pt[P].side, 1 - tt), pf_v3_scale(c->pt[Q].side, tt));
-            PF_TRY(pf_sc_new_point(c, x, side, -1, !c->g->front[key], &line[i + 1], err));
+            PF_TRY(pf_sc_new_point(c, x, side, -1, false, &line[i + 1], err));
         }
     }
     return PF_OK;
@@ -332,11 +332,23 @@ static pf_status push_piece(sc_state *c, int32_t a, int32_t b, pf_vec3 normal, b
 {
     const sc_group *g = c->g;
     pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[a].x, c->pt[b].x), 0.5);
+    /* the face on the surface's inside of the piece: a piece along the edge of a face (the
+     * outer edge of the cut, an edge between two faces, an earlier cut) belongs to the face
+     * its surface's inside lies on, not to the one behind it */
+    pf_vec3 in = pf_v3_scale(normal, -1);
+    in = pf_v3_sub(in, pf_v3_scale(g->plane.n, pf_v3_dot(in, g->plane.n)));
+    double len = pf_v3_norm(in);
+    if (len > 0)
+        mid = pf_v3_add(mid, pf_v3_scale(in, 1e3 * g->tol / len));
     double u = pf_v3_get(mid, g->ax[0]), w = pf_v3_get(mid, g->ax[1]);
     sc_section sec = {a, b, {pf_sc_face_at(g, u, w, -1), pf_sc_face_at(g, u, w, 1)}, normal};
     if (sec.face[0] < 0 && sec.face[1] < 0)
         return PF_OK;
     *any = true;
+    int32_t ia, ib;
+    PF_TRY(pf_sc_point_id(c, a, -1, &ia, err));
+    PF_TRY(pf_sc_point_id(c, b, -1, &ib, err));
+    PF_TRY(pf_sc_push_slit(c, ia, ib, err));
     return push_section(c, sec, err);
 }
 

@@ -92,7 +92,8 @@ static void node_sides(cut_fixture *fx, const uint8_t *side_b)
 
 /* src (derived) cut by pf_mesh_cut along x = cut_x in every element the plane crosses whose
  * centroid has y < y_front. */
-static void make_real_cut(cut_fixture *fx, const pf_mesh *src, double cut_x, double y_front)
+static void make_real_cut_ex(cut_fixture *fx, const pf_mesh *src, double cut_x, double y_front,
+                             const uint8_t *src_cut_face, double side_x)
 {
     memset(fx, 0, sizeof *fx);
     fx->cut_x = cut_x;
@@ -113,15 +114,23 @@ static void make_real_cut(cut_fixture *fx, const pf_mesh *src, double cut_x, dou
                 (pf_cut_request){e, pf_plane_from_point_normal(pf_v3(cut_x, 0, 0), pf_v3(1, 0, 0))};
     }
     pf_error err = {0};
-    pf_status st = pf_mesh_cut(src, req, n, NULL, &fx->m, &fx->cut, &err);
+    pf_cut_params cp = {0};
+    cp.src_cut_face = src_cut_face;
+    pf_status st = pf_mesh_cut(src, req, n, &cp, &fx->m, &fx->cut, &err);
     CHECKF(st == PF_OK, "pf_mesh_cut: %s", err.msg);
     assert_true(fx->cut.n_opened > 0);
     uint8_t *side_b = calloc((size_t)fx->m.n_elems, 1);
     for (int32_t e = 0; e < fx->m.n_elems; ++e)
-        side_b[e] = elem_centroid(&fx->m, e).x > cut_x;
+        side_b[e] = elem_centroid(&fx->m, e).x > side_x;
+    fx->cut_x = side_x;
     node_sides(fx, side_b);
     free(side_b);
     free(req);
+}
+
+static void make_real_cut(cut_fixture *fx, const pf_mesh *src, double cut_x, double y_front)
+{
+    make_real_cut_ex(fx, src, cut_x, y_front, NULL, cut_x);
 }
 
 /* The bar [0, nx] x [0, ny] x [0, nz] of unit hexes cut along x = CUT_X where y < y_front (the
@@ -640,6 +649,47 @@ static void test_real_cut_tets(void **state)
     pf_mesh_release(&bar);
 }
 
+/* Progressive: the bar cut at x = 2.5, its surface cut; the cut mesh cut again at x = 3.5 and the
+ * cut surface (with its caps) cut again. Three closed pieces, the volume unchanged; the first
+ * cut's vertices (their side known only from their caps) still take no node across it: moving
+ * everything right of x = 2.5 rigidly leaves every vertex left of it, caps included, still. */
+static void test_progressive_cut(void **state)
+{
+    (void)state;
+    pf_mesh bar = {0};
+    make_bar(&bar, 5, 2, 1);
+    cut_fixture first, second;
+    make_real_cut(&first, &bar, 2.5, 10);
+    pf_surface s = {0}, once = {0}, twice = {0};
+    make_closed_box(&s, pf_v3(0.3, 0.25, 0.2), pf_v3(4.7, 1.65, 0.8));
+    pf_weights w = {0};
+    pf_surface_cut_stats st;
+    run_cut(&first, &s, NULL, &once, &w, &st);
+    pf_weights_release(&w);
+    make_real_cut_ex(&second, &first.m, 3.5, 10, first.cut.cut_face, 2.5);
+    run_cut(&second, &once, NULL, &twice, &w, &st);
+    pf_surface_stats got = stats_of(&twice);
+    CHECKF(got.closed && got.manifold,
+           "cut surface: %lld boundary, %lld non-manifold, %lld flipped",
+           (long long)got.n_boundary_edges, (long long)got.n_nonmanifold_edges,
+           (long long)got.n_flipped_edges);
+    assert_near(got.volume, stats_of(&s).volume, 1e-12 * stats_of(&s).volume);
+    assert_int_equal(components(&twice), 3);
+    assert_near(st.cap_area, 2 * 1.4 * 0.6, 1e-12);
+    check_affine(&second.m, &twice, &w);
+    uint8_t *moved = malloc((size_t)twice.n_verts);
+    rigid_side_b(&second, &twice, &w, moved, true);
+    check_triangle_sides(&twice, moved, 2.5);
+    free(moved);
+    pf_weights_release(&w);
+    pf_surface_release(&s);
+    pf_surface_release(&once);
+    pf_surface_release(&twice);
+    fixture_release(&first);
+    fixture_release(&second);
+    pf_mesh_release(&bar);
+}
+
 /* pf_mesh_cut of the elements with y < 1 only: the crack front runs along y = 1. */
 static void test_real_partial_cut(void **state)
 {
@@ -740,7 +790,8 @@ int main(void)
         cmocka_unit_test(test_sphere_edges_on_cut), cmocka_unit_test(test_boundary_surface),
         cmocka_unit_test(test_partial_cut),         cmocka_unit_test(test_surface_missing_cut),
         cmocka_unit_test(test_real_cut_through),    cmocka_unit_test(test_real_cut_tets),
-        cmocka_unit_test(test_real_partial_cut),    cmocka_unit_test(test_sliced_sphere),
+        cmocka_unit_test(test_progressive_cut),     cmocka_unit_test(test_real_partial_cut),
+        cmocka_unit_test(test_sliced_sphere),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -103,12 +103,77 @@ static pf_status push_cap_normal(sc_state *c, pf_vec3 normal, pf_error *err)
     return PF_OK;
 }
 
+/* Twice the area of (a, b, d) about normal (positive counter-clockwise). */
+static double turn(const double *x, uint32_t a, uint32_t b, uint32_t d, pf_vec3 normal)
+{
+    pf_vec3 xa = pf_v3_load(x + 3 * (size_t)a);
+    return pf_v3_dot(pf_v3_cross(pf_v3_sub(pf_v3_load(x + 3 * (size_t)b), xa),
+                                 pf_v3_sub(pf_v3_load(x + 3 * (size_t)d), xa)),
+                     normal);
+}
+
+/* Ear clipping that takes only ears of positive area holding no other corner (on their edges
+ * included): a cap polygon has runs of collinear corners (the points where the section meets
+ * the face's edges), which a fan would join into triangles without area. tri[3 (n - 2)] gets
+ * positions in poly; false when no such ear is left (then the caller falls back). */
+static bool ear_clip(const double *x, const uint32_t *poly, int32_t n, pf_vec3 normal, double eps,
+                     int32_t *left, uint32_t *tri)
+{
+    for (int32_t i = 0; i < n; ++i)
+        left[i] = i;
+    int32_t m = n, nt = 0;
+    while (m > 3) {
+        bool found = false;
+        for (int32_t i = 0; i < m && !found; ++i) {
+            int32_t ia = left[(i + m - 1) % m], ib = left[i], ic = left[(i + 1) % m];
+            uint32_t a = poly[ia], b = poly[ib], d = poly[ic];
+            if (turn(x, a, b, d, normal) <= eps)
+                continue;
+            bool empty = true;
+            for (int32_t j = 0; j < m && empty; ++j) {
+                uint32_t p = poly[left[j]];
+                if (left[j] == ia || left[j] == ib || left[j] == ic || p == a || p == b || p == d)
+                    continue;
+                empty = !(turn(x, a, b, p, normal) >= -eps && turn(x, b, d, p, normal) >= -eps &&
+                          turn(x, d, a, p, normal) >= -eps);
+            }
+            if (!empty)
+                continue;
+            tri[3 * nt] = (uint32_t)ia, tri[3 * nt + 1] = (uint32_t)ib,
+                    tri[3 * nt + 2] = (uint32_t)ic;
+            nt++;
+            for (int32_t j = i; j + 1 < m; ++j)
+                left[j] = left[j + 1];
+            m--;
+            found = true;
+        }
+        if (!found)
+            return false;
+    }
+    tri[3 * nt] = (uint32_t)left[0], tri[3 * nt + 1] = (uint32_t)left[1];
+    tri[3 * nt + 2] = (uint32_t)left[2];
+    return true;
+}
+
 static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, pf_arena *arena,
                                  int32_t face, pf_vec3 normal, pf_error *err)
 {
-    uint32_t local[3 * 62], *tri = n <= 64 ? local : pf_alloc_array(3 * (size_t)n, sizeof *tri);
-    PF_CHECK(tri, err, PF_ERR_NOMEM, "out of memory for a cap of %d corners", (int)n);
-    pf_status st = pf_polygon_triangulate(c->s->x, poly, n, arena, tri, NULL, err);
+    uint32_t *tri = pf_alloc_array(3 * (size_t)n, sizeof *tri);
+    int32_t *left = pf_alloc_array((size_t)n, sizeof *left);
+    if (!tri || !left) {
+        pf_free(tri);
+        pf_free(left);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for a cap of %d corners", (int)n);
+    }
+    double size = 0;
+    for (int32_t k = 1; k < n; ++k)
+        size = fmax(size, pf_v3_dist(pf_v3_load(c->s->x + 3 * (size_t)poly[0]),
+                                     pf_v3_load(c->s->x + 3 * (size_t)poly[k])));
+    pf_status st = PF_OK;
+    if (!ear_clip(c->s->x, poly, n, normal, 1e-12 * size * size, left, tri))
+        st = pf_polygon_triangulate(c->s->x, poly, n, arena, tri, NULL, err);
+    pf_free(left);
     for (int32_t t = 0; t < n - 2 && st >= 0; ++t) {
         uint32_t a = poly[tri[3 * t]], b = poly[tri[3 * t + 1]], d = poly[tri[3 * t + 2]];
         st = pf_sc_add_tri(c->s, a, b, d, PF_SURFACE_CAP, -1, err);
@@ -122,8 +187,7 @@ static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, p
             c->stats->n_cap_tris++;
         }
     }
-    if (tri != local)
-        pf_free(tri);
+    pf_free(tri);
     if (st < 0)
         pf_error_prefix(err, "cap of opened face %d", (int)face);
     return st;

@@ -1,8 +1,9 @@
 /* Cutting the embedded surface along the faces a mesh cut opened (pf/cut.h): the opened faces
  * are gathered by plane; per plane, every triangle crossing it is split exactly along its
- * section where the section lies on opened faces (a slit ending inside the triangle where the
- * section leaves them: the crack front), the points made on the cut are duplicated, one copy per
- * side, and the faces are capped (surface_cap.c). Then the weights, with the visibility rule. */
+ * section (surface_split.c), the pieces of the section on opened faces being slits, and the faces
+ * are capped (surface_cap.c). Then the vertices on the slits are duplicated by the groups of
+ * triangles around them (surface_dup.c), which also leaves the crack front shared, and the
+ * weights are computed with the visibility rule. */
 #include "surface_cut_internal.h"
 
 #include <stdlib.h>
@@ -328,37 +329,6 @@ int32_t pf_sc_face_at(const sc_group *g, double u, double v, int sigma)
     return -1;
 }
 
-static double seg2_dist(double u, double v, const double *a, const double *b)
-{
-    double ex = b[0] - a[0], ey = b[1] - a[1], wx = u - a[0], wy = v - a[1];
-    double ee = ex * ex + ey * ey, t = ee > 0 ? (wx * ex + wy * ey) / ee : 0;
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    return hypot(wx - t * ex, wy - t * ey);
-}
-
-/* On the cut: inside an opened face and off the crack front. */
-bool pf_sc_on_cut(const sc_state *c, pf_vec3 x)
-{
-    const sc_group *g = c->g;
-    double u = pf_v3_get(x, g->ax[0]), v = pf_v3_get(x, g->ax[1]);
-    int32_t k = pf_sc_face_at(g, u, v, -1);
-    if (k < 0)
-        k = pf_sc_face_at(g, u, v, 1);
-    if (k < 0)
-        return false;
-    for (int32_t q = 0; q < g->n_faces; ++q) {
-        const double *b = g->box + 4 * (size_t)q;
-        if (u < b[0] || u > b[2] || v < b[1] || v > b[3])
-            continue;
-        int64_t o = g->uv_offsets[q], n = g->uv_offsets[q + 1] - o;
-        for (int64_t j = 0; j < n; ++j)
-            if (g->front[g->corner_edge[o + j]] &&
-                seg2_dist(u, v, g->uv + 2 * (o + j), g->uv + 2 * (o + (j + 1) % n)) <= g->tol)
-                return false;
-    }
-    return true;
-}
-
 pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bool dup,
                           int32_t *out, pf_error *err)
 {
@@ -523,6 +493,50 @@ static pf_status cut_by_groups(sc_state *c, const face_info *fi, const int32_t *
     return st;
 }
 
+/* Vertices on the caps of earlier cuts (input triangles marked PF_SURFACE_CAP) have no side
+ * of their own: each takes the inward normal of the caps it is a corner of, unless caps facing
+ * both ways use it (an earlier crack front, shared by both sides). */
+static pf_status sides_of_earlier_caps(const pf_surface *in, sc_surface *w, pf_error *err)
+{
+    if (!in->tri_part)
+        return PF_OK;
+    uint8_t *mixed = NULL;
+    double *sum = NULL;
+    if (!PF_ALLOC_N(mixed, (size_t)w->n_verts) || !PF_ALLOC_N(sum, 3 * (size_t)w->n_verts)) {
+        pf_free(mixed);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for the sides of %d vertices", (int)w->n_verts);
+    }
+    memset(mixed, 0, (size_t)w->n_verts);
+    memset(sum, 0, 3 * (size_t)w->n_verts * sizeof *sum);
+    for (int32_t t = 0; t < w->n_tris; ++t) {
+        if (w->src[t] < 0 || in->tri_part[w->src[t]] != PF_SURFACE_CAP)
+            continue;
+        const uint32_t *v = w->tri + 3 * (size_t)t;
+        pf_vec3 a = pf_v3_load(w->x + 3 * (size_t)v[0]);
+        pf_vec3 n = pf_v3_cross(pf_v3_sub(pf_v3_load(w->x + 3 * (size_t)v[1]), a),
+                                pf_v3_sub(pf_v3_load(w->x + 3 * (size_t)v[2]), a));
+        double len = pf_v3_norm(n);
+        if (!(len > 0))
+            continue;
+        pf_vec3 inward = pf_v3_scale(n, -1.0 / len);
+        for (int q = 0; q < 3; ++q) {
+            double *sv = sum + 3 * (size_t)v[q];
+            if (pf_v3_dot(pf_v3_load(sv), inward) < 0)
+                mixed[v[q]] = 1;
+            pf_v3_store(pf_v3_add(pf_v3_load(sv), inward), sv);
+        }
+    }
+    for (int32_t i = 0; i < w->n_verts; ++i) {
+        double *side = w->side + 3 * (size_t)i;
+        if (!mixed[i] && side[0] == 0 && side[1] == 0 && side[2] == 0)
+            memcpy(side, sum + 3 * (size_t)i, 3 * sizeof *side);
+    }
+    pf_free(mixed);
+    pf_free(sum);
+    return PF_OK;
+}
+
 static pf_status write_out(const pf_surface *s, const sc_surface *w, pf_surface *out, pf_error *err)
 {
     PF_TRY(pf_surface_alloc(out, w->n_verts, w->n_tris, err));
@@ -582,6 +596,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
         st = cut_by_groups(&c, fi, leader, n_groups, split_src, err);
     if (st >= 0)
         st = pf_sc_duplicate(&c, err);
+    if (st >= 0)
+        st = sides_of_earlier_caps(s, &work, err);
     if (st >= 0)
         st = write_out(s, &work, out, err);
     if (st >= 0) {

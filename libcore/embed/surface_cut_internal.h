@@ -88,8 +88,6 @@ pf_status pf_sc_add_tri(sc_surface *s, uint32_t a, uint32_t b, uint32_t c, uint8
 /* A new point (orig: the surface vertex it is, or -1; dup: on the cut, one vertex per side). */
 pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bool dup,
                           int32_t *out, pf_error *err);
-/* x lies inside an opened face of the group (within tol) and off the crack front. */
-bool pf_sc_on_cut(const sc_state *c, pf_vec3 x);
 /* Splits every triangle of c->s crossing the group's faces and gives the corners on the plane
  * of the others their side's vertex; records the section. split_src[input triangles] marks the
  * input triangles split (counted in c->stats). */

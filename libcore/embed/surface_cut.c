@@ -85,7 +85,6 @@ static void group_release(sc_group *g)
     pf_free(g->corner_edge);
     pf_free(g->box);
     pf_free(g->edge_node);
-    pf_free(g->front);
     pf_free(g->canon);
     memset(g, 0, sizeof *g);
 }
@@ -187,8 +186,7 @@ static int compare_edge_keys(const void *p, const void *q)
 }
 
 /* Canonical nodes (bit-identical positions: the copies of a duplicated node) and the distinct
- * edges of the group's faces; an edge is on the crack front when faces of both sides use it with
- * the same two nodes. */
+ * edges of the group's faces (the copies of an edge are one edge). */
 static pf_status build_edges(const pf_mesh *m, sc_group *g, pf_error *err)
 {
     int64_t nc = g->uv_offsets[g->n_faces];
@@ -196,8 +194,7 @@ static pf_status build_edges(const pf_mesh *m, sc_group *g, pf_error *err)
     edge_key *keys = NULL;
     int ok = PF_ALLOC_N(nodes, (size_t)nc) && PF_ALLOC_N(tmp, (size_t)nc) &&
              PF_ALLOC_N(keys, (size_t)nc) && PF_ALLOC_N(g->corner_edge, (size_t)nc) &&
-             PF_ALLOC_N(g->canon, (size_t)m->n_nodes) && PF_ALLOC_N(g->edge_node, 2 * (size_t)nc) &&
-             PF_ALLOC_N(g->front, (size_t)nc);
+             PF_ALLOC_N(g->canon, (size_t)m->n_nodes) && PF_ALLOC_N(g->edge_node, 2 * (size_t)nc);
     if (!ok) {
         pf_free(nodes);
         pf_free(tmp);
@@ -243,17 +240,11 @@ static pf_status build_edges(const pf_mesh *m, sc_group *g, pf_error *err)
     g->n_edges = 0;
     for (int64_t i = 0; i < nk;) {
         int64_t j = i;
-        uint8_t front = 0;
-        while (j < nk && keys[j].a == keys[i].a && keys[j].b == keys[i].b) {
-            for (int64_t q = i; q < j; ++q)
-                front |= keys[q].side != keys[j].side && keys[q].na == keys[j].na &&
-                         keys[q].nb == keys[j].nb;
-            g->corner_edge[keys[j].slot] = g->n_edges;
-            j++;
-        }
+        while (j < nk && keys[j].a == keys[i].a && keys[j].b == keys[i].b)
+            g->corner_edge[keys[j++].slot] = g->n_edges;
         g->edge_node[2 * g->n_edges] = keys[i].a;
         g->edge_node[2 * g->n_edges + 1] = keys[i].b;
-        g->front[g->n_edges++] = front;
+        g->n_edges++;
         i = j;
     }
     pf_free(nodes);
@@ -329,8 +320,8 @@ int32_t pf_sc_face_at(const sc_group *g, double u, double v, int sigma)
     return -1;
 }
 
-pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bool dup,
-                          int32_t *out, pf_error *err)
+pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, int32_t *out,
+                          pf_error *err)
 {
     if (c->n_points == c->cap_points) {
         int32_t cap = c->cap_points ? 2 * c->cap_points : 256;
@@ -345,7 +336,6 @@ pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bo
     p->orig = orig;
     p->id[0] = p->id[1] = -1;
     p->node[0] = p->node[1] = -1;
-    p->dup = dup;
     p->used = 0;
     *out = c->n_points++;
     return PF_OK;
@@ -353,28 +343,16 @@ pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bo
 
 pf_status pf_sc_point_id(sc_state *c, int32_t i, int sigma, int32_t *id, pf_error *err)
 {
+    (void)sigma; /* one vertex for both sides until surface_dup.c splits it */
     sc_point *p = &c->pt[i];
-    int si = sigma > 0;
-    if (p->id[si] >= 0) {
-        *id = p->id[si];
-        return PF_OK;
+    if (p->id[0] < 0) {
+        if (p->orig >= 0)
+            p->id[0] = p->orig;
+        else
+            PF_TRY(pf_sc_add_vertex(c->s, p->x, p->side, &p->id[0], err));
+        p->id[1] = p->id[0];
     }
-    if (!p->dup && p->id[1 - si] >= 0) {
-        *id = p->id[si] = p->id[1 - si];
-        return PF_OK;
-    }
-    pf_vec3 side = p->dup ? pf_v3_add(p->side, pf_v3_scale(c->g->plane.n, sigma)) : p->side;
-    if (p->orig >= 0 && p->id[1 - si] != p->orig) {
-        *id = p->orig;
-        pf_v3_store(side, c->s->side + 3 * (size_t)p->orig);
-    } else {
-        PF_TRY(pf_sc_add_vertex(c->s, p->x, side, id, err));
-        if (p->dup && p->id[1 - si] >= 0)
-            c->stats->n_duplicated++;
-    }
-    p->id[si] = *id;
-    if (!p->dup)
-        p->id[1 - si] = *id;
+    *id = p->id[0];
     return PF_OK;
 }
 
@@ -395,9 +373,7 @@ pf_status pf_sc_node_point(sc_state *c, int32_t n, int32_t *out, pf_error *err)
                 node[g->side[k] > 0] = a;
         }
     }
-    bool dup = false;
-    PF_TRY(
-        pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1, dup, out, err));
+    PF_TRY(pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1, out, err));
     c->pt[*out].node[0] = node[0];
     c->pt[*out].node[1] = node[1];
     c->node_pt[n] = *out;
@@ -407,7 +383,7 @@ pf_status pf_sc_node_point(sc_state *c, int32_t n, int32_t *out, pf_error *err)
 pf_status pf_sc_cap_point(sc_state *c, int32_t n, int32_t *out, pf_error *err)
 {
     if (c->cap_pt[n] < 0) {
-        PF_TRY(pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1, false,
+        PF_TRY(pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1,
                                &c->cap_pt[n], err));
         sc_point *p = &c->pt[c->cap_pt[n]];
         p->node[0] = n;

@@ -138,8 +138,7 @@ static pf_status vertex_point(split_ctx *k, int32_t w, int32_t *out, pf_error *e
     sc_state *c = k->c;
     if (k->vpt[w] < 0) {
         pf_vec3 x = pf_v3_load(c->s->x + 3 * (size_t)w);
-        PF_TRY(pf_sc_new_point(c, x, pf_v3_load(c->s->side + 3 * (size_t)w), w, false, &k->vpt[w],
-                               err));
+        PF_TRY(pf_sc_new_point(c, x, pf_v3_load(c->s->side + 3 * (size_t)w), w, &k->vpt[w], err));
     }
     *out = k->vpt[w];
     return PF_OK;
@@ -168,7 +167,7 @@ static pf_status edge_point(split_ctx *k, int32_t a, int32_t b, int32_t *out, pf
             sb = pf_v3_load(c->s->side + 3 * (size_t)b);
     pf_vec3 side = pf_v3_add(pf_v3_scale(sa, 1 - t), pf_v3_scale(sb, t));
     int32_t p;
-    PF_TRY(pf_sc_new_point(c, x, side, -1, false, &p, err));
+    PF_TRY(pf_sc_new_point(c, x, side, -1, &p, err));
     k->edges.n++;
     *edge_map_slot(&k->edges, (uint64_t)a << 32 | (uint64_t)b) = p;
     *out = p;
@@ -320,7 +319,7 @@ static pf_status make_line(split_ctx *k, int32_t P, int32_t Q, int32_t *line, pf
             pf_vec3 x = pf_v3_add(xp, pf_v3_scale(pf_v3_sub(xq, xp), tt));
             pf_vec3 side =
                 pf_v3_add(pf_v3_scale(c->pt[P].side, 1 - tt), pf_v3_scale(c->pt[Q].side, tt));
-            PF_TRY(pf_sc_new_point(c, x, side, -1, false, &line[i + 1], err));
+            PF_TRY(pf_sc_new_point(c, x, side, -1, &line[i + 1], err));
         }
     }
     return PF_OK;

@@ -302,6 +302,21 @@ static pf_status push_section(sc_state *c, sc_section s, pf_error *err)
     return PF_OK;
 }
 
+/* The section from point P to point Q projected (pp, pq) and its crossings (k->cross_*). */
+static pf_status section_of(split_ctx *k, int32_t P, int32_t Q, double pp[2], double pq[2],
+                            pf_error *err)
+{
+    const sc_group *g = k->c->g;
+    pf_vec3 xp = k->c->pt[P].x, xq = k->c->pt[Q].x;
+    pp[0] = pf_v3_get(xp, g->ax[0]), pp[1] = pf_v3_get(xp, g->ax[1]);
+    pq[0] = pf_v3_get(xq, g->ax[0]), pq[1] = pf_v3_get(xq, g->ax[1]);
+    double len = hypot(pq[0] - pp[0], pq[1] - pp[1]);
+    k->n_cross = 0;
+    if (len > g->tol)
+        PF_TRY(find_crossings(k, pp, pq, len, err));
+    return PF_OK;
+}
+
 /* line[0] = P, line[n_cross + 1] = Q and the points of the crossings between. */
 static pf_status make_line(split_ctx *k, int32_t P, int32_t Q, int32_t *line, pf_error *err)
 {
@@ -382,13 +397,8 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
              "surface triangle %d meets the plane of opened face %d at %d points", (int)s->src[t],
              (int)g->face[0], (int)n_plane);
     int32_t P = item[plane_at[0]], Q = item[plane_at[1]];
-    pf_vec3 xp = c->pt[P].x, xq = c->pt[Q].x;
-    double pp[2] = {pf_v3_get(xp, g->ax[0]), pf_v3_get(xp, g->ax[1])};
-    double pq[2] = {pf_v3_get(xq, g->ax[0]), pf_v3_get(xq, g->ax[1])};
-    double len = hypot(pq[0] - pp[0], pq[1] - pp[1]);
-    k->n_cross = 0;
-    if (len > g->tol)
-        PF_TRY(find_crossings(k, pp, pq, len, err));
+    double pp[2], pq[2];
+    PF_TRY(section_of(k, P, Q, pp, pq, err));
     if (decide) {
         /* a slit: some piece of the section (between crossings) on an opened face */
         bool any = false;
@@ -579,17 +589,11 @@ static pf_status plane_edge_section(split_ctx *k, uint32_t lo, uint32_t hi, int3
                                     pf_error *err)
 {
     sc_state *c = k->c;
-    const sc_group *g = c->g;
     int32_t P, Q;
     PF_TRY(vertex_point(k, (int32_t)lo, &P, err));
     PF_TRY(vertex_point(k, (int32_t)hi, &Q, err));
-    pf_vec3 xp = c->pt[P].x, xq = c->pt[Q].x;
-    double pp[2] = {pf_v3_get(xp, g->ax[0]), pf_v3_get(xp, g->ax[1])};
-    double pq[2] = {pf_v3_get(xq, g->ax[0]), pf_v3_get(xq, g->ax[1])};
-    double len = hypot(pq[0] - pp[0], pq[1] - pp[1]);
-    k->n_cross = 0;
-    if (len > g->tol)
-        PF_TRY(find_crossings(k, pp, pq, len, err));
+    double pp[2], pq[2];
+    PF_TRY(section_of(k, P, Q, pp, pq, err));
     PF_TRY(push_segment(c, pp, pq, err));
     int32_t nl = k->n_cross + 2;
     int32_t *line = pf_alloc_array((size_t)nl, sizeof *line);

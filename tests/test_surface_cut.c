@@ -3,13 +3,18 @@
  *
  * Fixtures: a bar of unit hexes cut along the grid plane x = 2 by hand, as pf_mesh_cut leaves
  * it (the faces on the cut opened into two boundary faces, one per side, the nodes on them
- * duplicated except at the crack front). Oracles: topology (closed, manifold, one component,
- * front vertices shared), volumes (the split triangles tile the input's exactly and the two
- * sides' caps cancel: the embedded surface's volume is unchanged to round-off, 1e-12 relative
- * leaves room for the sums over ~100 triangles; a surface that is the bar's own boundary closes
- * to the bar's volume), affine fields (MLS and bary reproduce them exactly: 1e-12 of the model
- * size is round-off with room) and rigid motions of one side (a vertex moves with it exactly
- * when it is on that side: no weight crosses the cut, checked to 1e-12). */
+ * duplicated except at the crack front), and pf_mesh_cut's own cuts: through and partially
+ * through the hexes of a bar, a bar of tetrahedra, a sliced sphere with its own surface, and a
+ * second cut of a cut bar. Surfaces: boxes, spheres with poles or whole meridians on the cut.
+ * Oracles: topology (closed, manifold, the number of pieces, front vertices shared, positions
+ * behind the front duplicated), volumes (the split triangles tile the input's exactly and the
+ * two sides' caps cancel: the embedded surface's volume is unchanged to round-off, 1e-12
+ * relative leaves room for the sums over ~100 triangles; a surface that is the mesh's own
+ * boundary closes to the mesh's volume), cap areas (the section's, analytic for boxes), affine
+ * fields (MLS and bary reproduce them exactly: 1e-12 of the model size is round-off with room)
+ * and rigid motions of one side (a vertex moves with it exactly when it is on that side: no
+ * weight crosses the cut, checked to 1e-12; without the visibility rule the same check fails
+ * for a quarter of the vertices, which the box test asserts). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>

@@ -85,7 +85,9 @@ typedef struct visibility {
     int64_t *uv_offsets;  /* [n_faces + 1] */
     double *uv;           /* [2 uv_offsets[n_faces]] projected polygons */
     double *box;          /* [6 n_faces] padded by tol */
-    double *node_x;       /* [3 n_nodes] node positions nudged into their side of the cut */
+    double *node_dir;     /* [3 n_nodes] unit sum of the inward normals of the blocking faces a
+                             node is a corner of (zero: none, or cancelled at the crack front) */
+    double *node_tol;     /* [n_nodes] the smallest tolerance of those faces */
     double min_diam;      /* smallest blocking face diameter */
     bucket_grid grid;
     uint32_t *stamp;      /* [n_faces] */
@@ -101,8 +103,9 @@ void pf_visibility_release(visibility *v);
 /* Gathers the blocking faces whose boxes meet the cube of half side reach around x (the
  * candidates of the next queries); returns their count. */
 int32_t pf_visibility_gather(visibility *v, pf_vec3 x, double reach);
-/* True when the segment a-b strictly crosses one of the gathered faces. */
-bool pf_visibility_blocked(const visibility *v, pf_vec3 a, pf_vec3 b);
+/* True when node (at b) is hidden from a: a lies behind the node's side of the cut (against
+ * node_dir, beyond node_tol), or the segment a-b strictly crosses one of the gathered faces. */
+bool pf_visibility_blocked(const visibility *v, pf_vec3 a, int32_t node, pf_vec3 b);
 /* x nudged along dir (any length; zero: x unchanged) by 1e-6 of the smallest gathered face's
  * diameter: a vertex on a cut seen from its own side. */
 pf_vec3 pf_visibility_nudge(const visibility *v, pf_vec3 x, pf_vec3 dir);

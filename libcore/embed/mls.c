@@ -90,7 +90,8 @@ typedef struct mls_context {
     bucket_grid supports; /* nodes by their support boxes */
     bucket_grid points;   /* nodes by position, for grown supports */
     support s;
-    visibility *vis;   /* NULL: no blocking faces */
+    visibility *vis; /* NULL: no blocking faces */
+    locator *L;
     pf_vec3 seen_from; /* the vertex, nudged into its side of a cut */
 } mls_context;
 
@@ -103,8 +104,7 @@ static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale,
     double q2 = pf_v3_dot(d, d) / (r * r);
     if (q2 >= 1)
         return PF_OK;
-    if (c->vis && c->vis->n_cand > 0 &&
-        pf_visibility_blocked(c->vis, c->seen_from, pf_v3_load(c->vis->node_x + 3 * (size_t)node)))
+    if (c->vis && pf_visibility_blocked(c->vis, c->seen_from, node, xi))
         return PF_OK;
     return support_push(&c->s, (uint32_t)node, pf_v3_scale(d, 1.0 / rho),
                         kernel(q2, c->p->sharpness), err);
@@ -166,6 +166,29 @@ static pf_status build_grids(mls_context *c, pf_error *err)
     return st;
 }
 
+/* After the last growth step with blocking faces: the support's fit with any non-singular
+ * covariance, else the affine least-squares fit of the nodes of the element holding the vertex
+ * (seen from its side); c->s.n = 0 when neither works. */
+static pf_status visible_fallback(mls_context *c, pf_vec3 x, pf_error *err)
+{
+    if (pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, 1e-12, c->s.val))
+        return PF_OK;
+    double dist;
+    int32_t e = pf_locator_find(c->L, c->seen_from, &dist);
+    const uint32_t *nodes = c->L->geo.nodes + c->L->geo.node_offsets[e];
+    int32_t n = (int32_t)(c->L->geo.node_offsets[e + 1] - c->L->geo.node_offsets[e]);
+    const double *box = c->L->geo.box + 6 * (size_t)e;
+    double size = fmax(box[3] - box[0], fmax(box[4] - box[1], box[5] - box[2]));
+    c->s.n = 0;
+    for (int32_t k = 0; k < n; ++k) {
+        pf_vec3 d = pf_v3_sub(pf_v3_load(c->m->x + 3 * (size_t)nodes[k]), x);
+        PF_TRY(support_push(&c->s, nodes[k], pf_v3_scale(d, 1.0 / size), 1.0, err));
+    }
+    if (!pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, 1e-12, c->s.val))
+        c->s.n = 0;
+    return PF_OK;
+}
+
 /* One vertex: grow the supports until the fit is well conditioned. */
 static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b,
                             pf_embed_stats *stats, pf_error *err)
@@ -182,6 +205,15 @@ static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b
         PF_TRY(gather(c, x, scale, err));
         if (pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, c->p->min_spread, c->s.val))
             break;
+        if (c->vis && step == c->p->max_growth) {
+            /* the nodes it sees (a thin piece cut off) stay too flat: any non-singular fit, or
+             * the affine fit of its host element's nodes (located on its side) */
+            PF_TRY(visible_fallback(c, x, err));
+            if (c->s.n > 0) {
+                stats->n_fallback++;
+                break;
+            }
+        }
         PF_CHECK(step < c->p->max_growth, err, PF_ERR_NUMERIC,
                  "surface vertex %d: the MLS support holds %d nodes, too few or too flat for an "
                  "affine fit even at %g times the radius",
@@ -200,6 +232,7 @@ pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_par
     memset(&c, 0, sizeof c);
     c.m = m;
     c.p = p;
+    c.L = L;
     double *radius = NULL;
     PF_CHECK(PF_ALLOC_N(radius, (size_t)m->n_nodes), err, PF_ERR_NOMEM,
              "out of memory for %d radii", (int)m->n_nodes);

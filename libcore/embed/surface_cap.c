@@ -90,15 +90,95 @@ static int inside_section(const sc_state *c, double u, double v)
     return inside;
 }
 
-static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, pf_arena *arena,
-                                 int32_t face, pf_error *err)
+static pf_status push_cap_normal(sc_state *c, pf_vec3 normal, pf_error *err)
 {
-    uint32_t local[3 * 62], *tri = n <= 64 ? local : pf_alloc_array(3 * (size_t)n, sizeof *tri);
-    PF_CHECK(tri, err, PF_ERR_NOMEM, "out of memory for a cap of %d corners", (int)n);
-    pf_status st = pf_polygon_triangulate(c->s->x, poly, n, arena, tri, NULL, err);
+    if (c->n_caps == c->cap_caps) {
+        int32_t cap = c->cap_caps ? 2 * c->cap_caps : 256;
+        double *n = pf_realloc_array(c->cap_normal, 3 * (size_t)cap, sizeof *n);
+        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for %d cap triangles", (int)cap);
+        c->cap_normal = n;
+        c->cap_caps = cap;
+    }
+    pf_v3_store(normal, c->cap_normal + 3 * (size_t)c->n_caps++);
+    return PF_OK;
+}
+
+/* Twice the area of (a, b, d) about normal (positive counter-clockwise). */
+static double turn(const double *x, uint32_t a, uint32_t b, uint32_t d, pf_vec3 normal)
+{
+    pf_vec3 xa = pf_v3_load(x + 3 * (size_t)a);
+    return pf_v3_dot(pf_v3_cross(pf_v3_sub(pf_v3_load(x + 3 * (size_t)b), xa),
+                                 pf_v3_sub(pf_v3_load(x + 3 * (size_t)d), xa)),
+                     normal);
+}
+
+/* Ear clipping that takes only ears of positive area holding no other corner (on their edges
+ * included): a cap polygon has runs of collinear corners (the points where the section meets
+ * the face's edges), which a fan would join into triangles without area. tri[3 (n - 2)] gets
+ * positions in poly; false when no such ear is left (then the caller falls back). */
+static bool ear_clip(const double *x, const uint32_t *poly, int32_t n, pf_vec3 normal, double eps,
+                     int32_t *left, uint32_t *tri)
+{
+    for (int32_t i = 0; i < n; ++i)
+        left[i] = i;
+    int32_t m = n, nt = 0;
+    while (m > 3) {
+        bool found = false;
+        for (int32_t i = 0; i < m && !found; ++i) {
+            int32_t ia = left[(i + m - 1) % m], ib = left[i], ic = left[(i + 1) % m];
+            uint32_t a = poly[ia], b = poly[ib], d = poly[ic];
+            if (turn(x, a, b, d, normal) <= eps)
+                continue;
+            bool empty = true;
+            for (int32_t j = 0; j < m && empty; ++j) {
+                uint32_t p = poly[left[j]];
+                if (left[j] == ia || left[j] == ib || left[j] == ic || p == a || p == b || p == d)
+                    continue;
+                empty = !(turn(x, a, b, p, normal) >= -eps && turn(x, b, d, p, normal) >= -eps &&
+                          turn(x, d, a, p, normal) >= -eps);
+            }
+            if (!empty)
+                continue;
+            tri[3 * nt] = (uint32_t)ia, tri[3 * nt + 1] = (uint32_t)ib,
+                    tri[3 * nt + 2] = (uint32_t)ic;
+            nt++;
+            for (int32_t j = i; j + 1 < m; ++j)
+                left[j] = left[j + 1];
+            m--;
+            found = true;
+        }
+        if (!found)
+            return false;
+    }
+    tri[3 * nt] = (uint32_t)left[0], tri[3 * nt + 1] = (uint32_t)left[1];
+    tri[3 * nt + 2] = (uint32_t)left[2];
+    return true;
+}
+
+static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, pf_arena *arena,
+                                 int32_t face, pf_vec3 normal, pf_error *err)
+{
+    uint32_t *tri = pf_alloc_array(3 * (size_t)n, sizeof *tri);
+    int32_t *left = pf_alloc_array((size_t)n, sizeof *left);
+    if (!tri || !left) {
+        pf_free(tri);
+        pf_free(left);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for a cap of %d corners", (int)n);
+    }
+    double size = 0;
+    for (int32_t k = 1; k < n; ++k)
+        size = fmax(size, pf_v3_dist(pf_v3_load(c->s->x + 3 * (size_t)poly[0]),
+                                     pf_v3_load(c->s->x + 3 * (size_t)poly[k])));
+    pf_status st = PF_OK;
+    if (!ear_clip(c->s->x, poly, n, normal, 1e-12 * size * size, left, tri))
+        st = pf_polygon_triangulate(c->s->x, poly, n, arena, tri, NULL, err);
+    pf_free(left);
     for (int32_t t = 0; t < n - 2 && st >= 0; ++t) {
         uint32_t a = poly[tri[3 * t]], b = poly[tri[3 * t + 1]], d = poly[tri[3 * t + 2]];
         st = pf_sc_add_tri(c->s, a, b, d, PF_SURFACE_CAP, -1, err);
+        if (st >= 0)
+            st = push_cap_normal(c, normal, err);
         if (st >= 0) {
             pf_vec3 xa = pf_v3_load(c->s->x + 3 * (size_t)a);
             pf_vec3 ab = pf_v3_sub(pf_v3_load(c->s->x + 3 * (size_t)b), xa);
@@ -107,11 +187,25 @@ static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, p
             c->stats->n_cap_tris++;
         }
     }
-    if (tri != local)
-        pf_free(tri);
+    pf_free(tri);
     if (st < 0)
         pf_error_prefix(err, "cap of opened face %d", (int)face);
     return st;
+}
+
+/* The vertex of point p in a cap on side sigma; a face corner's vertex collects the inward
+ * normals of the faces using it as its side (they cancel at the crack front, where both sides'
+ * faces share it). */
+static pf_status cap_id(sc_state *c, int32_t p, int sigma, int32_t *id, pf_error *err)
+{
+    PF_TRY(pf_sc_point_id(c, p, sigma, id, err));
+    int32_t n = c->pt[p].node[0];
+    if (n >= 0 && c->cap_pt[n] == p) {
+        c->cap_vert[n] = *id;
+        double *side = c->s->side + 3 * (size_t)*id;
+        pf_v3_store(pf_v3_add(pf_v3_load(side), pf_v3_scale(c->g->plane.n, sigma)), side);
+    }
+    return PF_OK;
 }
 
 /* The point at a corner of the face: a section end within tol of it, else the node's point. */
@@ -124,7 +218,7 @@ static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int3
             *out = b->ends[i];
             return PF_OK;
         }
-    return pf_sc_node_point(c, c->g->canon[node], out, err);
+    return pf_sc_cap_point(c, (int32_t)node, out, err);
 }
 
 /* The boundary pieces of face k on the edge from corner node a to node b, inside the surface. */
@@ -183,8 +277,8 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
         pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[p].x, c->pt[q].x), 0.5);
         if (p == q || inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1)
             continue;
-        PF_TRY(pf_sc_point_id(c, p, sigma, &u, err));
-        PF_TRY(pf_sc_point_id(c, q, sigma, &v, err));
+        PF_TRY(cap_id(c, p, sigma, &u, err));
+        PF_TRY(cap_id(c, q, sigma, &v, err));
         if (u != v && !has_edge(b, n_sec_edges, (uint32_t)u, (uint32_t)v))
             PF_TRY(push_edge(b, u, v, err));
     }
@@ -229,15 +323,15 @@ static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, p
         for (int64_t j = 0; j < n; ++j) {
             uint32_t na = m->face_nodes[o + (reversed ? n - 1 - j : j)];
             int32_t p, id;
-            PF_TRY(pf_sc_node_point(c, g->canon[na], &p, err));
-            PF_TRY(pf_sc_point_id(c, p, sigma, &id, err));
+            PF_TRY(pf_sc_cap_point(c, (int32_t)na, &p, err));
+            PF_TRY(cap_id(c, p, sigma, &id, err));
             PF_TRY(push_edge(b, id, id, err));
         }
         uint32_t *poly = NULL;
         PF_CHECK(PF_ALLOC_N(poly, (size_t)n), err, PF_ERR_NOMEM, "out of memory for a cap");
         for (int64_t j = 0; j < n; ++j)
             poly[j] = b->e[2 * j];
-        pf_status st = triangulate_cap(c, poly, (int32_t)n, arena, f, err);
+        pf_status st = triangulate_cap(c, poly, (int32_t)n, arena, f, normal, err);
         pf_free(poly);
         return st;
     }
@@ -257,7 +351,7 @@ static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, p
         pf_error_prefix(err, "cap of opened face %d", (int)f);
     for (int32_t q = 0; q < n_polys && st >= 0; ++q)
         st = triangulate_cap(c, nodes + offsets[q], (int32_t)(offsets[q + 1] - offsets[q]), arena,
-                             f, err);
+                             f, normal, err);
     pf_free(offsets);
     pf_free(nodes);
     return st;

@@ -1,8 +1,9 @@
 /* Cutting the embedded surface along the faces a mesh cut opened (pf/cut.h): the opened faces
  * are gathered by plane; per plane, every triangle crossing it is split exactly along its
- * section where the section lies on opened faces (a slit ending inside the triangle where the
- * section leaves them: the crack front), the points made on the cut are duplicated, one copy per
- * side, and the faces are capped (surface_cap.c). Then the weights, with the visibility rule. */
+ * section (surface_split.c), the pieces of the section on opened faces being slits, and the faces
+ * are capped (surface_cap.c). Then the vertices on the slits are duplicated by the groups of
+ * triangles around them (surface_dup.c), which also leaves the crack front shared, and the
+ * weights are computed with the visibility rule. */
 #include "surface_cut_internal.h"
 
 #include <stdlib.h>
@@ -84,7 +85,6 @@ static void group_release(sc_group *g)
     pf_free(g->corner_edge);
     pf_free(g->box);
     pf_free(g->edge_node);
-    pf_free(g->front);
     pf_free(g->canon);
     memset(g, 0, sizeof *g);
 }
@@ -186,8 +186,7 @@ static int compare_edge_keys(const void *p, const void *q)
 }
 
 /* Canonical nodes (bit-identical positions: the copies of a duplicated node) and the distinct
- * edges of the group's faces; an edge is on the crack front when faces of both sides use it with
- * the same two nodes. */
+ * edges of the group's faces (the copies of an edge are one edge). */
 static pf_status build_edges(const pf_mesh *m, sc_group *g, pf_error *err)
 {
     int64_t nc = g->uv_offsets[g->n_faces];
@@ -195,8 +194,7 @@ static pf_status build_edges(const pf_mesh *m, sc_group *g, pf_error *err)
     edge_key *keys = NULL;
     int ok = PF_ALLOC_N(nodes, (size_t)nc) && PF_ALLOC_N(tmp, (size_t)nc) &&
              PF_ALLOC_N(keys, (size_t)nc) && PF_ALLOC_N(g->corner_edge, (size_t)nc) &&
-             PF_ALLOC_N(g->canon, (size_t)m->n_nodes) && PF_ALLOC_N(g->edge_node, 2 * (size_t)nc) &&
-             PF_ALLOC_N(g->front, (size_t)nc);
+             PF_ALLOC_N(g->canon, (size_t)m->n_nodes) && PF_ALLOC_N(g->edge_node, 2 * (size_t)nc);
     if (!ok) {
         pf_free(nodes);
         pf_free(tmp);
@@ -242,17 +240,11 @@ static pf_status build_edges(const pf_mesh *m, sc_group *g, pf_error *err)
     g->n_edges = 0;
     for (int64_t i = 0; i < nk;) {
         int64_t j = i;
-        uint8_t front = 0;
-        while (j < nk && keys[j].a == keys[i].a && keys[j].b == keys[i].b) {
-            for (int64_t q = i; q < j; ++q)
-                front |= keys[q].side != keys[j].side && keys[q].na == keys[j].na &&
-                         keys[q].nb == keys[j].nb;
-            g->corner_edge[keys[j].slot] = g->n_edges;
-            j++;
-        }
+        while (j < nk && keys[j].a == keys[i].a && keys[j].b == keys[i].b)
+            g->corner_edge[keys[j++].slot] = g->n_edges;
         g->edge_node[2 * g->n_edges] = keys[i].a;
         g->edge_node[2 * g->n_edges + 1] = keys[i].b;
-        g->front[g->n_edges++] = front;
+        g->n_edges++;
         i = j;
     }
     pf_free(nodes);
@@ -328,39 +320,8 @@ int32_t pf_sc_face_at(const sc_group *g, double u, double v, int sigma)
     return -1;
 }
 
-static double seg2_dist(double u, double v, const double *a, const double *b)
-{
-    double ex = b[0] - a[0], ey = b[1] - a[1], wx = u - a[0], wy = v - a[1];
-    double ee = ex * ex + ey * ey, t = ee > 0 ? (wx * ex + wy * ey) / ee : 0;
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    return hypot(wx - t * ex, wy - t * ey);
-}
-
-/* On the cut: inside an opened face and off the crack front. */
-bool pf_sc_on_cut(const sc_state *c, pf_vec3 x)
-{
-    const sc_group *g = c->g;
-    double u = pf_v3_get(x, g->ax[0]), v = pf_v3_get(x, g->ax[1]);
-    int32_t k = pf_sc_face_at(g, u, v, -1);
-    if (k < 0)
-        k = pf_sc_face_at(g, u, v, 1);
-    if (k < 0)
-        return false;
-    for (int32_t q = 0; q < g->n_faces; ++q) {
-        const double *b = g->box + 4 * (size_t)q;
-        if (u < b[0] || u > b[2] || v < b[1] || v > b[3])
-            continue;
-        int64_t o = g->uv_offsets[q], n = g->uv_offsets[q + 1] - o;
-        for (int64_t j = 0; j < n; ++j)
-            if (g->front[g->corner_edge[o + j]] &&
-                seg2_dist(u, v, g->uv + 2 * (o + j), g->uv + 2 * (o + (j + 1) % n)) <= g->tol)
-                return false;
-    }
-    return true;
-}
-
-pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bool dup,
-                          int32_t *out, pf_error *err)
+pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, int32_t *out,
+                          pf_error *err)
 {
     if (c->n_points == c->cap_points) {
         int32_t cap = c->cap_points ? 2 * c->cap_points : 256;
@@ -375,7 +336,6 @@ pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bo
     p->orig = orig;
     p->id[0] = p->id[1] = -1;
     p->node[0] = p->node[1] = -1;
-    p->dup = dup;
     p->used = 0;
     *out = c->n_points++;
     return PF_OK;
@@ -383,28 +343,16 @@ pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bo
 
 pf_status pf_sc_point_id(sc_state *c, int32_t i, int sigma, int32_t *id, pf_error *err)
 {
+    (void)sigma; /* one vertex for both sides until surface_dup.c splits it */
     sc_point *p = &c->pt[i];
-    int si = sigma > 0;
-    if (p->id[si] >= 0) {
-        *id = p->id[si];
-        return PF_OK;
+    if (p->id[0] < 0) {
+        if (p->orig >= 0)
+            p->id[0] = p->orig;
+        else
+            PF_TRY(pf_sc_add_vertex(c->s, p->x, p->side, &p->id[0], err));
+        p->id[1] = p->id[0];
     }
-    if (!p->dup && p->id[1 - si] >= 0) {
-        *id = p->id[si] = p->id[1 - si];
-        return PF_OK;
-    }
-    pf_vec3 side = p->dup ? pf_v3_add(p->side, pf_v3_scale(c->g->plane.n, sigma)) : p->side;
-    if (p->orig >= 0 && p->id[1 - si] != p->orig) {
-        *id = p->orig;
-        pf_v3_store(side, c->s->side + 3 * (size_t)p->orig);
-    } else {
-        PF_TRY(pf_sc_add_vertex(c->s, p->x, side, id, err));
-        if (p->dup && p->id[1 - si] >= 0)
-            c->stats->n_duplicated++;
-    }
-    p->id[si] = *id;
-    if (!p->dup)
-        p->id[1 - si] = *id;
+    *id = p->id[0];
     return PF_OK;
 }
 
@@ -425,12 +373,37 @@ pf_status pf_sc_node_point(sc_state *c, int32_t n, int32_t *out, pf_error *err)
                 node[g->side[k] > 0] = a;
         }
     }
-    bool dup = !(node[0] >= 0 && node[0] == node[1]);
-    PF_TRY(
-        pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1, dup, out, err));
+    PF_TRY(pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1, out, err));
     c->pt[*out].node[0] = node[0];
     c->pt[*out].node[1] = node[1];
     c->node_pt[n] = *out;
+    return PF_OK;
+}
+
+pf_status pf_sc_cap_point(sc_state *c, int32_t n, int32_t *out, pf_error *err)
+{
+    if (c->cap_pt[n] < 0) {
+        PF_TRY(pf_sc_new_point(c, pf_v3_load(c->m->x + 3 * (size_t)n), pf_v3(0, 0, 0), -1,
+                               &c->cap_pt[n], err));
+        sc_point *p = &c->pt[c->cap_pt[n]];
+        p->node[0] = n;
+        p->id[0] = p->id[1] = c->cap_vert[n]; /* a corner of faces of an earlier plane */
+    }
+    *out = c->cap_pt[n];
+    return PF_OK;
+}
+
+pf_status pf_sc_push_slit(sc_state *c, int32_t u, int32_t v, pf_error *err)
+{
+    if (c->n_slit == c->cap_slit) {
+        int64_t cap = c->cap_slit ? 2 * c->cap_slit : 256;
+        uint64_t *n = pf_realloc_array(c->slit, (size_t)cap, sizeof *n);
+        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for %lld slits", (long long)cap);
+        c->slit = n;
+        c->cap_slit = cap;
+    }
+    uint64_t a = (uint64_t)(u < v ? u : v), b = (uint64_t)(u < v ? v : u);
+    c->slit[c->n_slit++] = a << 32 | b;
     return PF_OK;
 }
 
@@ -485,7 +458,7 @@ static pf_status cut_by_groups(sc_state *c, const face_info *fi, const int32_t *
         c->n_points = c->n_sec = 0;
         c->n_seg = 0;
         for (int32_t i = 0; i < c->m->n_nodes && st >= 0; ++i)
-            c->node_pt[i] = -1;
+            c->node_pt[i] = c->cap_pt[i] = -1;
         if (st >= 0)
             st = pf_sc_split(c, split_src, err);
         if (st >= 0)
@@ -494,6 +467,50 @@ static pf_status cut_by_groups(sc_state *c, const face_info *fi, const int32_t *
         c->g = NULL;
     }
     return st;
+}
+
+/* Vertices on the caps of earlier cuts (input triangles marked PF_SURFACE_CAP) have no side
+ * of their own: each takes the inward normal of the caps it is a corner of, unless caps facing
+ * both ways use it (an earlier crack front, shared by both sides). */
+static pf_status sides_of_earlier_caps(const pf_surface *in, sc_surface *w, pf_error *err)
+{
+    if (!in->tri_part)
+        return PF_OK;
+    uint8_t *mixed = NULL;
+    double *sum = NULL;
+    if (!PF_ALLOC_N(mixed, (size_t)w->n_verts) || !PF_ALLOC_N(sum, 3 * (size_t)w->n_verts)) {
+        pf_free(mixed);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for the sides of %d vertices", (int)w->n_verts);
+    }
+    memset(mixed, 0, (size_t)w->n_verts);
+    memset(sum, 0, 3 * (size_t)w->n_verts * sizeof *sum);
+    for (int32_t t = 0; t < w->n_tris; ++t) {
+        if (w->src[t] < 0 || in->tri_part[w->src[t]] != PF_SURFACE_CAP)
+            continue;
+        const uint32_t *v = w->tri + 3 * (size_t)t;
+        pf_vec3 a = pf_v3_load(w->x + 3 * (size_t)v[0]);
+        pf_vec3 n = pf_v3_cross(pf_v3_sub(pf_v3_load(w->x + 3 * (size_t)v[1]), a),
+                                pf_v3_sub(pf_v3_load(w->x + 3 * (size_t)v[2]), a));
+        double len = pf_v3_norm(n);
+        if (!(len > 0))
+            continue;
+        pf_vec3 inward = pf_v3_scale(n, -1.0 / len);
+        for (int q = 0; q < 3; ++q) {
+            double *sv = sum + 3 * (size_t)v[q];
+            if (pf_v3_dot(pf_v3_load(sv), inward) < 0)
+                mixed[v[q]] = 1;
+            pf_v3_store(pf_v3_add(pf_v3_load(sv), inward), sv);
+        }
+    }
+    for (int32_t i = 0; i < w->n_verts; ++i) {
+        double *side = w->side + 3 * (size_t)i;
+        if (!mixed[i] && side[0] == 0 && side[1] == 0 && side[2] == 0)
+            memcpy(side, sum + 3 * (size_t)i, 3 * sizeof *side);
+    }
+    pf_free(mixed);
+    pf_free(sum);
+    return PF_OK;
 }
 
 static pf_status write_out(const pf_surface *s, const sc_surface *w, pf_surface *out, pf_error *err)
@@ -537,11 +554,14 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     c.stats = so;
     pf_status st = PF_OK;
     if (!PF_ALLOC_N(fi, (size_t)m->n_faces) || !PF_ALLOC_N(leader, (size_t)m->n_faces) ||
-        !PF_ALLOC_N(split_src, (size_t)s->n_tris) || !PF_ALLOC_N(c.node_pt, (size_t)m->n_nodes))
+        !PF_ALLOC_N(split_src, (size_t)s->n_tris) || !PF_ALLOC_N(c.node_pt, (size_t)m->n_nodes) ||
+        !PF_ALLOC_N(c.cap_pt, (size_t)m->n_nodes) || !PF_ALLOC_N(c.cap_vert, (size_t)m->n_nodes))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                           "out of memory for a surface cut (%d faces, %d triangles)",
                           (int)m->n_faces, (int)s->n_tris);
     if (st >= 0) {
+        for (int32_t i = 0; i < m->n_nodes; ++i)
+            c.cap_vert[i] = -1;
         if (s->n_tris)
             memset(split_src, 0, (size_t)s->n_tris);
         st = assign_groups(m, cut, fi, &n_groups, leader, err);
@@ -550,6 +570,10 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
         st = copy_input(s, &work, err);
     if (st >= 0)
         st = cut_by_groups(&c, fi, leader, n_groups, split_src, err);
+    if (st >= 0)
+        st = pf_sc_duplicate(&c, err);
+    if (st >= 0)
+        st = sides_of_earlier_caps(s, &work, err);
     if (st >= 0)
         st = write_out(s, &work, out, err);
     if (st >= 0) {
@@ -564,6 +588,10 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     pf_free(leader);
     pf_free(split_src);
     pf_free(c.node_pt);
+    pf_free(c.cap_pt);
+    pf_free(c.cap_vert);
+    pf_free(c.slit);
+    pf_free(c.cap_normal);
     pf_free(c.pt);
     pf_free(c.sec);
     pf_free(c.seg);

@@ -34,22 +34,19 @@ typedef struct sc_group {
     double *box;          /* [4 n_faces] projected boxes, padded by tol */
     int32_t n_edges;      /* distinct edges (by canonical nodes) */
     int32_t *edge_node;   /* [2 n_edges] canonical nodes */
-    uint8_t *front;       /* [n_edges] the edge is on the crack front (its nodes are shared by
-                             faces of both sides) */
     int32_t *canon;       /* [m->n_nodes] the lowest node at the same position among the nodes
                              of the group's faces, -1 for other nodes */
 } sc_group;
 
 /* A point on the plane of the group being processed: a vertex of the surface, a point made on
- * an edge of it or inside a triangle, or a node of an opened face. id[0] and id[1] are its
- * vertices on sides -1 and +1 (one vertex for both when it is not duplicated). */
+ * an edge of it or inside a triangle, or a node of an opened face. id[0] = id[1]: its vertex
+ * (made on first use; surface_dup.c later gives each side of a slit its own). */
 typedef struct sc_point {
     pf_vec3 x;
     pf_vec3 side;      /* its side direction before this plane */
     int32_t orig;      /* the surface vertex it is, or -1 */
     int32_t id[2];
     int32_t node[2];   /* corner of opened faces: the mesh node on each side, else -1 */
-    uint8_t dup;       /* on the cut (inside an opened face, off the crack front) */
     uint8_t used;      /* ends the section of a triangle with a slit: its other triangles are
                           split there too */
 } sc_point;
@@ -72,6 +69,12 @@ typedef struct sc_state {
     int64_t n_seg, cap_seg;
     double *seg;       /* [4 cap_seg] the whole section of the surface, projected */
     int32_t *node_pt;  /* [m->n_nodes] point of a canonical node, -1 */
+    int32_t *cap_pt;   /* [m->n_nodes] point of a node as a cap corner, -1 */
+    int32_t *cap_vert; /* [m->n_nodes] vertex of a node as a cap corner (all planes), -1 */
+    int64_t n_slit, cap_slit;
+    uint64_t *slit;    /* the slits: surface edges (lo << 32 | hi) on opened faces */
+    int32_t n_caps, cap_caps;
+    double *cap_normal; /* [3 n_caps] outward normal of each cap triangle made, in order */
     bool closed;       /* the input surface is closed */
     pf_surface_cut_stats *stats;
 } sc_state;
@@ -79,21 +82,27 @@ typedef struct sc_state {
 pf_status pf_sc_add_vertex(sc_surface *s, pf_vec3 x, pf_vec3 side, int32_t *id, pf_error *err);
 pf_status pf_sc_add_tri(sc_surface *s, uint32_t a, uint32_t b, uint32_t c, uint8_t part,
                         int32_t src, pf_error *err);
-/* A new point (orig: the surface vertex it is, or -1; dup: on the cut, one vertex per side). */
-pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, bool dup,
-                          int32_t *out, pf_error *err);
-/* x lies inside an opened face of the group (within tol) and off the crack front. */
-bool pf_sc_on_cut(const sc_state *c, pf_vec3 x);
+/* A new point (orig: the surface vertex it is, or -1). */
+pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, int32_t *out,
+                          pf_error *err);
 /* Splits every triangle of c->s crossing the group's faces and gives the corners on the plane
  * of the others their side's vertex; records the section. split_src[input triangles] marks the
  * input triangles split (counted in c->stats). */
 pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err);
-/* The vertex of point i on side sigma (+1 / -1), made on first use. */
+/* The vertex of point i (the same on both sides sigma; made on first use). */
 pf_status pf_sc_point_id(sc_state *c, int32_t i, int sigma, int32_t *id, pf_error *err);
 /* The point of the canonical node n (made on first use). */
 pf_status pf_sc_node_point(sc_state *c, int32_t n, int32_t *out, pf_error *err);
 /* The first face of the group on side sigma holding the projected point (within tol), or -1. */
 int32_t pf_sc_face_at(const sc_group *g, double u, double v, int sigma);
+/* Records the slit u-v. */
+pf_status pf_sc_push_slit(sc_state *c, int32_t u, int32_t v, pf_error *err);
+/* The point of mesh node n (of the group's faces) as a cap corner (made on first use). */
+pf_status pf_sc_cap_point(sc_state *c, int32_t n, int32_t *out, pf_error *err);
+/* After every plane: each vertex on a slit gets one vertex per group of its triangles joined
+ * around it by edges that are not slits (cap triangles, src -1, take the copy on their side);
+ * copies get the direction into their triangles as their side. */
+pf_status pf_sc_duplicate(sc_state *c, pf_error *err);
 /* Caps of every face of the group (after its triangles are split). */
 pf_status pf_sc_caps(sc_state *c, pf_error *err);
 

@@ -2,6 +2,7 @@
  * (pf_surface_cut): exact sections, slits on the opened faces, fans on either side. */
 #include "surface_cut_internal.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 /* ---- splitting the triangles ------------------------------------------------------------------
@@ -137,8 +138,7 @@ static pf_status vertex_point(split_ctx *k, int32_t w, int32_t *out, pf_error *e
     sc_state *c = k->c;
     if (k->vpt[w] < 0) {
         pf_vec3 x = pf_v3_load(c->s->x + 3 * (size_t)w);
-        PF_TRY(pf_sc_new_point(c, x, pf_v3_load(c->s->side + 3 * (size_t)w), w, pf_sc_on_cut(c, x),
-                               &k->vpt[w], err));
+        PF_TRY(pf_sc_new_point(c, x, pf_v3_load(c->s->side + 3 * (size_t)w), w, &k->vpt[w], err));
     }
     *out = k->vpt[w];
     return PF_OK;
@@ -167,7 +167,7 @@ static pf_status edge_point(split_ctx *k, int32_t a, int32_t b, int32_t *out, pf
             sb = pf_v3_load(c->s->side + 3 * (size_t)b);
     pf_vec3 side = pf_v3_add(pf_v3_scale(sa, 1 - t), pf_v3_scale(sb, t));
     int32_t p;
-    PF_TRY(pf_sc_new_point(c, x, side, -1, pf_sc_on_cut(c, x), &p, err));
+    PF_TRY(pf_sc_new_point(c, x, side, -1, &p, err));
     k->edges.n++;
     *edge_map_slot(&k->edges, (uint64_t)a << 32 | (uint64_t)b) = p;
     *out = p;
@@ -302,6 +302,70 @@ static pf_status push_section(sc_state *c, sc_section s, pf_error *err)
     return PF_OK;
 }
 
+/* The section from point P to point Q projected (pp, pq) and its crossings (k->cross_*). */
+static pf_status section_of(split_ctx *k, int32_t P, int32_t Q, double pp[2], double pq[2],
+                            pf_error *err)
+{
+    const sc_group *g = k->c->g;
+    pf_vec3 xp = k->c->pt[P].x, xq = k->c->pt[Q].x;
+    pp[0] = pf_v3_get(xp, g->ax[0]), pp[1] = pf_v3_get(xp, g->ax[1]);
+    pq[0] = pf_v3_get(xq, g->ax[0]), pq[1] = pf_v3_get(xq, g->ax[1]);
+    double len = hypot(pq[0] - pp[0], pq[1] - pp[1]);
+    k->n_cross = 0;
+    if (len > g->tol)
+        PF_TRY(find_crossings(k, pp, pq, len, err));
+    return PF_OK;
+}
+
+/* line[0] = P, line[n_cross + 1] = Q and the points of the crossings between. */
+static pf_status make_line(split_ctx *k, int32_t P, int32_t Q, int32_t *line, pf_error *err)
+{
+    sc_state *c = k->c;
+    int32_t nl = k->n_cross + 2;
+    line[0] = P;
+    line[nl - 1] = Q;
+    pf_vec3 xp = c->pt[P].x, xq = c->pt[Q].x;
+    for (int32_t i = 0; i < k->n_cross; ++i) {
+        int32_t key = k->cross_key[i];
+        if (key < 0) {
+            PF_TRY(pf_sc_node_point(c, -1 - key, &line[i + 1], err));
+        } else {
+            double tt = k->cross_t[i];
+            pf_vec3 x = pf_v3_add(xp, pf_v3_scale(pf_v3_sub(xq, xp), tt));
+            pf_vec3 side =
+                pf_v3_add(pf_v3_scale(c->pt[P].side, 1 - tt), pf_v3_scale(c->pt[Q].side, tt));
+            PF_TRY(pf_sc_new_point(c, x, side, -1, &line[i + 1], err));
+        }
+    }
+    return PF_OK;
+}
+
+/* The piece a-b of a section: recorded when it lies on an opened face (*any set). */
+static pf_status push_piece(sc_state *c, int32_t a, int32_t b, pf_vec3 normal, bool *any,
+                            pf_error *err)
+{
+    const sc_group *g = c->g;
+    pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[a].x, c->pt[b].x), 0.5);
+    /* the face on the surface's inside of the piece: a piece along the edge of a face (the
+     * outer edge of the cut, an edge between two faces, an earlier cut) belongs to the face
+     * its surface's inside lies on, not to the one behind it */
+    pf_vec3 in = pf_v3_scale(normal, -1);
+    in = pf_v3_sub(in, pf_v3_scale(g->plane.n, pf_v3_dot(in, g->plane.n)));
+    double len = pf_v3_norm(in);
+    if (len > 0)
+        mid = pf_v3_add(mid, pf_v3_scale(in, 1e3 * g->tol / len));
+    double u = pf_v3_get(mid, g->ax[0]), w = pf_v3_get(mid, g->ax[1]);
+    sc_section sec = {a, b, {pf_sc_face_at(g, u, w, -1), pf_sc_face_at(g, u, w, 1)}, normal};
+    if (sec.face[0] < 0 && sec.face[1] < 0)
+        return PF_OK;
+    *any = true;
+    int32_t ia, ib;
+    PF_TRY(pf_sc_point_id(c, a, -1, &ia, err));
+    PF_TRY(pf_sc_point_id(c, b, -1, &ib, err));
+    PF_TRY(pf_sc_push_slit(c, ia, ib, err));
+    return push_section(c, sec, err);
+}
+
 /* Triangle t crosses the plane: its boundary as corners and the two plane points; the section
  * between them split at the crossings; the pieces on opened faces become slits; each side's
  * polygon fanned from its first corner (off the plane, so no fan triangle is flat). */
@@ -333,13 +397,8 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
              "surface triangle %d meets the plane of opened face %d at %d points", (int)s->src[t],
              (int)g->face[0], (int)n_plane);
     int32_t P = item[plane_at[0]], Q = item[plane_at[1]];
-    pf_vec3 xp = c->pt[P].x, xq = c->pt[Q].x;
-    double pp[2] = {pf_v3_get(xp, g->ax[0]), pf_v3_get(xp, g->ax[1])};
-    double pq[2] = {pf_v3_get(xq, g->ax[0]), pf_v3_get(xq, g->ax[1])};
-    double len = hypot(pq[0] - pp[0], pq[1] - pp[1]);
-    k->n_cross = 0;
-    if (len > g->tol)
-        PF_TRY(find_crossings(k, pp, pq, len, err));
+    double pp[2], pq[2];
+    PF_TRY(section_of(k, P, Q, pp, pq, err));
     if (decide) {
         /* a slit: some piece of the section (between crossings) on an opened face */
         bool any = false;
@@ -361,36 +420,13 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
         *line = 2 * nl + 8 <= 128 ? local : pf_alloc_array(2 * (size_t)nl + 8, sizeof *line);
     PF_CHECK(line, err, PF_ERR_NOMEM, "out of memory for %d section points", (int)nl);
     int32_t *poly = line + nl;
-    pf_status st = PF_OK;
-    line[0] = P;
-    line[nl - 1] = Q;
-    for (int32_t i = 0; i < k->n_cross && st >= 0; ++i) {
-        int32_t key = k->cross_key[i];
-        if (key < 0) {
-            st = pf_sc_node_point(c, -1 - key, &line[i + 1], err);
-        } else {
-            double tt = k->cross_t[i];
-            pf_vec3 x = pf_v3_add(xp, pf_v3_scale(pf_v3_sub(xq, xp), tt));
-            pf_vec3 side =
-                pf_v3_add(pf_v3_scale(c->pt[P].side, 1 - tt), pf_v3_scale(c->pt[Q].side, tt));
-            st = pf_sc_new_point(c, x, side, -1, !g->front[key], &line[i + 1], err);
-        }
-    }
+    pf_status st = make_line(k, P, Q, line, err);
     pf_vec3 normal = pf_v3_cross(
         pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[1]), pf_v3_load(s->x + 3 * (size_t)v[0])),
         pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[2]), pf_v3_load(s->x + 3 * (size_t)v[0])));
     bool any = false;
-    for (int32_t i = 0; i + 1 < nl && st >= 0; ++i) {
-        pf_vec3 a = c->pt[line[i]].x, b = c->pt[line[i + 1]].x;
-        pf_vec3 mid = pf_v3_scale(pf_v3_add(a, b), 0.5);
-        double u = pf_v3_get(mid, g->ax[0]), w = pf_v3_get(mid, g->ax[1]);
-        sc_section sec = {
-            line[i], line[i + 1], {pf_sc_face_at(g, u, w, -1), pf_sc_face_at(g, u, w, 1)}, normal};
-        if (sec.face[0] >= 0 || sec.face[1] >= 0) {
-            any = true;
-            st = push_section(c, sec, err);
-        }
-    }
+    for (int32_t i = 0; i + 1 < nl && st >= 0; ++i)
+        st = push_piece(c, line[i], line[i + 1], normal, &any, err);
     if (st >= 0 && (any || c->pt[P].used || c->pt[Q].used)) {
         int32_t src = s->src[t];
         if (src >= 0 && !k->split_src[src]) {
@@ -438,6 +474,163 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
     return st;
 }
 
+/* ---- surface edges in the plane ---------------------------------------------------------------
+ * An edge of the surface lying in the plane between a triangle on each side is a piece of the
+ * section that no triangle crosses: its pieces on opened faces are recorded as the section, and
+ * both triangles are fanned from their third corner through the points where it meets the
+ * faces' edges. An edge between two triangles on one side only touches the plane. */
+
+typedef struct plane_edge {
+    uint32_t lo, hi; /* vertices, lo < hi */
+    int32_t t;
+    int8_t side;
+} plane_edge;
+
+static int compare_plane_edges(const void *p, const void *q)
+{
+    const plane_edge *a = p, *b = q;
+    if (a->lo != b->lo)
+        return a->lo < b->lo ? -1 : 1;
+    if (a->hi != b->hi)
+        return a->hi < b->hi ? -1 : 1;
+    if (a->side != b->side)
+        return a->side < b->side ? -1 : 1;
+    return (a->t > b->t) - (a->t < b->t);
+}
+
+/* Triangles touching the plane along an edge (the edge and the side of the third corner). */
+static pf_status collect_plane_edges(split_ctx *k, int32_t nt, plane_edge **out, int32_t *n_out,
+                                     pf_error *err)
+{
+    const sc_surface *s = k->c->s;
+    int32_t n = 0, cap = 0;
+    plane_edge *e = NULL;
+    for (int32_t t = 0; t < nt; ++t) {
+        const uint32_t *v = s->tri + 3 * (size_t)t;
+        for (int q = 0; q < 3; ++q) {
+            uint32_t a = v[q], b = v[(q + 1) % 3], c = v[(q + 2) % 3];
+            if (k->cls[a] != 0 || k->cls[b] != 0 || k->cls[c] == 0)
+                continue;
+            if (n == cap) {
+                cap = cap ? 2 * cap : 64;
+                plane_edge *ne = pf_realloc_array(e, (size_t)cap, sizeof *ne);
+                if (!ne) {
+                    pf_free(e);
+                    return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                        "out of memory for %d surface edges in a plane", (int)cap);
+                }
+                e = ne;
+            }
+            e[n++] = (plane_edge){a < b ? a : b, a < b ? b : a, t, k->cls[c]};
+        }
+    }
+    if (n > 1)
+        qsort(e, (size_t)n, sizeof *e, compare_plane_edges);
+    *out = e;
+    *n_out = n;
+    return PF_OK;
+}
+
+static pf_vec3 tri_normal(const sc_surface *s, int32_t t)
+{
+    const uint32_t *v = s->tri + 3 * (size_t)t;
+    pf_vec3 a = pf_v3_load(s->x + 3 * (size_t)v[0]);
+    return pf_v3_cross(pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[1]), a),
+                       pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[2]), a));
+}
+
+/* Triangle t (corners already its side's vertices) fanned from its corner off the plane through
+ * the points line[1 .. nl - 2] between its corners on the plane (line[0] at vertex lo). */
+static pf_status fan_triangle(split_ctx *k, int32_t t, const int32_t *line, int32_t nl, int sigma,
+                              pf_error *err)
+{
+    sc_state *c = k->c;
+    sc_surface *s = c->s;
+    uint32_t v[3];
+    memcpy(v, s->tri + 3 * (size_t)t, sizeof v);
+    /* the corner off the plane is the one whose point is not on the plane: the vertices of the
+     * two on the plane were replaced, so find it as the corner not at either end's position */
+    int q = 0;
+    pf_vec3 xlo = c->pt[line[0]].x, xhi = c->pt[line[nl - 1]].x;
+    for (; q < 3; ++q) {
+        pf_vec3 x = pf_v3_load(s->x + 3 * (size_t)v[q]);
+        if (pf_v3_dist(x, xlo) > 0 && pf_v3_dist(x, xhi) > 0)
+            break;
+    }
+    uint32_t apex = v[q], first = v[(q + 1) % 3];
+    bool from_lo = pf_v3_dist(pf_v3_load(s->x + 3 * (size_t)first), xlo) == 0;
+    uint32_t prev = first;
+    int32_t src = s->src[t];
+    uint8_t part = s->part[t];
+    for (int32_t j = 1; j < nl; ++j) {
+        int32_t id;
+        if (j == nl - 1)
+            id = (int32_t)v[(q + 2) % 3];
+        else
+            PF_TRY(pf_sc_point_id(c, line[from_lo ? j : nl - 1 - j], sigma, &id, err));
+        if (j == 1) {
+            s->tri[3 * (size_t)t] = apex;
+            s->tri[3 * (size_t)t + 1] = prev;
+            s->tri[3 * (size_t)t + 2] = (uint32_t)id;
+        } else {
+            PF_TRY(pf_sc_add_tri(s, apex, prev, (uint32_t)id, part, src, err));
+        }
+        prev = (uint32_t)id;
+    }
+    if (src >= 0 && !k->split_src[src]) {
+        k->split_src[src] = 1;
+        c->stats->n_split_tris++;
+    }
+    return PF_OK;
+}
+
+/* The edge lo-hi between triangle tm (side -1) and tp (side +1). */
+static pf_status plane_edge_section(split_ctx *k, uint32_t lo, uint32_t hi, int32_t tm, int32_t tp,
+                                    pf_error *err)
+{
+    sc_state *c = k->c;
+    int32_t P, Q;
+    PF_TRY(vertex_point(k, (int32_t)lo, &P, err));
+    PF_TRY(vertex_point(k, (int32_t)hi, &Q, err));
+    double pp[2], pq[2];
+    PF_TRY(section_of(k, P, Q, pp, pq, err));
+    PF_TRY(push_segment(c, pp, pq, err));
+    int32_t nl = k->n_cross + 2;
+    int32_t *line = pf_alloc_array((size_t)nl, sizeof *line);
+    PF_CHECK(line, err, PF_ERR_NOMEM, "out of memory for %d section points", (int)nl);
+    pf_status st = make_line(k, P, Q, line, err);
+    pf_vec3 normal = pf_v3_add(tri_normal(c->s, tm), tri_normal(c->s, tp));
+    bool any = false;
+    for (int32_t i = 0; i + 1 < nl && st >= 0; ++i)
+        st = push_piece(c, line[i], line[i + 1], normal, &any, err);
+    if (st >= 0 && nl > 2) {
+        st = fan_triangle(k, tm, line, nl, -1, err);
+        if (st >= 0)
+            st = fan_triangle(k, tp, line, nl, 1, err);
+    }
+    pf_free(line);
+    return st;
+}
+
+static pf_status plane_edges(split_ctx *k, const plane_edge *e, int32_t n, pf_error *err)
+{
+    for (int32_t i = 0; i < n;) {
+        int32_t j = i;
+        int32_t tm = -1, tp = -1;
+        while (j < n && e[j].lo == e[i].lo && e[j].hi == e[i].hi) {
+            if (e[j].side < 0 && tm < 0)
+                tm = e[j].t;
+            if (e[j].side > 0 && tp < 0)
+                tp = e[j].t;
+            j++;
+        }
+        if (tm >= 0 && tp >= 0)
+            PF_TRY(plane_edge_section(k, e[i].lo, e[i].hi, tm, tp, err));
+        i = j;
+    }
+    return PF_OK;
+}
+
 pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
 {
     split_ctx k;
@@ -476,6 +669,10 @@ pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
     }
     if (st >= 0)
         st = spread_used(&k, nt, err);
+    plane_edge *pe = NULL;
+    int32_t n_pe = 0;
+    if (st >= 0)
+        st = collect_plane_edges(&k, nt, &pe, &n_pe, err);
     for (int32_t t = 0; t < nt && st >= 0; ++t) {
         uint32_t *v = s->tri + 3 * (size_t)t;
         int has[3] = {0, 0, 0}; /* -1, 0, +1 */
@@ -497,6 +694,9 @@ pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
                 }
         }
     }
+    if (st >= 0)
+        st = plane_edges(&k, pe, n_pe, err);
+    pf_free(pe);
     pf_free(k.cls);
     pf_free(k.dist);
     pf_free(k.vpt);

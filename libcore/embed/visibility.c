@@ -5,17 +5,27 @@
  * opposite sides, and the segment meets the plane inside the face's polygon or within the
  * tolerance of its edges (so a segment through the edge shared by two blocking faces is blocked).
  *
- * The two copies of a node on a cut sit at the same point, on the blocking faces; each is seen
- * from its position nudged a tiny distance (1e-6 of its smallest blocking face's diameter) into
- * its own elements: along the sum of the inward normals of the blocking faces it is a corner of.
- * At the crack front a node is a corner of both copies of a face, the normals cancel and the
- * node, shared by both sides, stays on the plane where every segment only touches it. */
+ * A vertex on the cut is seen from nudged 1e-6 of the nearest face's diameter into its side
+ * (pf_embed_params.vertex_side); a segment from it that leaves the cut through the cut's outer
+ * edge meets the plane just outside the face, so an end point within 1e-5 of the diameter of the
+ * plane is tested itself too.
+ *
+ * The two copies of a node on a cut sit at the same point, a corner of blocking faces, where
+ * every segment only touches the faces. Such a node belongs to the side its faces' elements are
+ * on: it is hidden from every point farther than the tolerance behind it, against the sum of the
+ * inward normals of the blocking faces it is a corner of (so also from a vertex whose segment
+ * runs along the cut's outer edge, just outside the faces). At the crack front a node is a
+ * corner of both copies of a face, the normals cancel and the node, shared by both sides, is
+ * seen from both. */
 #include "embed_internal.h"
 
 #include <string.h>
 
 #define VIS_TOL   1e-10 /* crossing tolerance, fraction of a face's diameter */
-#define VIS_NUDGE 1e-6  /* nudge of a node or a vertex, fraction of a face's diameter */
+#define VIS_NUDGE 1e-6  /* nudge of a vertex, fraction of a face's diameter */
+#define VIS_NEAR                                                                                   \
+    1e5 /* an end point within VIS_NEAR tolerances (1e-5 of the diameter) of a                     \
+           face's plane is on the cut */
 
 void pf_visibility_release(visibility *v)
 {
@@ -26,7 +36,8 @@ void pf_visibility_release(visibility *v)
     pf_free(v->uv_offsets);
     pf_free(v->uv);
     pf_free(v->box);
-    pf_free(v->node_x);
+    pf_free(v->node_dir);
+    pf_free(v->node_tol);
     pf_free(v->stamp);
     pf_free(v->cand);
     pf_bucket_grid_release(&v->grid);
@@ -67,10 +78,9 @@ pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *bl
     v->n_faces = nb;
     v->n_nodes = m->n_nodes;
     int8_t *orient = NULL;
-    double *nudge_len = NULL;
     int ok = PF_ALLOC_N(orient, (size_t)m->n_faces) &&
-             PF_ALLOC_N(v->node_x, 3 * (size_t)m->n_nodes) &&
-             PF_ALLOC_N(nudge_len, (size_t)m->n_nodes);
+             PF_ALLOC_N(v->node_dir, 3 * (size_t)m->n_nodes) &&
+             PF_ALLOC_N(v->node_tol, (size_t)m->n_nodes);
     if (ok && nb > 0)
         ok = PF_ALLOC_N(v->face, (size_t)nb) && PF_ALLOC_N(v->plane, (size_t)nb) &&
              PF_ALLOC_N(v->tol, (size_t)nb) && PF_ALLOC_N(v->axes, 2 * (size_t)nb) &&
@@ -79,27 +89,16 @@ pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *bl
              PF_ALLOC_N(v->cand, (size_t)nb);
     if (!ok) {
         pf_free(orient);
-        pf_free(nudge_len);
         pf_visibility_release(v);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "out of memory for %d blocking faces", (int)nb);
     }
     memset(orient, 0, (size_t)m->n_faces);
     face_orientation(m, blocking, orient);
-    memcpy(v->node_x, m->x, 3 * (size_t)m->n_nodes * sizeof *m->x);
-    double *push = v->node_x; /* first the sum of inward normals, then the nudged positions */
+    double *dir = v->node_dir; /* first the sum of inward normals, then its direction */
+    memset(dir, 0, 3 * (size_t)m->n_nodes * sizeof *dir);
     for (int32_t i = 0; i < m->n_nodes; ++i)
-        nudge_len[i] = INFINITY;
-    double *dir = NULL;
-    if (nb > 0 && !PF_ALLOC_N(dir, 3 * (size_t)m->n_nodes)) {
-        pf_free(orient);
-        pf_free(nudge_len);
-        pf_visibility_release(v);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                            "out of memory for %d node nudges", (int)m->n_nodes);
-    }
-    if (dir)
-        memset(dir, 0, 3 * (size_t)m->n_nodes * sizeof *dir);
+        v->node_tol[i] = INFINITY;
     int32_t b = 0;
     if (nb > 0)
         v->uv_offsets[0] = 0;
@@ -128,7 +127,7 @@ pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *bl
             pf_vec3 in = pf_v3_scale(pl.n, orient[f] < 0 ? 1.0 : -1.0);
             for (int a = 0; a < 3; ++a)
                 dir[3 * (size_t)fn[k] + a] += pf_v3_get(in, a);
-            nudge_len[fn[k]] = fmin(nudge_len[fn[k]], VIS_NUDGE * diam);
+            v->node_tol[fn[k]] = fmin(v->node_tol[fn[k]], VIS_TOL * diam);
         }
         v->uv_offsets[b + 1] = u0 + n;
         pf_vec3 pad = pf_v3(v->tol[b], v->tol[b], v->tol[b]);
@@ -137,17 +136,13 @@ pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *bl
         v->min_diam = b == 0 ? diam : fmin(v->min_diam, diam);
         b++;
     }
-    for (int32_t i = 0; i < m->n_nodes && dir; ++i) {
+    for (int32_t i = 0; i < m->n_nodes; ++i) {
         pf_vec3 d = pf_v3_load(dir + 3 * (size_t)i);
         double len = pf_v3_norm(d);
-        if (len > 0.5) /* a corner of faces of one side; < 0.5: cancelled at the crack front */
-            pf_v3_store(
-                pf_v3_add(pf_v3_load(push + 3 * (size_t)i), pf_v3_scale(d, nudge_len[i] / len)),
-                push + 3 * (size_t)i);
+        /* a corner of faces of one side; < 0.5: cancelled at the crack front */
+        pf_v3_store(len > 0.5 ? pf_v3_scale(d, 1.0 / len) : pf_v3(0, 0, 0), dir + 3 * (size_t)i);
     }
-    pf_free(dir);
     pf_free(orient);
-    pf_free(nudge_len);
     if (nb == 0)
         return PF_OK;
     memset(v->stamp, 0, (size_t)nb * sizeof *v->stamp);
@@ -232,8 +227,12 @@ bool pf_polygon2_contains(const double *uv, int64_t n, double px, double py, dou
     return false;
 }
 
-bool pf_visibility_blocked(const visibility *v, pf_vec3 a, pf_vec3 b)
+bool pf_visibility_blocked(const visibility *v, pf_vec3 a, int32_t node, pf_vec3 b)
 {
+    pf_vec3 dir = pf_v3_load(v->node_dir + 3 * (size_t)node);
+    if ((dir.x != 0 || dir.y != 0 || dir.z != 0) &&
+        pf_v3_dot(pf_v3_sub(a, b), dir) < -v->node_tol[node])
+        return true;
     double sb[6];
     pf_v3_store(pf_v3_min(a, b), sb);
     pf_v3_store(pf_v3_max(a, b), sb + 3);
@@ -247,9 +246,16 @@ bool pf_visibility_blocked(const visibility *v, pf_vec3 a, pf_vec3 b)
         if (!((da > tol && db < -tol) || (da < -tol && db > tol)))
             continue;
         pf_vec3 x = pf_v3_add(a, pf_v3_scale(pf_v3_sub(b, a), da / (da - db)));
-        int64_t o = v->uv_offsets[f];
-        if (pf_polygon2_contains(v->uv + 2 * o, v->uv_offsets[f + 1] - o,
-                                 pf_v3_get(x, v->axes[2 * f]), pf_v3_get(x, v->axes[2 * f + 1]),
+        int64_t o = v->uv_offsets[f], n = v->uv_offsets[f + 1] - o;
+        const uint8_t *ax = v->axes + 2 * f;
+        if (pf_polygon2_contains(v->uv + 2 * o, n, pf_v3_get(x, ax[0]), pf_v3_get(x, ax[1]), tol))
+            return true;
+        /* an end point on the cut (a vertex nudged off it): where the segment leaves the cut
+         * through its outer edge, the crossing point lies just outside the face; the end point
+         * itself decides */
+        pf_vec3 near = fabs(da) < fabs(db) ? a : b;
+        if (fmin(fabs(da), fabs(db)) <= VIS_NEAR * tol &&
+            pf_polygon2_contains(v->uv + 2 * o, n, pf_v3_get(near, ax[0]), pf_v3_get(near, ax[1]),
                                  tol))
             return true;
     }

@@ -73,9 +73,12 @@ typedef struct pf_embed_params {
      * MLS: the visibility rule, no node is in a vertex's support when the segment from the
      * vertex to the node strictly crosses such a face (both ends farther than 1e-10 of the
      * face's diameter from its plane, on opposite sides, and the crossing point in the face's
-     * polygon or within that tolerance of its edges). The copies of a node on a cut are seen
-     * from their position nudged 1e-6 of the face's diameter into their own elements, so that
-     * each side sees its own copy; a node of the crack front is shared and seen from both. */
+     * polygon or within that tolerance of its edges; an end point within 1e-5 of the diameter
+     * of the plane, where the segment leaves the cut through its outer edge, counts when it lies
+     * on the face). The copies of a node on a cut, a corner of blocking faces where segments only
+     * touch them, are hidden from every point behind them (against the sum of the inward normals
+     * of their blocking faces, beyond the tolerance), so each side sees its own copy; a node of
+     * the crack front is a corner of both sides' faces and is seen from both. */
     const uint8_t *blocking_faces;
     /* [3 s->n_verts], or NULL: for a vertex on a cut, a direction (any length) into the side it
      * belongs to; the zero vector for the others. MLS sees the nodes from the vertex nudged
@@ -96,7 +99,10 @@ typedef struct pf_embed_stats {
     int32_t n_fallback;      /* bary, harmonic: outside vertices weighted by the affine
                                 least-squares fit of their element's nodes (Newton or mean value
                                 coordinates failed; harmonic: farther outside than half the MFS
-                                kernel offset) */
+                                kernel offset); MLS with blocking faces: vertices whose visible
+                                nodes stayed too flat after max_growth steps (a thin piece cut
+                                off), weighted by any non-singular fit of them, else by the
+                                affine fit of their element's nodes */
     int32_t n_harmonic;      /* harmonic: elements whose harmonic functions were built */
     double basis_seconds;    /* harmonic: wall clock of building them */
     int64_t nnz;

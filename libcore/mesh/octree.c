@@ -825,8 +825,8 @@ pf_status pf_octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params
         st = parent ? PF_OK
                     : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory merging");
         if (st >= 0)
-            st = pf_merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, parent,
-                               &stats->merged, &stats->isolated_slivers, err);
+            st = pf_merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, NULL, parent,
+                                  &stats->merged, &stats->isolated_slivers, err);
         if (st >= 0)
             st = pf_rebuild_merged(&glued, parent, m, err);
         pf_free(parent);

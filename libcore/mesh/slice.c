@@ -526,8 +526,8 @@ static int32_t best_neighbour(const pf_mesh *m, int32_t *parent, const int32_t *
 /* Merges every group of volume below min_volume into its best neighbour (DG paper sec. 9.4, which
  * merges slivers into neighbours without prescribing an order): groups in index order, sweeps
  * repeated until no group below min_volume has a neighbour left, so the result is deterministic. */
-pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
-                               int32_t *merged, int32_t *isolated, pf_error *err)
+pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, const double *elem_min,
+                           int32_t *parent, int32_t *merged, int32_t *isolated, pf_error *err)
 {
     int32_t ne = m->n_elems;
     int32_t *next = pf_alloc_array((size_t)ne, sizeof *next);
@@ -548,7 +548,7 @@ pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
     for (bool changed = true; changed;) {
         changed = false;
         for (int32_t e = 0; e < ne; ++e) {
-            if (parent[e] != e || volume[e] >= min_volume)
+            if (parent[e] != e || volume[e] >= (elem_min ? elem_min[e] : min_volume))
                 continue;
             int32_t into = best_neighbour(m, parent, next, e, cand, area, CAP);
             if (into < 0)
@@ -562,7 +562,7 @@ pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
         }
     }
     for (int32_t e = 0; e < ne; ++e)
-        if (parent[e] == e && volume[e] < min_volume)
+        if (parent[e] == e && volume[e] < (elem_min ? elem_min[e] : min_volume))
             ++*isolated;
     pf_free(next), pf_free(last), pf_free(volume);
     return PF_OK;
@@ -701,8 +701,8 @@ static pf_status slice_clean(pf_mesh *m, const pf_surface *s, const pf_slice_par
     }
     double h = stats->grid.h;
     if (st >= 0)
-        st = pf_merge_slivers(&glued, p->merge * h * h * h, parent, &stats->merged,
-                           &stats->isolated_slivers, err);
+        st = pf_merge_slivers(&glued, p->merge * h * h * h, NULL, parent, &stats->merged,
+                              &stats->isolated_slivers, err);
     if (st >= 0)
         st = pf_rebuild_merged(&glued, parent, m, err);
     pf_free(parent);

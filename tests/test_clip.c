@@ -185,6 +185,50 @@ static void test_bunny(void **state)
     pf_surface_release(&bunny);
 }
 
+/* Spheres at random places and sizes (a fixed seed) in hex and tet grids: surfaces crossing
+ * elements in every way, grazing faces and edges within the tolerance included. */
+static void test_random_spheres(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    uint64_t seed = 0x9e3779b97f4a7c15ull;
+    for (int trial = 0; trial < 16; ++trial) {
+        double r[5];
+        for (int k = 0; k < 5; ++k) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            r[k] = (double)(seed >> 11) / 9007199254740992.0;
+        }
+        pf_mesh box = {0}, in = {0}, out = {0};
+        int32_t n = 3 + trial % 4;
+        pf_vec3 lo = pf_v3(-1, -1, -1), hi = pf_v3(1, 1, 1);
+        if (trial % 2)
+            assert_int_equal(pf_mesh_make_box_tets(&box, lo, hi, n, n, n, &err), PF_OK);
+        else
+            assert_int_equal(pf_mesh_make_box(&box, lo, hi, n, n + 1, n, &err), PF_OK);
+        assert_int_equal(pf_mesh_derive(&box, &err), PF_OK);
+        pf_surface sphere = {0};
+        double radius = 0.3 + 0.4 * r[0];
+        assert_int_equal(pf_surface_make_sphere(&sphere, radius, 6 + trial, 8 + trial, &err),
+                         PF_OK);
+        /* trials 0 and 1 centred on a grid node, the others anywhere inside */
+        for (int32_t v = 0; v < sphere.n_verts; ++v)
+            for (int c = 0; c < 3; ++c)
+                sphere.x[3 * v + c] += trial < 2 ? 0 : (1 - radius - 0.05) * (2 * r[1 + c] - 1);
+        pf_surface_stats ss;
+        assert_int_equal(pf_surface_compute_stats(&sphere, &ss, &err), PF_OK);
+        char name[64];
+        snprintf(name, sizeof name, "random %d in", trial);
+        clip_and_check(name, &box, &sphere, PF_CLIP_INSIDE, ss.volume, ss.area, 1e-12, &in);
+        snprintf(name, sizeof name, "random %d out", trial);
+        clip_and_check(name, &box, &sphere, PF_CLIP_OUTSIDE, 8 - ss.volume, 24 + ss.area, 1e-12,
+                       &out);
+        pf_mesh_release(&in);
+        pf_mesh_release(&out);
+        pf_mesh_release(&box);
+        pf_surface_release(&sphere);
+    }
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -232,7 +276,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sphere_hexes),   cmocka_unit_test(test_sphere_tets),
         cmocka_unit_test(test_knife_on_faces), cmocka_unit_test(test_bunny),
-        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_random_spheres), cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -194,7 +194,7 @@ static pf_status find_inner_faces(coarsen *c, const int32_t *group, pf_error *er
                 int32_t a = c->face_user[2 * f], b = c->face_user[2 * f + 1];
                 if (a < 0 || b < 0 || c->elem_group[a] != g || c->elem_group[b] != g)
                     continue;
-                uf_union(parent, local_index(c, g, a), local_index(c, g, b));
+                pf_uf_union(parent, local_index(c, g, a), local_index(c, g, b));
                 if (e == a && c->face_state[f] != FACE_DEAD) {
                     c->face_state[f] = FACE_DEAD;
                     n_dead++;
@@ -202,7 +202,7 @@ static pf_status find_inner_faces(coarsen *c, const int32_t *group, pf_error *er
             }
         }
         for (int32_t i = 1; i < n && st >= 0; ++i)
-            if (uf_find(parent, i) != 0)
+            if (pf_uf_find(parent, i) != 0)
                 st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
                                   "coarsen: group %d is not face-connected: element %d shares no "
                                   "chain of faces with element %d",

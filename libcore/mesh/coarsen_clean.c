@@ -282,20 +282,20 @@ static pf_status unite_class(coarsen *c, item *its, int32_t n, unite_scratch *s,
         if (j < 0 || e[j].item == e[i].item)
             continue;
         int32_t a = e[i].item, b = e[j].item;
-        if (uf_find(parent, a) != uf_find(parent, b) &&
+        if (pf_uf_find(parent, a) != pf_uf_find(parent, b) &&
             coplanar(c, &its[a], &pl[a], &its[b], &pl[b])) {
-            uf_union(parent, a, b);
+            pf_uf_union(parent, a, b);
             any = true;
         }
     }
     if (!any)
         return PF_OK;
     for (int32_t r = 0; r < n; ++r) {
-        if (uf_find(parent, r) != r)
+        if (pf_uf_find(parent, r) != r)
             continue;
         int32_t m = 0;
         for (int32_t i = r; i < n; ++i)
-            if (uf_find(parent, i) == r)
+            if (pf_uf_find(parent, i) == r)
                 member[m++] = i;
         if (m < 2)
             continue;

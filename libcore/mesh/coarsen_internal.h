@@ -5,6 +5,8 @@
 
 #include <pf/refine.h>
 
+#include "mesh_internal.h"
+
 #include <string.h>
 
 enum { FACE_SRC = 0, FACE_DEAD = 1, FACE_OWN = 2 };
@@ -68,22 +70,6 @@ static inline const uint32_t *poly(const coarsen *c, int32_t f, int32_t *n)
 static inline pf_vec3 node_at(const coarsen *c, uint32_t v)
 {
     return pf_v3_load(c->src->x + 3 * (size_t)v);
-}
-
-static inline int32_t uf_find(int32_t *p, int32_t i)
-{
-    while (p[i] != i)
-        i = p[i] = p[p[i]];
-    return i;
-}
-
-static inline void uf_union(int32_t *p, int32_t a, int32_t b)
-{
-    a = uf_find(p, a), b = uf_find(p, b);
-    if (a < b)
-        p[b] = a;
-    else if (b < a)
-        p[a] = b;
 }
 
 /* Face f gets the polygon nodes[n] of its own, written at the pool's end (nodes may point into

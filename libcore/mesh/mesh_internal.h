@@ -99,4 +99,30 @@ pf_status pf_ray_voter_cast(ray_voter *v, pf_vec3 org, pf_vec3 dir, double span,
 bool pf_ray_voter_inside_at(ray_voter *v, double t);
 void pf_ray_voter_release(ray_voter *v);
 
+/* ---- carrying labels across a change of elements (carry.c) -------------------------------- */
+
+/* The label of the boundary face of the old elements olds[n_olds] (derived old mesh) that face f
+ * of next lies in (coplanar: unit normals within 1e-9, centroid within 1e-9 of f's size of its
+ * plane), among faces with a non-zero label; 0 when none. */
+int32_t pf_mesh_label_under(const pf_mesh *next, int32_t f, const pf_mesh *old,
+                            const int32_t *olds, int32_t n_olds, const int32_t *label);
+
+/* Union-find over element indices: the root (path halving), and the union keeping the smaller
+ * root, so that roots are deterministic. */
+static inline int32_t pf_uf_find(int32_t *p, int32_t i)
+{
+    while (p[i] != i)
+        i = p[i] = p[p[i]];
+    return i;
+}
+
+static inline void pf_uf_union(int32_t *p, int32_t a, int32_t b)
+{
+    a = pf_uf_find(p, a), b = pf_uf_find(p, b);
+    if (a < b)
+        p[b] = a;
+    else if (b < a)
+        p[a] = b;
+}
+
 #endif

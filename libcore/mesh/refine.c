@@ -732,16 +732,23 @@ static pf_status check_requests(const pf_mesh *src, const pf_refine_request *req
         else if (seen[e])
             st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
                               "refine: request %d names element %d a second time", (int)r, (int)e);
-        else if (req[r].kind != PF_SPLIT_OCTS && req[r].kind != PF_SPLIT_HALVES)
+        else if (req[r].kind != PF_SPLIT_OCTS && req[r].kind != PF_SPLIT_HALVES &&
+                 req[r].kind != PF_SPLIT_PLANE)
             st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
                               "refine: request %d (element %d): unknown split kind %d", (int)r,
                               (int)e, (int)req[r].kind);
-        else if (req[r].kind == PF_SPLIT_HALVES &&
+        else if (req[r].kind != PF_SPLIT_OCTS &&
                  !(isfinite(n.x) && isfinite(n.y) && isfinite(n.z) && pf_v3_norm(n) > 0))
             st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
-                              "refine: request %d (element %d): the halves normal (%g, %g, %g) is "
+                              "refine: request %d (element %d): the plane normal (%g, %g, %g) is "
                               "zero or not finite",
                               (int)r, (int)e, n.x, n.y, n.z);
+        else if (req[r].kind == PF_SPLIT_PLANE &&
+                 !(isfinite(req[r].point.x) && isfinite(req[r].point.y) &&
+                   isfinite(req[r].point.z)))
+            st = pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                              "refine: request %d (element %d): the plane's point is not finite",
+                              (int)r, (int)e);
         else
             seen[e] = 1;
     }

@@ -287,14 +287,16 @@ pf_status pf_refine_split_local(refine_local *L, const pf_refine_request *req, d
     *planes_applied = 0;
     *planes_skipped = 0;
     int n_planes = req->kind == PF_SPLIT_OCTS ? 3 : 1;
+    double min_fraction = req->min_fraction > 0 ? req->min_fraction : PF_REFINE_MIN_FRACTION;
     for (int i = 0; i < n_planes; ++i) {
         pf_vec3 n = req->kind == PF_SPLIT_OCTS ? axes[i] : req->normal;
-        pf_plane pl = pf_plane_from_point_normal(centroid, n);
+        pf_vec3 at = req->kind == PF_SPLIT_PLANE ? req->point : centroid;
+        pf_plane pl = pf_plane_from_point_normal(at, n);
         int32_t n_before = L->n;
         bool cut;
         double smallest;
         PF_TRY(split_all(L, &pl, *planes_applied > 0, &cut, &smallest, err));
-        if (!cut || smallest < PF_REFINE_MIN_FRACTION * vol) {
+        if (!cut || smallest < min_fraction * vol) {
             L->n = n_before; /* the trial's nodes are dropped with it */
             if (cut)
                 ++*planes_skipped;

@@ -63,70 +63,6 @@ static pf_status carry_over(pf_sim *t, const pf_sim *s, const pf_mesh_change *ch
     return PF_OK;
 }
 
-/* Whether faces f of a and g of b lie in one plane: unit normals within 1e-9 of each other (or of
- * opposite ones) and g's centroid within 1e-9 of f's size from f's plane. */
-static bool coplanar(const pf_mesh *a, int32_t f, const pf_mesh *b, int32_t g)
-{
-    const uint32_t *fi = a->face_nodes + a->face_offsets[f],
-                   *gi = b->face_nodes + b->face_offsets[g];
-    int64_t fn = a->face_offsets[f + 1] - a->face_offsets[f];
-    int64_t gn = b->face_offsets[g + 1] - b->face_offsets[g];
-    pf_vec3 na = pf_v3_normalize(pf_polygon_area_vector(a->x, fi, fn));
-    pf_vec3 nb = pf_v3_normalize(pf_polygon_area_vector(b->x, gi, gn));
-    pf_vec3 ca = pf_polygon_centroid(a->x, fi, fn), cb = pf_polygon_centroid(b->x, gi, gn);
-    double size = sqrt(pf_v3_norm(pf_polygon_area_vector(a->x, fi, fn)));
-    bool parallel = pf_v3_norm(pf_v3_sub(na, nb)) < 1e-9 || pf_v3_norm(pf_v3_add(na, nb)) < 1e-9;
-    return parallel && fabs(pf_v3_dot(na, pf_v3_sub(cb, ca))) <= 1e-9 * size;
-}
-
-/* The group of a new boundary face that is no old face node for node (a piece of a split face, or
- * a union of merged ones): that of a coplanar boundary face of its element's old element(s). */
-static int32_t face_group_of(const pf_mesh *next, int32_t f, const pf_mesh *old,
-                             const int32_t *olds, int32_t n_olds)
-{
-    for (int32_t k = 0; k < n_olds; ++k)
-        for (int64_t q = old->elem_offsets[olds[k]]; q < old->elem_offsets[olds[k] + 1]; ++q) {
-            int32_t g = PF_FACE_INDEX(old->elem_faces[q]);
-            bool boundary = old->face_elems[2 * g] < 0 || old->face_elems[2 * g + 1] < 0;
-            if (boundary && old->face_group[g] > 0 && coplanar(next, f, old, g))
-                return old->face_group[g];
-        }
-    return 0;
-}
-
-/* The old mesh's groups (Gmsh physical groups: materials, fixed and loaded faces) on the new mesh
- * (derived): an element takes its old element's group; a face the old one it is, or the group of
- * the old boundary face it lies in. */
-static pf_status carry_groups(pf_mesh *next, const pf_mesh *old, const pf_mesh_change *change,
-                              pf_error *err)
-{
-    if (!old->elem_group && !old->face_group)
-        return PF_OK;
-    PF_TRY(pf_mesh_groups_copy(next, old, err));
-    int32_t n_old = old->n_elems, *olds = pf_alloc_array((size_t)n_old + 1, sizeof *olds);
-    PF_CHECK(olds, err, PF_ERR_NOMEM, "cannot allocate %d element slots", (int)n_old);
-    for (int32_t e = 0; e < next->n_elems && next->elem_group; ++e)
-        next->elem_group[e] = old->elem_group[change->parent[e]];
-    for (int32_t f = 0; f < next->n_faces && next->face_group; ++f) {
-        int32_t g = change->face_src ? change->face_src[f] : -1;
-        int32_t e =
-            next->face_elems[2 * f] >= 0 ? next->face_elems[2 * f] : next->face_elems[2 * f + 1];
-        bool boundary = next->face_elems[2 * f] < 0 || next->face_elems[2 * f + 1] < 0;
-        next->face_group[f] = g >= 0 ? old->face_group[g] : 0;
-        if (g >= 0 || !boundary)
-            continue;
-        int32_t n = 0; /* e's old element, or the elements merged into it */
-        for (int32_t q = 0; change->merged_into && q < n_old; ++q)
-            if (change->merged_into[q] == e)
-                olds[n++] = q;
-        if (n == 0)
-            olds[n++] = change->parent[e];
-        next->face_group[f] = face_group_of(next, f, old, olds, n);
-    }
-    pf_free(olds);
-    return PF_OK;
-}
-
 /* A simulator on the new mesh (moved into it) with s's scene, surface and penalty. */
 static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_mesh_change *change,
                           const uint8_t *changed, pf_error *err)
@@ -138,7 +74,8 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
     *t->owned_mesh = *mesh;
     memset(mesh, 0, sizeof *mesh);
     PF_TRY(pf_mesh_derive(t->owned_mesh, err));
-    PF_TRY(carry_groups(t->owned_mesh, s->mesh, change, err));
+    PF_TRY(pf_mesh_carry_groups(t->owned_mesh, s->mesh, change->parent, change->merged_into,
+                                 change->face_src, err));
     if (s->surface) {
         t->owned_weights = pf_calloc(1, sizeof *t->owned_weights);
         PF_CHECK(t->owned_weights, err, PF_ERR_NOMEM, "cannot allocate the surface's weights");

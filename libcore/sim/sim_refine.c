@@ -269,7 +269,8 @@ static pf_status refine_candidates(pf_sim *s, candidate *c, int32_t n, int32_t *
     PF_CHECK(req, err, PF_ERR_NOMEM, "cannot allocate %d refinement requests", (int)n);
     int32_t n_req = 0;
     for (int32_t k = 0; k < n && total + added <= p->max_elements; ++k, total += added)
-        req[n_req++] = (pf_refine_request){c[k].elem, p->split, c[k].direction};
+        req[n_req++] = (pf_refine_request){
+            .elem = c[k].elem, .kind = p->split, .normal = c[k].direction};
     /* in the mesh's element order: the new mesh's numbering does not depend on the stresses */
     qsort(req, (size_t)n_req, sizeof *req, compare_requests);
     pf_status st = n_req > 0 ? pf_sim_split(s, req, n_req, n_split, err) : PF_OK;

@@ -89,6 +89,18 @@ pf_status pf_mesh_groups_copy(pf_mesh *dst, const pf_mesh *src, pf_error *err);
 const pf_mesh_group *pf_mesh_find_group(const pf_mesh *m, int32_t dim, const char *name,
                                         int32_t number);
 
+/* A change of elements (refinement, coarsening, cutting) carries per-face labels of old (derived)
+ * to next (derived): out[f] (next->n_faces) is label[face_src[f]] for a face that is an old one
+ * (face_src NULL: none is), else for a boundary face the label of the old boundary face of its
+ * element's old element(s) it lies in (parent[e]; merged_into [old elements]: the next element an
+ * old one was merged into, or NULL), else 0. PF_ERR_NOMEM. */
+pf_status pf_mesh_carry_face_label(const pf_mesh *next, const pf_mesh *old, const int32_t *parent,
+                                   const int32_t *merged_into, const int32_t *face_src,
+                                   const int32_t *label, int32_t *out, pf_error *err);
+/* old's groups on next the same way: an element takes its parent's group, a face its label. */
+pf_status pf_mesh_carry_groups(pf_mesh *next, const pf_mesh *old, const int32_t *parent,
+                               const int32_t *merged_into, const int32_t *face_src, pf_error *err);
+
 /* Computes face_elems and elem_kind. Fails (PF_ERR_INVALID, naming the face) when a face is
  * used by more than two elements or twice with the same orientation, or when an index is out of
  * range. Idempotent. */

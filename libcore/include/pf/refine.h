@@ -55,14 +55,22 @@ extern "C" {
  * default sliver threshold, pf_slice_params.merge). */
 #define PF_REFINE_MIN_FRACTION 0.05
 
-typedef enum pf_split_kind { PF_SPLIT_OCTS = 0, PF_SPLIT_HALVES = 1 } pf_split_kind;
+typedef enum pf_split_kind {
+    PF_SPLIT_OCTS = 0,
+    PF_SPLIT_HALVES = 1,
+    PF_SPLIT_PLANE = 2 /* one plane through point with normal (cutting, pf/cut.h) */
+} pf_split_kind;
 
 typedef struct pf_refine_request {
     int32_t elem; /* element of src to split (each at most once per call) */
     pf_split_kind kind;
     pf_vec3 normal; /* halves: the plane through the element's centroid with this normal
                        (need not be unit, must be finite and non-zero; the caller passes the
-                       largest principal stress direction). Unused for octs. */
+                       largest principal stress direction); plane: the plane's normal. Unused
+                       for octs. */
+    pf_vec3 point;  /* plane: a point of the plane (halves use the centroid) */
+    double min_fraction; /* the sliver rule's smallest piece, a fraction of the element's volume;
+                            <= 0: PF_REFINE_MIN_FRACTION */
 } pf_refine_request;
 
 typedef struct pf_refine_result {
@@ -82,7 +90,11 @@ typedef struct pf_refine_result {
                           face that is new or got nodes inserted */
 } pf_refine_result;
 
-/* Splits the requested elements of src into dst (zeroed or released first; written derived) and
+/* A plane request (PF_SPLIT_PLANE) splits by the given plane, which need not pass through the
+ * centroid; one that misses the element, or would make a piece below min_fraction, leaves it
+ * whole (n_skipped).
+ *
+ * Splits the requested elements of src into dst (zeroed or released first; written derived) and
  * describes the change in *res (overwritten). src is read only and needs no derived arrays; it
  * must be a valid mesh (pf_mesh_validate). n_req may be 0 (dst is then a copy with a new id).
  * Statuses: PF_ERR_INVALID for a request naming an element out of range or twice, an unknown

@@ -1,0 +1,361 @@
+/* cut: pf_mesh_cut on hex bars and plates (through, partial, along a face, snapped slivers,
+ * dropped bodies), on a sliced sphere with random blades, and bad requests.
+ *
+ * Invariants checked after every cut: the mesh is valid (pf_mesh_validate: closed, conforming,
+ * planar faces), the volume is the source's minus what was reported dropped to 1e-12 relative (a
+ * cut moves no node; the pieces' volumes are sums of the same fan tetrahedra up to rounding, ~1e-15
+ * per element), and no dst node is shared by elements on opposite sides of an opened face. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "test_check.h"
+#include "test_random.h"
+#include <pf/cut.h>
+#include <pf/mesh.h>
+
+static double mesh_volume(const pf_mesh *m)
+{
+    double v = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        v += pf_mesh_elem_volume(m, e);
+    return v;
+}
+
+/* Each cut face has one user, and no node is shared by two bodies (groups of elements connected
+ * through faces): duplication separated every node the cut runs through. */
+static void check_separated(const pf_mesh *m, const pf_cut_result *r)
+{
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        CHECKF(!r->cut_face[f] || m->face_elems[2 * f] < 0 || m->face_elems[2 * f + 1] < 0,
+               "cut face %d has two users", (int)f);
+    int32_t *body = malloc(((size_t)m->n_elems + 1) * sizeof *body);
+    int32_t *owner = malloc(((size_t)m->n_nodes + 1) * sizeof *owner);
+    assert_non_null(body);
+    assert_non_null(owner);
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        body[e] = e;
+    for (bool moved = true; moved;) { /* label propagation to the smallest element of a body */
+        moved = false;
+        for (int32_t f = 0; f < m->n_faces; ++f) {
+            int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
+            if (a >= 0 && b >= 0 && body[a] != body[b]) {
+                int32_t lo = body[a] < body[b] ? body[a] : body[b];
+                body[a] = body[b] = lo;
+                moved = true;
+            }
+        }
+    }
+    int32_t bodies = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        bodies += body[e] == e;
+    assert_int_equal(bodies, r->n_bodies);
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        owner[i] = -1;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            for (int64_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; ++k) {
+                uint32_t v = m->face_nodes[k];
+                CHECKF(owner[v] < 0 || owner[v] == body[e], "node %u is in bodies %d and %d", v,
+                       (int)owner[v], (int)body[e]);
+                owner[v] = body[e];
+            }
+        }
+    free(body);
+    free(owner);
+}
+
+static void cut_ok(const pf_mesh *src, const pf_cut_request *req, int32_t n, const pf_cut_params *p,
+                   pf_mesh *dst, pf_cut_result *res)
+{
+    pf_error err = {0};
+    pf_status st = pf_mesh_cut(src, req, n, p, dst, res, &err);
+    CHECKF(st == PF_OK, "pf_mesh_cut: %s", err.msg);
+    pf_mesh_validate_params vp = pf_mesh_validate_params_default();
+    st = pf_mesh_validate(dst, &vp, &err);
+    CHECKF(st == PF_OK, "pf_mesh_validate after the cut: %s", err.msg);
+    double v0 = mesh_volume(src), v1 = mesh_volume(dst) + res->dropped_volume;
+    CHECKF(fabs(v1 - v0) <= 1e-12 * v0, "volume %.17g, expected %.17g", v1, v0);
+    assert_int_equal(dst->id, src->id + 1);
+    for (int32_t e = 0; e < dst->n_elems; ++e)
+        CHECKF(pf_mesh_elem_volume(dst, e) > 0, "element %d has volume %g", (int)e,
+               pf_mesh_elem_volume(dst, e));
+    check_separated(dst, res);
+}
+
+/* The lowest corner of element e's bounding box. */
+static pf_vec3 elem_lo(const pf_mesh *m, int32_t e)
+{
+    pf_vec3 lo = pf_v3(INFINITY, INFINITY, INFINITY);
+    for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        for (int64_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; ++k) {
+            const double *x = m->x + 3 * (size_t)m->face_nodes[k];
+            lo = pf_v3(fmin(lo.x, x[0]), fmin(lo.y, x[1]), fmin(lo.z, x[2]));
+        }
+    }
+    return lo;
+}
+
+static pf_cut_request plane_req(int32_t e, pf_vec3 p, pf_vec3 n)
+{
+    return (pf_cut_request){.elem = e, .plane = pf_plane_from_point_normal(p, n)};
+}
+
+static int32_t count(const uint8_t *a, int32_t n)
+{
+    int32_t k = 0;
+    for (int32_t i = 0; i < n; ++i)
+        k += a[i] != 0;
+    return k;
+}
+
+/* A bar of four unit hexes along x cut through the middle of element 1: two bodies, the four cap
+ * nodes duplicated, one face opened, and the pieces keep their parents' nodes elsewhere. */
+static void test_bar_through(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0}, dst = {0};
+    assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(4, 1, 1), 4, 1, 1, &err), PF_OK);
+    pf_cut_request req = plane_req(1, pf_v3(1.5, 0, 0), pf_v3(1, 0, 0));
+    pf_cut_result r;
+    cut_ok(&src, &req, 1, NULL, &dst, &r);
+    assert_int_equal(dst.n_elems, 5);
+    assert_int_equal(r.n_split, 1);
+    assert_int_equal(r.n_opened, 1);
+    assert_int_equal(r.n_bodies, 2);
+    assert_int_equal(r.n_duplicated, 4);
+    assert_int_equal(dst.n_nodes, src.n_nodes + 8);
+    assert_int_equal(count(r.cut_face, dst.n_faces), 2);
+    assert_int_equal(count(r.opened, dst.n_faces), 2);
+    for (int32_t i = 0; i < src.n_nodes; ++i)
+        assert_int_equal(r.node_map[i], i);
+    for (int32_t i = 0; i < dst.n_nodes; ++i)
+        assert_true(i < src.n_nodes ? r.node_src[i] == i : r.node_src[i] == -1);
+    assert_int_equal(r.split[1], 1);
+    assert_int_equal(r.parent[1], 1);
+    assert_int_equal(r.parent[2], 1);
+    /* the "cut" face group holds the two opened faces */
+    const pf_mesh_group *g = pf_mesh_find_group(&dst, 2, "cut", 0);
+    assert_non_null(g);
+    for (int32_t f = 0; f < dst.n_faces; ++f)
+        assert_int_equal(dst.face_group[f] == g->number, r.cut_face[f]);
+    pf_cut_result_release(&r);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A 3 x 3 plate cut along y = 1.5 in two of the three elements of its middle row: one body, the
+ * crack's nodes duplicated except at its front (x = 2), where the uncut element holds them. */
+static void test_partial(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0}, dst = {0};
+    assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(3, 3, 1), 3, 3, 1, &err), PF_OK);
+    pf_cut_request req[2];
+    int32_t n = 0;
+    for (int32_t e = 0; e < src.n_elems; ++e) {
+        pf_vec3 lo = elem_lo(&src, e);
+        if (lo.y == 1 && lo.x < 2)
+            req[n++] = plane_req(e, pf_v3(0, 1.5, 0), pf_v3(0, 1, 0));
+    }
+    assert_int_equal(n, 2);
+    pf_cut_result r;
+    cut_ok(&src, req, n, NULL, &dst, &r);
+    assert_int_equal(r.n_split, 2);
+    assert_int_equal(r.n_bodies, 1);
+    assert_int_equal(r.n_opened, 2);
+    /* new nodes on y = 1.5: x = 0, 1, 2 (the last inserted into the uncut element's face) times
+     * z = 0, 1; copies for x = 0 and 1 only */
+    assert_int_equal(r.n_duplicated, 4);
+    for (int32_t i = 0; i < dst.n_nodes; ++i) {
+        const double *x = dst.x + 3 * (size_t)i;
+        if (x[1] == 1.5 && x[0] == 2) {
+            int users = 0; /* front nodes are in elements on both sides */
+            for (int32_t e = 0; e < dst.n_elems; ++e) {
+                bool has = false;
+                for (int64_t q = dst.elem_offsets[e]; q < dst.elem_offsets[e + 1]; ++q) {
+                    int32_t f = PF_FACE_INDEX(dst.elem_faces[q]);
+                    for (int64_t k = dst.face_offsets[f]; k < dst.face_offsets[f + 1]; ++k)
+                        has |= dst.face_nodes[k] == (uint32_t)i;
+                }
+                users += has;
+            }
+            assert_int_equal(users, 3);
+        }
+    }
+    pf_cut_result_release(&r);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A blade in the plane of a face splits nothing: both elements lie on their sides and the face
+ * between them is opened. */
+static void test_along_face(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0}, dst = {0};
+    assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(2, 1, 1), 2, 1, 1, &err), PF_OK);
+    pf_cut_request req[2] = {plane_req(0, pf_v3(1, 0, 0), pf_v3(1, 0, 0)),
+                             plane_req(1, pf_v3(1, 0, 0), pf_v3(1, 0, 0))};
+    pf_cut_result r;
+    cut_ok(&src, req, 2, NULL, &dst, &r);
+    assert_int_equal(dst.n_elems, 2);
+    assert_int_equal(r.n_split, 0);
+    assert_int_equal(r.n_snapped, 2);
+    assert_int_equal(r.n_opened, 1);
+    assert_int_equal(r.n_bodies, 2);
+    assert_int_equal(r.n_duplicated, 4);
+    pf_cut_result_release(&r);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A plane 2 % into element 1 would make a sliver: the element stays whole on its centroid's side
+ * and the crack follows its face with element 0. */
+static void test_snapped_sliver(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0}, dst = {0};
+    assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(2, 1, 1), 2, 1, 1, &err), PF_OK);
+    pf_cut_request req[2] = {plane_req(0, pf_v3(1.02, 0, 0), pf_v3(1, 0, 0)),
+                             plane_req(1, pf_v3(1.02, 0, 0), pf_v3(1, 0, 0))};
+    pf_cut_result r;
+    cut_ok(&src, req, 2, NULL, &dst, &r);
+    assert_int_equal(dst.n_elems, 2);
+    assert_int_equal(r.n_split, 0);
+    assert_int_equal(r.n_bodies, 2);
+    for (int32_t e = 0; e < dst.n_elems; ++e)
+        assert_true(fabs(pf_mesh_elem_volume(&dst, e) - 1) < 1e-14);
+    pf_cut_result_release(&r);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* A thin slab cut off a bar (10 %), then cut across: the 3 % corner is alone and below 5 % of the
+ * median element: dropped, its volume reported; the 7 % one stays. Earlier cut faces stay cut. */
+static void test_dropped_body(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0}, mid = {0}, dst = {0};
+    assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(2, 1, 1), 2, 1, 1, &err), PF_OK);
+    pf_cut_request req =
+        plane_req(elem_lo(&src, 0).x == 0 ? 0 : 1, pf_v3(0.1, 0, 0), pf_v3(1, 0, 0));
+    pf_cut_result r;
+    cut_ok(&src, &req, 1, NULL, &mid, &r);
+    assert_int_equal(r.n_bodies, 2);
+    pf_cut_result_release(&r);
+    int32_t slab = -1;
+    for (int32_t e = 0; e < mid.n_elems; ++e)
+        if (fabs(pf_mesh_elem_volume(&mid, e) - 0.1) < 1e-12)
+            slab = e;
+    assert_true(slab >= 0);
+    req = plane_req(slab, pf_v3(0, 0.3, 0), pf_v3(0, 1, 0));
+    cut_ok(&mid, &req, 1, NULL, &dst, &r);
+    assert_int_equal(r.n_dropped, 1);
+    assert_near(r.dropped_volume, 0.03, 1e-14);
+    assert_int_equal(r.n_bodies, 2);
+    /* the first cut's face pieces on the kept side are still cut faces (from mid's "cut" group) */
+    assert_true(count(r.cut_face, dst.n_faces) > count(r.opened, dst.n_faces));
+    pf_cut_result_release(&r);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&mid);
+    pf_mesh_release(&src);
+}
+
+/* 100 random blades through a sliced sphere, one after the other on the previous cut's mesh:
+ * each a random plane through a random point, requested on every element it crosses. */
+static void test_random_blades(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_mesh m = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
+    pf_slice_params sp = pf_slice_params_default();
+    sp.grid.res = 3;
+    assert_int_equal(pf_mesh_slice(&m, &s, &sp, NULL, &err), PF_OK);
+    double v0 = mesh_volume(&m), dropped = 0;
+    rng g = {0x9e3779b97f4a7c15ull};
+    for (int blade = 0; blade < 100; ++blade) {
+        pf_vec3 p = pf_v3(0.6 * uniform(&g), 0.6 * uniform(&g), 0.6 * uniform(&g));
+        pf_vec3 n = pf_v3(uniform(&g), uniform(&g), uniform(&g));
+        if (pf_v3_norm(n) < 1e-3)
+            continue;
+        pf_plane pl = pf_plane_from_point_normal(p, n);
+        pf_cut_request *req = calloc((size_t)m.n_elems + 1, sizeof *req);
+        int32_t k = 0;
+        for (int32_t e = 0; e < m.n_elems; ++e) {
+            bool below = false, above = false;
+            for (int64_t q = m.elem_offsets[e]; q < m.elem_offsets[e + 1]; ++q) {
+                int32_t f = PF_FACE_INDEX(m.elem_faces[q]);
+                for (int64_t j = m.face_offsets[f]; j < m.face_offsets[f + 1]; ++j) {
+                    double d =
+                        pf_plane_signed_distance(pl, pf_v3_load(m.x + 3 * (size_t)m.face_nodes[j]));
+                    below |= d<0, above |= d> 0;
+                }
+            }
+            if (below && above)
+                req[k++] = (pf_cut_request){.elem = e, .plane = pl};
+        }
+        pf_mesh next = {0};
+        pf_cut_result r;
+        cut_ok(&m, req, k, NULL, &next, &r);
+        dropped += r.dropped_volume;
+        for (int32_t i = 0; i < 3 * next.n_nodes; ++i)
+            assert_true(isfinite(next.x[i]));
+        pf_cut_result_release(&r);
+        pf_mesh_release(&m);
+        m = next;
+        free(req);
+    }
+    double v1 = mesh_volume(&m) + dropped;
+    CHECKF(fabs(v1 - v0) <= 1e-11 * v0, "after 100 blades: %.17g + dropped vs %.17g", v1, v0);
+    pf_mesh_release(&m);
+    pf_surface_release(&s);
+}
+
+static void test_bad_requests(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0}, dst = {0};
+    assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(2, 1, 1), 2, 1, 1, &err), PF_OK);
+    pf_cut_result r;
+    pf_cut_request req[2] = {plane_req(0, pf_v3(0.5, 0, 0), pf_v3(1, 0, 0)),
+                             plane_req(0, pf_v3(0.5, 0, 0), pf_v3(1, 0, 0))};
+    assert_int_equal(pf_mesh_cut(&src, req, 2, NULL, &dst, &r, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "second time"));
+    req[0].elem = 7;
+    assert_int_equal(pf_mesh_cut(&src, req, 1, NULL, &dst, &r, &err), PF_ERR_INVALID);
+    assert_non_null(strstr(err.msg, "out of range"));
+    req[0] = (pf_cut_request){.elem = 0, .plane = {.n = pf_v3(NAN, 0, 0), .d = 0}};
+    assert_int_equal(pf_mesh_cut(&src, req, 1, NULL, &dst, &r, &err), PF_ERR_INVALID);
+    assert_null(dst.x);
+    assert_null(r.parent);
+    pf_mesh_release(&src);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_bar_through),  cmocka_unit_test(test_partial),
+        cmocka_unit_test(test_along_face),   cmocka_unit_test(test_snapped_sliver),
+        cmocka_unit_test(test_dropped_body), cmocka_unit_test(test_random_blades),
+        cmocka_unit_test(test_bad_requests),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

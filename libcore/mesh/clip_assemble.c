@@ -200,6 +200,19 @@ pf_status pf_clip_assemble(const pf_mesh *m, const uint8_t *state, const pf_clip
                               err);
     if (st >= 0)
         st = pf_rebuild_merged(&glued, parent, dst, err);
+    /* dst's elements are the merge roots in order: each takes its root's src element's groups */
+    int32_t *dst_parent = NULL;
+    if (st >= 0 && (m->elem_group || m->face_group) &&
+        !(dst_parent = pf_alloc_array((size_t)dst->n_elems + 1, sizeof *dst_parent)))
+        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory");
+    if (st >= 0 && dst_parent) {
+        const int32_t *src_of = (const int32_t *)as.parent.data;
+        for (int32_t e = 0, k = 0; e < glued.n_elems; ++e)
+            if (parent[e] == e)
+                dst_parent[k++] = src_of[e];
+        st = pf_mesh_carry_groups(dst, m, dst_parent, NULL, NULL, err);
+    }
+    pf_free(dst_parent);
     pf_free(parent);
     pf_mesh_release(&glued);
     assembly_release(&as);

@@ -135,8 +135,10 @@ typedef struct pf_clip_stats {
 } pf_clip_stats;
 
 /* Clips src (valid and derived) by the closed surface s into dst (zeroed or released first;
- * derived, without groups; nodes numbered in order of first use by dst's elements, elements in
- * the order of their src elements; dst->id = src->id + 1). stats may be NULL.
+ * derived; nodes numbered in order of first use by dst's elements, elements in the order of their
+ * src elements; dst->id = src->id + 1; src's groups carried: an element takes its src element's,
+ * a boundary face the label of the src boundary face it lies in, pf_mesh_carry_groups). stats
+ * may be NULL.
  * Statuses: PF_ERR_INVALID for a surface that is not closed, manifold and outward (its open,
  * non-manifold and flipped edge counts in the message) or a non-finite coordinate, and for
  * nothing left (every element on the dropped side); PF_ERR_UNSUPPORTED naming the element for a

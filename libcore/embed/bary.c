@@ -402,14 +402,28 @@ static int harmonic_weights(const harmonic_set *h, const locator *L, int32_t e, 
     return 1;
 }
 
-static void locate_all(locator *L, const pf_surface *s, int32_t *elem_of, double *dist)
+/* A vertex with a side (on a cut, where the elements of both sides hold it) is located nudged
+ * into its side by 1e-6 of its first element's size. */
+static void locate_all(locator *L, const pf_surface *s, const double *side, int32_t *elem_of,
+                       double *dist)
 {
-    for (int32_t v = 0; v < s->n_verts; ++v)
-        elem_of[v] = pf_locator_find(L, pf_v3_load(s->x + 3 * (size_t)v), &dist[v]);
+    for (int32_t v = 0; v < s->n_verts; ++v) {
+        pf_vec3 p = pf_v3_load(s->x + 3 * (size_t)v);
+        elem_of[v] = pf_locator_find(L, p, &dist[v]);
+        pf_vec3 dir = side ? pf_v3_load(side + 3 * (size_t)v) : pf_v3(0, 0, 0);
+        double len = pf_v3_norm(dir);
+        if (len > 0) {
+            const double *box = L->geo.box + 6 * (size_t)elem_of[v];
+            double h = fmax(box[3] - box[0], fmax(box[4] - box[1], box[5] - box[2]));
+            elem_of[v] =
+                pf_locator_find(L, pf_v3_add(p, pf_v3_scale(dir, 1e-6 * h / len)), &dist[v]);
+        }
+    }
 }
 
-pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
-                     row_builder *b, pf_embed_stats *stats, pf_error *err)
+pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, const double *vertex_side,
+                        locator *L, bool harmonic, row_builder *b, pf_embed_stats *stats,
+                        pf_error *err)
 {
     int32_t cap = L->geo.max_nodes > 8 ? L->geo.max_nodes : 8;
     uint32_t *col = NULL;
@@ -422,7 +436,7 @@ pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool 
         !PF_ALLOC_N(elem_of, s->n_verts) || !PF_ALLOC_N(dist, s->n_verts))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for weights");
     if (st >= 0)
-        locate_all(L, s, elem_of, dist);
+        locate_all(L, s, vertex_side, elem_of, dist);
     if (st >= 0 && harmonic)
         st = harmonic_build(m, L, elem_of, s->n_verts, &h, stats, err);
     for (int32_t v = 0; v < s->n_verts && st >= 0; ++v) {

@@ -202,8 +202,8 @@ pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed
     if (st >= 0) {
         st_out->n_verts = s->n_verts;
         st = p.method == PF_EMBED_MLS ? pf_embed_mls(m, s, &p, &L, &b, st_out, err)
-                                      : pf_embed_bary(m, s, &L, p.method == PF_EMBED_HARMONIC, &b,
-                                                   st_out, err);
+                                      : pf_embed_bary(m, s, p.vertex_side, &L,
+                                                   p.method == PF_EMBED_HARMONIC, &b, st_out, err);
     }
     pf_locator_release(&L);
     if (st < 0) {

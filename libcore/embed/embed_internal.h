@@ -2,6 +2,8 @@
 #ifndef PF_EMBED_INTERNAL_H
 #define PF_EMBED_INTERNAL_H
 
+#include <stdbool.h>
+
 #include <pf/embed.h>
 
 /* The parameters with zero fields replaced by the defaults, checked. */
@@ -71,6 +73,42 @@ double pf_point_triangle_distance(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c);
 int pf_affine_fit_weights(const double *d, const double *theta, int32_t n, double min_spread,
                        double *out);
 
+/* The visibility rule (visibility.c): blocking faces of a mesh, each a plane and a polygon
+ * projected on the coordinate plane most nearly parallel to it, in a bucket grid. */
+typedef struct visibility {
+    int32_t n_faces;      /* blocking faces */
+    int32_t n_nodes;
+    int32_t *face;        /* [n_faces] mesh face */
+    pf_plane *plane;      /* [n_faces] */
+    double *tol;          /* [n_faces] crossing tolerance, model units */
+    uint8_t *axes;        /* [2 n_faces] the two coordinates of the projection */
+    int64_t *uv_offsets;  /* [n_faces + 1] */
+    double *uv;           /* [2 uv_offsets[n_faces]] projected polygons */
+    double *box;          /* [6 n_faces] padded by tol */
+    double *node_x;       /* [3 n_nodes] node positions nudged into their side of the cut */
+    double min_diam;      /* smallest blocking face diameter */
+    bucket_grid grid;
+    uint32_t *stamp;      /* [n_faces] */
+    uint32_t now;
+    int32_t *cand;        /* [n_faces] the faces of the last gather, increasing */
+    int32_t n_cand;
+} visibility;
+
+/* blocking[m->n_faces]: nonzero for blocking faces (may be none). PF_ERR_NOMEM. */
+pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *blocking,
+                              pf_error *err);
+void pf_visibility_release(visibility *v);
+/* Gathers the blocking faces whose boxes meet the cube of half side reach around x (the
+ * candidates of the next queries); returns their count. */
+int32_t pf_visibility_gather(visibility *v, pf_vec3 x, double reach);
+/* True when the segment a-b strictly crosses one of the gathered faces. */
+bool pf_visibility_blocked(const visibility *v, pf_vec3 a, pf_vec3 b);
+/* x nudged along dir (any length; zero: x unchanged) by 1e-6 of the smallest gathered face's
+ * diameter: a vertex on a cut seen from its own side. */
+pf_vec3 pf_visibility_nudge(const visibility *v, pf_vec3 x, pf_vec3 dir);
+/* Point (px, py) in the 2D polygon uv[2 n] (crossing parity) or within tol of its edges. */
+bool pf_polygon2_contains(const double *uv, int64_t n, double px, double py, double tol);
+
 /* A weight matrix built row by row. */
 typedef struct row_builder {
     pf_weights *w;
@@ -87,11 +125,13 @@ pf_status pf_row_builder_add(row_builder *b, int32_t i, uint32_t *col, double *v
 void pf_row_builder_finish(row_builder *b);
 
 /* The two methods, filling b for every vertex and the method's statistics. */
+/* With p->blocking_faces, the visibility rule; p->vertex_side nudges the vertices seen from. */
 pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
                     locator *L, row_builder *b, pf_embed_stats *stats, pf_error *err);
 /* harmonic: general polyhedra weighted by their harmonic (CG) functions, not mean value
- * coordinates. */
-pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, locator *L, bool harmonic,
-                     row_builder *b, pf_embed_stats *stats, pf_error *err);
+ * coordinates. vertex_side: as pf_embed_params (may be NULL). */
+pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, const double *vertex_side,
+                        locator *L, bool harmonic, row_builder *b, pf_embed_stats *stats,
+                        pf_error *err);
 
 #endif

@@ -90,6 +90,8 @@ typedef struct mls_context {
     bucket_grid supports; /* nodes by their support boxes */
     bucket_grid points;   /* nodes by position, for grown supports */
     support s;
+    visibility *vis;   /* NULL: no blocking faces */
+    pf_vec3 seen_from; /* the vertex, nudged into its side of a cut */
 } mls_context;
 
 static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale, double rho,
@@ -100,6 +102,9 @@ static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale,
     double r = scale * c->radius[node];
     double q2 = pf_v3_dot(d, d) / (r * r);
     if (q2 >= 1)
+        return PF_OK;
+    if (c->vis && c->vis->n_cand > 0 &&
+        pf_visibility_blocked(c->vis, c->seen_from, pf_v3_load(c->vis->node_x + 3 * (size_t)node)))
         return PF_OK;
     return support_push(&c->s, (uint32_t)node, pf_v3_scale(d, 1.0 / rho),
                         kernel(q2, c->p->sharpness), err);
@@ -167,6 +172,13 @@ static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b
 {
     double scale = 1;
     for (int32_t step = 0;; ++step) {
+        if (c->vis) {
+            pf_visibility_gather(c->vis, x, scale * c->r_max);
+            c->seen_from =
+                c->p->vertex_side
+                    ? pf_visibility_nudge(c->vis, x, pf_v3_load(c->p->vertex_side + 3 * (size_t)v))
+                    : x;
+        }
         PF_TRY(gather(c, x, scale, err));
         if (pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, c->p->min_spread, c->s.val))
             break;
@@ -195,6 +207,12 @@ pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_par
     pf_status st = pf_embed_mls_radii(m, p, radius, err);
     if (st >= 0)
         st = build_grids(&c, err);
+    visibility vis;
+    memset(&vis, 0, sizeof vis);
+    if (st >= 0 && p->blocking_faces) {
+        st = pf_visibility_build(&vis, m, p->blocking_faces, err);
+        c.vis = &vis;
+    }
     for (int32_t v = 0; v < s->n_verts && st >= 0; ++v) {
         pf_vec3 x = pf_v3_load(s->x + 3 * (size_t)v);
         double dist;
@@ -207,6 +225,7 @@ pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_par
         st = vertex_row(&c, v, x, b, stats, err);
     }
     support_release(&c.s);
+    pf_visibility_release(&vis);
     pf_bucket_grid_release(&c.supports);
     pf_bucket_grid_release(&c.points);
     pf_free(radius);

@@ -68,6 +68,21 @@ typedef struct pf_embed_params {
                          counts as well conditioned; default 1e-3 */
     double growth;    /* MLS: radius factor per growth step; default 1.5 */
     int32_t max_growth; /* MLS: growth steps before giving up (PF_ERR_NUMERIC); default 20 */
+    /* Cuts (pf/cut.h): [m->n_faces] nonzero for the faces a cut opened
+     * (pf_cut_result.cut_face), or NULL (none: the weights are those without cuts, bit for bit).
+     * MLS: the visibility rule, no node is in a vertex's support when the segment from the
+     * vertex to the node strictly crosses such a face (both ends farther than 1e-10 of the
+     * face's diameter from its plane, on opposite sides, and the crossing point in the face's
+     * polygon or within that tolerance of its edges). The copies of a node on a cut are seen
+     * from their position nudged 1e-6 of the face's diameter into their own elements, so that
+     * each side sees its own copy; a node of the crack front is shared and seen from both. */
+    const uint8_t *blocking_faces;
+    /* [3 s->n_verts], or NULL: for a vertex on a cut, a direction (any length) into the side it
+     * belongs to; the zero vector for the others. MLS sees the nodes from the vertex nudged
+     * along it by 1e-6 of the nearest blocking face's diameter, bary and harmonic locate the
+     * host element there; the weights themselves are those at the vertex (affine fields stay
+     * reproduced exactly). Without it, a vertex on a cut belongs to no side. */
+    const double *vertex_side;
 } pf_embed_params;
 
 pf_embed_params pf_embed_params_default(void);

@@ -1,0 +1,283 @@
+/* Caps of a surface cut (pf_surface_cut): each opened face clipped to the inside of the surface.
+ * The clipped region's boundary is made of the section pieces the face holds (directed with the
+ * surface's inside on their left about the cap's outward normal) and the pieces of the face's
+ * own edges that lie inside the surface (crossing parity of the section in the plane), split
+ * where the section meets them; pf_split_cap_polygons turns those edges into polygons. Corners
+ * and points on the face's edges are the group's points, so that neighbouring faces' caps, the
+ * two sides' caps at the crack front and the slits of the split triangles share vertices. */
+#include "surface_cut_internal.h"
+
+#include <pf/split.h>
+
+#include <string.h>
+
+typedef struct cap_buf {
+    int64_t n, cap;
+    uint32_t *e; /* [2 cap] directed edges, surface vertices */
+    int32_t n_ends, cap_ends;
+    int32_t *ends; /* points ending the face's section pieces */
+    int32_t n_chain, cap_chain;
+    int32_t *chain;
+    double *chain_t;
+} cap_buf;
+
+static void cap_buf_release(cap_buf *b)
+{
+    pf_free(b->e);
+    pf_free(b->ends);
+    pf_free(b->chain);
+    pf_free(b->chain_t);
+    memset(b, 0, sizeof *b);
+}
+
+static pf_status push_edge(cap_buf *b, int32_t u, int32_t v, pf_error *err)
+{
+    if (b->n == b->cap) {
+        int64_t cap = b->cap ? 2 * b->cap : 64;
+        uint32_t *e = pf_realloc_array(b->e, 2 * (size_t)cap, sizeof *e);
+        PF_CHECK(e, err, PF_ERR_NOMEM, "out of memory for %lld cap edges", (long long)cap);
+        b->e = e;
+        b->cap = cap;
+    }
+    b->e[2 * b->n] = (uint32_t)u;
+    b->e[2 * b->n + 1] = (uint32_t)v;
+    b->n++;
+    return PF_OK;
+}
+
+static pf_status push_int(int32_t **a, int32_t *n, int32_t *cap, int32_t v, pf_error *err)
+{
+    if (*n == *cap) {
+        int32_t c = *cap ? 2 * *cap : 32;
+        int32_t *p = pf_realloc_array(*a, (size_t)c, sizeof *p);
+        PF_CHECK(p, err, PF_ERR_NOMEM, "out of memory for %d cap points", (int)c);
+        *a = p;
+        *cap = c;
+    }
+    (*a)[(*n)++] = v;
+    return PF_OK;
+}
+
+static bool has_edge(const cap_buf *b, int64_t n, uint32_t u, uint32_t v)
+{
+    for (int64_t i = 0; i < n; ++i)
+        if ((b->e[2 * i] == u && b->e[2 * i + 1] == v) ||
+            (b->e[2 * i] == v && b->e[2 * i + 1] == u))
+            return true;
+    return false;
+}
+
+static double seg_dist(double u, double v, const double *s)
+{
+    double ex = s[2] - s[0], ey = s[3] - s[1], wx = u - s[0], wy = v - s[1];
+    double ee = ex * ex + ey * ey, t = ee > 0 ? (wx * ex + wy * ey) / ee : 0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    return hypot(wx - t * ex, wy - t * ey);
+}
+
+/* 1 inside the surface, 0 outside, -1 on its section (within tol): crossing parity of a ray
+ * along the first projected axis. */
+static int inside_section(const sc_state *c, double u, double v)
+{
+    int inside = 0;
+    for (int64_t i = 0; i < c->n_seg; ++i) {
+        const double *s = c->seg + 4 * i;
+        if (seg_dist(u, v, s) <= c->g->tol)
+            return -1;
+        if ((s[1] > v) != (s[3] > v) && u < s[0] + (v - s[1]) * (s[2] - s[0]) / (s[3] - s[1]))
+            inside ^= 1;
+    }
+    return inside;
+}
+
+static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, pf_arena *arena,
+                                 int32_t face, pf_error *err)
+{
+    uint32_t local[3 * 62], *tri = n <= 64 ? local : pf_alloc_array(3 * (size_t)n, sizeof *tri);
+    PF_CHECK(tri, err, PF_ERR_NOMEM, "out of memory for a cap of %d corners", (int)n);
+    pf_status st = pf_polygon_triangulate(c->s->x, poly, n, arena, tri, NULL, err);
+    for (int32_t t = 0; t < n - 2 && st >= 0; ++t) {
+        uint32_t a = poly[tri[3 * t]], b = poly[tri[3 * t + 1]], d = poly[tri[3 * t + 2]];
+        st = pf_sc_add_tri(c->s, a, b, d, PF_SURFACE_CAP, -1, err);
+        if (st >= 0) {
+            pf_vec3 xa = pf_v3_load(c->s->x + 3 * (size_t)a);
+            pf_vec3 ab = pf_v3_sub(pf_v3_load(c->s->x + 3 * (size_t)b), xa);
+            pf_vec3 ad = pf_v3_sub(pf_v3_load(c->s->x + 3 * (size_t)d), xa);
+            c->stats->cap_area += 0.5 * pf_v3_norm(pf_v3_cross(ab, ad));
+            c->stats->n_cap_tris++;
+        }
+    }
+    if (tri != local)
+        pf_free(tri);
+    if (st < 0)
+        pf_error_prefix(err, "cap of opened face %d", (int)face);
+    return st;
+}
+
+/* The point at a corner of the face: a section end within tol of it, else the node's point. */
+static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int32_t *out,
+                              pf_error *err)
+{
+    pf_vec3 x = pf_v3_load(c->m->x + 3 * (size_t)node);
+    for (int32_t i = 0; i < b->n_ends; ++i)
+        if (pf_v3_dist(c->pt[b->ends[i]].x, x) <= c->g->tol) {
+            *out = b->ends[i];
+            return PF_OK;
+        }
+    return pf_sc_node_point(c, c->g->canon[node], out, err);
+}
+
+/* The boundary pieces of face k on the edge from corner node a to node b, inside the surface. */
+static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint32_t na, uint32_t nb,
+                             int sigma, pf_error *err)
+{
+    const sc_group *g = c->g;
+    int32_t pa, pb;
+    PF_TRY(corner_point(c, b, na, &pa, err));
+    PF_TRY(corner_point(c, b, nb, &pb, err));
+    pf_vec3 xa = c->pt[pa].x, xb = c->pt[pb].x, d = pf_v3_sub(xb, xa);
+    double len = pf_v3_norm(d);
+    b->n_chain = 0;
+    int32_t cap_t = b->cap_chain;
+    PF_TRY(push_int(&b->chain, &b->n_chain, &b->cap_chain, pa, err));
+    if (b->cap_chain != cap_t) {
+        double *t = pf_realloc_array(b->chain_t, (size_t)b->cap_chain, sizeof *t);
+        PF_CHECK(t, err, PF_ERR_NOMEM, "out of memory for a cap chain");
+        b->chain_t = t;
+    }
+    b->chain_t[0] = 0;
+    for (int32_t i = 0; i < b->n_ends && len > g->tol; ++i) {
+        int32_t p = b->ends[i];
+        if (p == pa || p == pb)
+            continue;
+        pf_vec3 w = pf_v3_sub(c->pt[p].x, xa);
+        double t = pf_v3_dot(w, d) / (len * len);
+        if (t * len <= g->tol || (1 - t) * len <= g->tol ||
+            pf_v3_norm(pf_v3_sub(w, pf_v3_scale(d, t))) > g->tol)
+            continue;
+        cap_t = b->cap_chain;
+        PF_TRY(push_int(&b->chain, &b->n_chain, &b->cap_chain, p, err));
+        if (b->cap_chain != cap_t) {
+            double *nt = pf_realloc_array(b->chain_t, (size_t)b->cap_chain, sizeof *nt);
+            PF_CHECK(nt, err, PF_ERR_NOMEM, "out of memory for a cap chain");
+            b->chain_t = nt;
+        }
+        int32_t j = b->n_chain - 1;
+        for (; j > 1 && b->chain_t[j - 1] > t; --j) {
+            b->chain[j] = b->chain[j - 1];
+            b->chain_t[j] = b->chain_t[j - 1];
+        }
+        b->chain[j] = p;
+        b->chain_t[j] = t;
+    }
+    cap_t = b->cap_chain;
+    PF_TRY(push_int(&b->chain, &b->n_chain, &b->cap_chain, pb, err));
+    if (b->cap_chain != cap_t) {
+        double *nt = pf_realloc_array(b->chain_t, (size_t)b->cap_chain, sizeof *nt);
+        PF_CHECK(nt, err, PF_ERR_NOMEM, "out of memory for a cap chain");
+        b->chain_t = nt;
+    }
+    b->chain_t[b->n_chain - 1] = 1;
+    for (int32_t i = 0; i + 1 < b->n_chain; ++i) {
+        int32_t p = b->chain[i], q = b->chain[i + 1], u, v;
+        pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[p].x, c->pt[q].x), 0.5);
+        if (p == q || inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1)
+            continue;
+        PF_TRY(pf_sc_point_id(c, p, sigma, &u, err));
+        PF_TRY(pf_sc_point_id(c, q, sigma, &v, err));
+        if (u != v && !has_edge(b, n_sec_edges, (uint32_t)u, (uint32_t)v))
+            PF_TRY(push_edge(b, u, v, err));
+    }
+    return PF_OK;
+}
+
+static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, pf_error *err)
+{
+    const sc_group *g = c->g;
+    const pf_mesh *m = c->m;
+    int sigma = g->side[k];
+    int32_t f = g->face[k];
+    pf_vec3 normal = pf_v3_scale(g->plane.n, -sigma); /* outward from the face's element */
+    int64_t o = m->face_offsets[f], n = m->face_offsets[f + 1] - o;
+    bool reversed = pf_v3_dot(pf_polygon_area_vector(m->x, m->face_nodes + o, n), normal) < 0;
+    b->n = 0;
+    b->n_ends = 0;
+    for (int32_t i = 0; i < c->n_sec; ++i) {
+        const sc_section *s = &c->sec[i];
+        if (s->face[sigma > 0] != k)
+            continue;
+        int32_t u, v;
+        PF_TRY(pf_sc_point_id(c, s->p, sigma, &u, err));
+        PF_TRY(pf_sc_point_id(c, s->q, sigma, &v, err));
+        pf_vec3 d = pf_v3_sub(c->pt[s->q].x, c->pt[s->p].x);
+        bool flip = pf_v3_dot(pf_v3_cross(normal, d), s->normal) > 0;
+        PF_TRY(push_edge(b, flip ? v : u, flip ? u : v, err));
+        for (int e = 0; e < 2; ++e) {
+            int32_t p = e ? s->q : s->p, seen = 0;
+            for (int32_t j = 0; j < b->n_ends && !seen; ++j)
+                seen = b->ends[j] == p;
+            if (!seen)
+                PF_TRY(push_int(&b->ends, &b->n_ends, &b->cap_ends, p, err));
+        }
+    }
+    int64_t n_sec_edges = b->n;
+    if (!c->closed) {
+        /* an open surface: the whole face, where the surface crosses it */
+        if (n_sec_edges == 0)
+            return PF_OK;
+        b->n = 0;
+        for (int64_t j = 0; j < n; ++j) {
+            uint32_t na = m->face_nodes[o + (reversed ? n - 1 - j : j)];
+            int32_t p, id;
+            PF_TRY(pf_sc_node_point(c, g->canon[na], &p, err));
+            PF_TRY(pf_sc_point_id(c, p, sigma, &id, err));
+            PF_TRY(push_edge(b, id, id, err));
+        }
+        uint32_t *poly = NULL;
+        PF_CHECK(PF_ALLOC_N(poly, (size_t)n), err, PF_ERR_NOMEM, "out of memory for a cap");
+        for (int64_t j = 0; j < n; ++j)
+            poly[j] = b->e[2 * j];
+        pf_status st = triangulate_cap(c, poly, (int32_t)n, arena, f, err);
+        pf_free(poly);
+        return st;
+    }
+    for (int64_t j = 0; j < n; ++j) {
+        int64_t a = reversed ? n - 1 - j : j, bb = reversed ? (2 * n - 2 - j) % n : (j + 1) % n;
+        PF_TRY(edge_pieces(c, b, n_sec_edges, m->face_nodes[o + a], m->face_nodes[o + bb], sigma,
+                           err));
+    }
+    if (b->n == 0)
+        return PF_OK;
+    int64_t *offsets = NULL;
+    uint32_t *nodes = NULL;
+    int32_t n_polys = 0;
+    pf_status st =
+        pf_split_cap_polygons(c->s->x, normal, b->e, b->n, &offsets, &nodes, &n_polys, err);
+    if (st < 0)
+        pf_error_prefix(err, "cap of opened face %d", (int)f);
+    for (int32_t q = 0; q < n_polys && st >= 0; ++q)
+        st = triangulate_cap(c, nodes + offsets[q], (int32_t)(offsets[q + 1] - offsets[q]), arena,
+                             f, err);
+    pf_free(offsets);
+    pf_free(nodes);
+    return st;
+}
+
+pf_status pf_sc_caps(sc_state *c, pf_error *err)
+{
+    cap_buf b;
+    memset(&b, 0, sizeof b);
+    pf_arena arena = {0};
+    int64_t longest = 0;
+    for (int32_t k = 0; k < c->g->n_faces; ++k)
+        if (c->g->uv_offsets[k + 1] - c->g->uv_offsets[k] > longest)
+            longest = c->g->uv_offsets[k + 1] - c->g->uv_offsets[k];
+    /* a cap polygon has at most the face's corners and the section's points */
+    int64_t room = 32 * (longest + 2 * (int64_t)c->n_points + 8) + 256;
+    pf_status st = pf_arena_init(&arena, (size_t)room, err);
+    for (int32_t k = 0; k < c->g->n_faces && st >= 0; ++k)
+        st = face_cap(c, k, &b, &arena, err);
+    pf_arena_release(&arena);
+    cap_buf_release(&b);
+    return st;
+}

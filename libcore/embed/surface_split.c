@@ -1,0 +1,511 @@
+/* Splitting the triangles of the surface being cut by the plane of a group of opened faces
+ * (pf_surface_cut): exact sections, slits on the opened faces, fans on either side. */
+#include "surface_cut_internal.h"
+
+#include <string.h>
+
+/* ---- splitting the triangles ------------------------------------------------------------------
+ */
+
+/* Edge points by the edge's two vertices: open addressing, load at most one half. */
+typedef struct edge_map {
+    int64_t cap, n;
+    uint64_t *key;
+    int32_t *val;
+} edge_map;
+
+static void edge_map_release(edge_map *h)
+{
+    pf_free(h->key);
+    pf_free(h->val);
+    memset(h, 0, sizeof *h);
+}
+
+static uint64_t hash64(uint64_t k)
+{
+    k ^= k >> 33;
+    k *= 0xff51afd7ed558ccdull;
+    k ^= k >> 33;
+    return k;
+}
+
+static int32_t *edge_map_slot(edge_map *h, uint64_t key)
+{
+    for (uint64_t i = hash64(key) & (uint64_t)(h->cap - 1);; i = (i + 1) & (uint64_t)(h->cap - 1))
+        if (h->val[i] < 0 || h->key[i] == key) {
+            h->key[i] = key;
+            return &h->val[i];
+        }
+}
+
+static pf_status edge_map_grow(edge_map *h, pf_error *err)
+{
+    if (2 * (h->n + 1) <= h->cap)
+        return PF_OK;
+    edge_map old = *h;
+    h->cap = old.cap ? 2 * old.cap : 1024;
+    h->key = NULL;
+    h->val = NULL;
+    if (!PF_ALLOC_N(h->key, (size_t)h->cap) || !PF_ALLOC_N(h->val, (size_t)h->cap)) {
+        edge_map_release(h);
+        edge_map_release(&old);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for edge points");
+    }
+    for (int64_t i = 0; i < h->cap; ++i)
+        h->val[i] = -1;
+    for (int64_t i = 0; i < old.cap; ++i)
+        if (old.val[i] >= 0)
+            *edge_map_slot(h, old.key[i]) = old.val[i];
+    h->n = old.n;
+    edge_map_release(&old);
+    return PF_OK;
+}
+
+typedef struct split_ctx {
+    sc_state *c;
+    int8_t *cls;     /* [vertices at the start of the plane] -1, 0, +1 */
+    double *dist;    /* [same] signed distances */
+    int32_t *vpt;    /* [same] point of an on-plane vertex, -1 */
+    edge_map edges;  /* edge points */
+    uint32_t *stamp; /* [n_edges of the group] */
+    uint32_t now;
+    int32_t n_cross, cap_cross;
+    double *cross_t;    /* crossings of the current section: parameter */
+    int32_t *cross_pt;  /* their points (-1: edge crossing not yet made) */
+    int32_t *cross_key; /* corner: -1 - canonical node; edge: edge index */
+    uint8_t *split_src; /* [input triangles] split already */
+    int32_t *tri_pq;    /* [2 triangles at the start] the plane points of crossing ones, -1 */
+    uint8_t *tri_any;   /* [same] the section has a piece on an opened face */
+} split_ctx;
+
+/* Triangles with a slit mark the ends of their sections; every crossing triangle with a marked
+ * end is split too (with a slit or not), and marks its other end: along a section through
+ * triangles the marks spread until they reach the plane points no split triangle uses. */
+static pf_status spread_used(split_ctx *k, int32_t nt, pf_error *err)
+{
+    sc_state *c = k->c;
+    int32_t np = c->n_points;
+    int64_t *off = NULL;
+    int32_t *tris = NULL, *queue = NULL;
+    if (!PF_ALLOC_N(off, (size_t)np + 1) || !PF_ALLOC_N(tris, 2 * (size_t)nt + 1) ||
+        !PF_ALLOC_N(queue, 2 * (size_t)nt + 1)) {
+        pf_free(off);
+        pf_free(tris);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for the sections of %d triangles", (int)nt);
+    }
+    memset(off, 0, ((size_t)np + 1) * sizeof *off);
+    for (int64_t i = 0; i < 2 * (int64_t)nt; ++i)
+        if (k->tri_pq[i] >= 0)
+            off[k->tri_pq[i] + 1]++;
+    for (int32_t p = 0; p < np; ++p)
+        off[p + 1] += off[p];
+    for (int64_t i = 0; i < 2 * (int64_t)nt; ++i)
+        if (k->tri_pq[i] >= 0)
+            tris[off[k->tri_pq[i]]++] = (int32_t)(i / 2);
+    for (int32_t p = np; p > 0; --p)
+        off[p] = off[p - 1];
+    off[0] = 0;
+    int64_t head = 0, tail = 0;
+    for (int32_t t = 0; t < nt; ++t)
+        if (k->tri_pq[2 * (size_t)t] >= 0 && k->tri_any[t])
+            queue[tail++] = t;
+    for (int64_t i = 0; i < tail; ++i)
+        k->tri_any[queue[i]] = 2; /* queued */
+    while (head < tail) {
+        int32_t t = queue[head++];
+        for (int e = 0; e < 2; ++e) {
+            int32_t p = k->tri_pq[2 * (size_t)t + e];
+            if (c->pt[p].used)
+                continue;
+            c->pt[p].used = 1;
+            for (int64_t j = off[p]; j < off[p + 1]; ++j)
+                if (k->tri_any[tris[j]] != 2) {
+                    k->tri_any[tris[j]] = 2;
+                    queue[tail++] = tris[j];
+                }
+        }
+    }
+    pf_free(off);
+    pf_free(tris);
+    pf_free(queue);
+    return PF_OK;
+}
+
+static pf_status vertex_point(split_ctx *k, int32_t w, int32_t *out, pf_error *err)
+{
+    sc_state *c = k->c;
+    if (k->vpt[w] < 0) {
+        pf_vec3 x = pf_v3_load(c->s->x + 3 * (size_t)w);
+        PF_TRY(pf_sc_new_point(c, x, pf_v3_load(c->s->side + 3 * (size_t)w), w, pf_sc_on_cut(c, x),
+                               &k->vpt[w], err));
+    }
+    *out = k->vpt[w];
+    return PF_OK;
+}
+
+/* The point where the surface edge a-b (on opposite sides) meets the plane, placed from the
+ * lower vertex index so that both triangles of the edge get the same point. */
+static pf_status edge_point(split_ctx *k, int32_t a, int32_t b, int32_t *out, pf_error *err)
+{
+    if (a > b) {
+        int32_t t = a;
+        a = b;
+        b = t;
+    }
+    PF_TRY(edge_map_grow(&k->edges, err));
+    int32_t *slot = edge_map_slot(&k->edges, (uint64_t)a << 32 | (uint64_t)b);
+    if (*slot >= 0) {
+        *out = *slot;
+        return PF_OK;
+    }
+    sc_state *c = k->c;
+    double t = k->dist[a] / (k->dist[a] - k->dist[b]);
+    pf_vec3 xa = pf_v3_load(c->s->x + 3 * (size_t)a), xb = pf_v3_load(c->s->x + 3 * (size_t)b);
+    pf_vec3 x = pf_v3_add(xa, pf_v3_scale(pf_v3_sub(xb, xa), t));
+    pf_vec3 sa = pf_v3_load(c->s->side + 3 * (size_t)a),
+            sb = pf_v3_load(c->s->side + 3 * (size_t)b);
+    pf_vec3 side = pf_v3_add(pf_v3_scale(sa, 1 - t), pf_v3_scale(sb, t));
+    int32_t p;
+    PF_TRY(pf_sc_new_point(c, x, side, -1, pf_sc_on_cut(c, x), &p, err));
+    k->edges.n++;
+    *edge_map_slot(&k->edges, (uint64_t)a << 32 | (uint64_t)b) = p;
+    *out = p;
+    return PF_OK;
+}
+
+static pf_status push_crossing(split_ctx *k, double t, int32_t key, pf_error *err)
+{
+    if (k->n_cross == k->cap_cross) {
+        int32_t cap = k->cap_cross ? 2 * k->cap_cross : 32;
+        double *nt = pf_realloc_array(k->cross_t, (size_t)cap, sizeof *nt);
+        if (nt)
+            k->cross_t = nt;
+        int32_t *np = nt ? pf_realloc_array(k->cross_pt, (size_t)cap, sizeof *np) : NULL;
+        if (np)
+            k->cross_pt = np;
+        int32_t *nk = np ? pf_realloc_array(k->cross_key, (size_t)cap, sizeof *nk) : NULL;
+        if (nk)
+            k->cross_key = nk;
+        PF_CHECK(nk, err, PF_ERR_NOMEM, "out of memory for %d crossings", (int)cap);
+        k->cap_cross = cap;
+    }
+    k->cross_t[k->n_cross] = t;
+    k->cross_key[k->n_cross] = key;
+    k->cross_pt[k->n_cross++] = -1;
+    return PF_OK;
+}
+
+static double orient2(const double *a, const double *b, const double *p)
+{
+    return (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+}
+
+/* Where the section P-Q (projected pp, pq, length len) meets the corners and edges of the
+ * group's faces strictly inside it: corners within tol of it, proper crossings of edges away
+ * from their corners. Sorted by parameter, corners first at equal parameters, and merged within
+ * tol (the first kept). */
+static pf_status find_crossings(split_ctx *k, const double *pp, const double *pq, double len,
+                                pf_error *err)
+{
+    const sc_group *g = k->c->g;
+    const pf_mesh *m = k->c->m;
+    double tol = g->tol, lo[2], hi[2];
+    for (int a = 0; a < 2; ++a) {
+        lo[a] = fmin(pp[a], pq[a]) - tol;
+        hi[a] = fmax(pp[a], pq[a]) + tol;
+    }
+    k->n_cross = 0;
+    if (++k->now == 0) {
+        memset(k->stamp, 0, (size_t)g->n_edges * sizeof *k->stamp);
+        k->now = 1;
+    }
+    double d[2] = {pq[0] - pp[0], pq[1] - pp[1]};
+    for (int32_t f = 0; f < g->n_faces; ++f) {
+        const double *b = g->box + 4 * (size_t)f;
+        if (b[0] > hi[0] || b[2] < lo[0] || b[1] > hi[1] || b[3] < lo[1])
+            continue;
+        int64_t o = g->uv_offsets[f], n = g->uv_offsets[f + 1] - o;
+        for (int64_t j = 0; j < n; ++j) {
+            const double *a = g->uv + 2 * (o + j), *c = g->uv + 2 * (o + (j + 1) % n);
+            int32_t e = g->corner_edge[o + j];
+            /* corner a */
+            double t = ((a[0] - pp[0]) * d[0] + (a[1] - pp[1]) * d[1]) / (len * len);
+            if (t * len > tol && (1 - t) * len > tol && fabs(orient2(pp, pq, a)) / len <= tol) {
+                int32_t node = g->canon[m->face_nodes[m->face_offsets[g->face[f]] + j]];
+                PF_TRY(push_crossing(k, t, -1 - node, err));
+            }
+            if (k->stamp[e] == k->now)
+                continue;
+            k->stamp[e] = k->now;
+            double da = orient2(pp, pq, a) / len, dc = orient2(pp, pq, c) / len;
+            if (!((da > tol && dc < -tol) || (da < -tol && dc > tol)))
+                continue;
+            double lam = da / (da - dc), el = hypot(c[0] - a[0], c[1] - a[1]);
+            if (lam * el <= tol || (1 - lam) * el <= tol)
+                continue;
+            double x[2] = {a[0] + lam * (c[0] - a[0]), a[1] + lam * (c[1] - a[1])};
+            t = ((x[0] - pp[0]) * d[0] + (x[1] - pp[1]) * d[1]) / (len * len);
+            if (t * len > tol && (1 - t) * len > tol)
+                PF_TRY(push_crossing(k, t, e, err));
+        }
+    }
+    /* insertion sort: by parameter, corners (negative keys) before edges, then by key */
+    for (int32_t i = 1; i < k->n_cross; ++i)
+        for (int32_t j = i; j > 0; --j) {
+            double t0 = k->cross_t[j - 1], t1 = k->cross_t[j];
+            int32_t k0 = k->cross_key[j - 1], k1 = k->cross_key[j];
+            bool swap = t1 < t0 - tol / len ||
+                        (fabs(t1 - t0) * len <= tol && (k1 < 0) > (k0 < 0)) ||
+                        (fabs(t1 - t0) * len <= tol && (k1 < 0) == (k0 < 0) && k1 < k0);
+            if (!swap)
+                break;
+            k->cross_t[j - 1] = t1, k->cross_t[j] = t0;
+            k->cross_key[j - 1] = k1, k->cross_key[j] = k0;
+        }
+    int32_t n = 0;
+    for (int32_t i = 0; i < k->n_cross; ++i)
+        if (n == 0 || (k->cross_t[i] - k->cross_t[n - 1]) * len > tol) {
+            k->cross_t[n] = k->cross_t[i];
+            k->cross_key[n++] = k->cross_key[i];
+        }
+    k->n_cross = n;
+    return PF_OK;
+}
+
+static pf_status push_segment(sc_state *c, const double *pp, const double *pq, pf_error *err)
+{
+    if (c->n_seg == c->cap_seg) {
+        int64_t cap = c->cap_seg ? 2 * c->cap_seg : 256;
+        double *s = pf_realloc_array(c->seg, 4 * (size_t)cap, sizeof *s);
+        PF_CHECK(s, err, PF_ERR_NOMEM, "out of memory for a section of %lld segments",
+                 (long long)cap);
+        c->seg = s;
+        c->cap_seg = cap;
+    }
+    memcpy(c->seg + 4 * c->n_seg, pp, 2 * sizeof *pp);
+    memcpy(c->seg + 4 * c->n_seg + 2, pq, 2 * sizeof *pq);
+    c->n_seg++;
+    return PF_OK;
+}
+
+static pf_status push_section(sc_state *c, sc_section s, pf_error *err)
+{
+    if (c->n_sec == c->cap_sec) {
+        int32_t cap = c->cap_sec ? 2 * c->cap_sec : 256;
+        sc_section *n = pf_realloc_array(c->sec, (size_t)cap, sizeof *n);
+        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for %d section pieces", (int)cap);
+        c->sec = n;
+        c->cap_sec = cap;
+    }
+    c->sec[c->n_sec++] = s;
+    return PF_OK;
+}
+
+/* Triangle t crosses the plane: its boundary as corners and the two plane points; the section
+ * between them split at the crossings; the pieces on opened faces become slits; each side's
+ * polygon fanned from its first corner (off the plane, so no fan triangle is flat). */
+static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *err)
+{
+    sc_state *c = k->c;
+    sc_surface *s = c->s;
+    const sc_group *g = c->g;
+    uint32_t v[3];
+    memcpy(v, s->tri + 3 * (size_t)t, sizeof v);
+    int32_t item[6], is_plane[6], n_item = 0, plane_at[2], n_plane = 0;
+    for (int q = 0; q < 3; ++q) {
+        int32_t a = (int32_t)v[q], b = (int32_t)v[(q + 1) % 3];
+        if (k->cls[a] == 0) {
+            PF_TRY(vertex_point(k, a, &item[n_item], err));
+            is_plane[n_item] = 1;
+            plane_at[n_plane++] = n_item++;
+        } else {
+            item[n_item] = a;
+            is_plane[n_item++] = 0;
+        }
+        if (k->cls[a] * k->cls[b] < 0) {
+            PF_TRY(edge_point(k, a, b, &item[n_item], err));
+            is_plane[n_item] = 1;
+            plane_at[n_plane++] = n_item++;
+        }
+    }
+    PF_CHECK(n_plane == 2, err, PF_ERR_NUMERIC,
+             "surface triangle %d meets the plane of opened face %d at %d points", (int)s->src[t],
+             (int)g->face[0], (int)n_plane);
+    int32_t P = item[plane_at[0]], Q = item[plane_at[1]];
+    pf_vec3 xp = c->pt[P].x, xq = c->pt[Q].x;
+    double pp[2] = {pf_v3_get(xp, g->ax[0]), pf_v3_get(xp, g->ax[1])};
+    double pq[2] = {pf_v3_get(xq, g->ax[0]), pf_v3_get(xq, g->ax[1])};
+    double len = hypot(pq[0] - pp[0], pq[1] - pp[1]);
+    k->n_cross = 0;
+    if (len > g->tol)
+        PF_TRY(find_crossings(k, pp, pq, len, err));
+    if (decide) {
+        /* a slit: some piece of the section (between crossings) on an opened face */
+        bool any = false;
+        for (int32_t i = 0; i <= k->n_cross && !any; ++i) {
+            double t0 = i ? k->cross_t[i - 1] : 0, t1 = i < k->n_cross ? k->cross_t[i] : 1;
+            double tm = 0.5 * (t0 + t1);
+            double u = pp[0] + tm * (pq[0] - pp[0]), w = pp[1] + tm * (pq[1] - pp[1]);
+            any = pf_sc_face_at(g, u, w, -1) >= 0 || pf_sc_face_at(g, u, w, 1) >= 0;
+        }
+        k->tri_pq[2 * (size_t)t] = P;
+        k->tri_pq[2 * (size_t)t + 1] = Q;
+        k->tri_any[t] = any;
+        return PF_OK;
+    }
+    PF_TRY(push_segment(c, pp, pq, err));
+    /* the points along the section: P, crossings, Q */
+    int32_t nl = k->n_cross + 2;
+    int32_t local[128],
+        *line = 2 * nl + 8 <= 128 ? local : pf_alloc_array(2 * (size_t)nl + 8, sizeof *line);
+    PF_CHECK(line, err, PF_ERR_NOMEM, "out of memory for %d section points", (int)nl);
+    int32_t *poly = line + nl;
+    pf_status st = PF_OK;
+    line[0] = P;
+    line[nl - 1] = Q;
+    for (int32_t i = 0; i < k->n_cross && st >= 0; ++i) {
+        int32_t key = k->cross_key[i];
+        if (key < 0) {
+            st = pf_sc_node_point(c, -1 - key, &line[i + 1], err);
+        } else {
+            double tt = k->cross_t[i];
+            pf_vec3 x = pf_v3_add(xp, pf_v3_scale(pf_v3_sub(xq, xp), tt));
+            pf_vec3 side =
+                pf_v3_add(pf_v3_scale(c->pt[P].side, 1 - tt), pf_v3_scale(c->pt[Q].side, tt));
+            st = pf_sc_new_point(c, x, side, -1, !g->front[key], &line[i + 1], err);
+        }
+    }
+    pf_vec3 normal = pf_v3_cross(
+        pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[1]), pf_v3_load(s->x + 3 * (size_t)v[0])),
+        pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[2]), pf_v3_load(s->x + 3 * (size_t)v[0])));
+    bool any = false;
+    for (int32_t i = 0; i + 1 < nl && st >= 0; ++i) {
+        pf_vec3 a = c->pt[line[i]].x, b = c->pt[line[i + 1]].x;
+        pf_vec3 mid = pf_v3_scale(pf_v3_add(a, b), 0.5);
+        double u = pf_v3_get(mid, g->ax[0]), w = pf_v3_get(mid, g->ax[1]);
+        sc_section sec = {
+            line[i], line[i + 1], {pf_sc_face_at(g, u, w, -1), pf_sc_face_at(g, u, w, 1)}, normal};
+        if (sec.face[0] >= 0 || sec.face[1] >= 0) {
+            any = true;
+            st = push_section(c, sec, err);
+        }
+    }
+    if (st >= 0 && (any || c->pt[P].used || c->pt[Q].used)) {
+        int32_t src = s->src[t];
+        if (src >= 0 && !k->split_src[src]) {
+            k->split_src[src] = 1;
+            c->stats->n_split_tris++;
+        }
+        uint8_t part = s->part[t];
+        bool first = true;
+        for (int sigma = -1; sigma <= 1 && st >= 0; sigma += 2) {
+            /* start at the plane item followed by a corner on this side */
+            int32_t start = -1;
+            for (int32_t i = 0; i < n_item && start < 0; ++i)
+                if (is_plane[i] && !is_plane[(i + 1) % n_item] &&
+                    k->cls[item[(i + 1) % n_item]] == sigma)
+                    start = i;
+            int32_t np = 0, end_item = -1;
+            st = pf_sc_point_id(c, item[start], sigma, &poly[np++], err);
+            for (int32_t i = (start + 1) % n_item; st >= 0; i = (i + 1) % n_item) {
+                if (is_plane[i]) {
+                    st = pf_sc_point_id(c, item[i], sigma, &poly[np++], err);
+                    end_item = item[i];
+                    break;
+                }
+                poly[np++] = item[i];
+            }
+            /* back along the section from the end point to the start point */
+            bool from_q = end_item == Q;
+            for (int32_t j = 1; j + 1 < nl && st >= 0; ++j)
+                st = pf_sc_point_id(c, line[from_q ? nl - 1 - j : j], sigma, &poly[np++], err);
+            for (int32_t j = 2; j < np && st >= 0; ++j) {
+                uint32_t a = (uint32_t)poly[1], b = (uint32_t)poly[j],
+                         d = (uint32_t)poly[(j + 1) % np];
+                if (first) {
+                    s->tri[3 * (size_t)t] = a, s->tri[3 * (size_t)t + 1] = b,
+                               s->tri[3 * (size_t)t + 2] = d;
+                    first = false;
+                } else {
+                    st = pf_sc_add_tri(s, a, b, d, part, src, err);
+                }
+            }
+        }
+    }
+    if (line != local)
+        pf_free(line);
+    return st;
+}
+
+pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
+{
+    split_ctx k;
+    memset(&k, 0, sizeof k);
+    k.c = c;
+    k.split_src = split_src;
+    sc_surface *s = c->s;
+    const sc_group *g = c->g;
+    int32_t nv = s->n_verts, nt = s->n_tris;
+    pf_status st = PF_OK;
+    if (!PF_ALLOC_N(k.cls, (size_t)nv) || !PF_ALLOC_N(k.dist, (size_t)nv) ||
+        !PF_ALLOC_N(k.vpt, (size_t)nv) || !PF_ALLOC_N(k.stamp, (size_t)g->n_edges) ||
+        !PF_ALLOC_N(k.tri_pq, 2 * (size_t)nt) || !PF_ALLOC_N(k.tri_any, (size_t)nt))
+        st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                          "out of memory classifying %d surface vertices", (int)nv);
+    if (st >= 0) {
+        memset(k.stamp, 0, (size_t)g->n_edges * sizeof *k.stamp);
+        for (int64_t i = 0; i < 2 * (int64_t)nt; ++i)
+            k.tri_pq[i] = -1;
+        for (int32_t i = 0; i < nv; ++i) {
+            double d = pf_plane_signed_distance(g->plane, pf_v3_load(s->x + 3 * (size_t)i));
+            k.dist[i] = d;
+            k.cls[i] = (int8_t)(d > g->tol ? 1 : d < -g->tol ? -1 : 0);
+            k.vpt[i] = -1;
+        }
+    }
+    /* first which triangles get a slit, so that their neighbours on the same edge points are
+     * split there too (a section leaving the opened faces ends on a shared point) */
+    for (int32_t t = 0; t < nt && st >= 0; ++t) {
+        const uint32_t *v = s->tri + 3 * (size_t)t;
+        int has[3] = {0, 0, 0};
+        for (int q = 0; q < 3; ++q)
+            has[k.cls[v[q]] + 1] = 1;
+        if (has[0] && has[2])
+            st = split_triangle(&k, t, true, err);
+    }
+    if (st >= 0)
+        st = spread_used(&k, nt, err);
+    for (int32_t t = 0; t < nt && st >= 0; ++t) {
+        uint32_t *v = s->tri + 3 * (size_t)t;
+        int has[3] = {0, 0, 0}; /* -1, 0, +1 */
+        for (int q = 0; q < 3; ++q)
+            has[k.cls[v[q]] + 1] = 1;
+        if (has[0] && has[2]) {
+            st = split_triangle(&k, t, false, err);
+        } else if (has[1] && (has[0] || has[2])) {
+            /* touching the plane: its corners there take the vertex of its side */
+            int sigma = has[2] ? 1 : -1;
+            for (int q = 0; q < 3 && st >= 0; ++q)
+                if (k.cls[v[q]] == 0) {
+                    int32_t p, id;
+                    st = vertex_point(&k, (int32_t)v[q], &p, err);
+                    if (st >= 0)
+                        st = pf_sc_point_id(c, p, sigma, &id, err);
+                    if (st >= 0)
+                        v[q] = (uint32_t)id;
+                }
+        }
+    }
+    pf_free(k.cls);
+    pf_free(k.dist);
+    pf_free(k.vpt);
+    pf_free(k.stamp);
+    pf_free(k.tri_pq);
+    pf_free(k.tri_any);
+    pf_free(k.cross_t);
+    pf_free(k.cross_pt);
+    pf_free(k.cross_key);
+    edge_map_release(&k.edges);
+    return st;
+}

@@ -5,49 +5,55 @@
 #include <string.h>
 
 #include <pf/cut.h>
+#include <pf/embed.h>
 #include <pf/io.h>
 
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-cut [FILE | -] [--plane PX,PY,PZ,NX,NY,NZ ...] [--surface KNIFE [--keep inside|"
-    "outside]]\n"
-    "              [--merge F] [--output FILE] [--stats FILE] [--quiet]\n"
+    "Usage: pf-cut [FILE | -] [--plane PX,PY,PZ,NX,NY,NZ ...]\n"
+    "              [--surface KNIFE [--keep inside|outside]] [--merge F]\n"
+    "              [--embed mls|bary|harmonic] [--output FILE] [--stats FILE] [--quiet]\n"
     "              [--up AXIS] [--scale S] [--keep-orientation]\n"
     "\n"
-    "Cuts the mesh (the latest MESH) of a pf stream before a simulation and writes the stream on\n"
-    "with the cut mesh:\n"
+    "Cuts the mesh (the latest MESH) of a pf stream before a simulation and writes the\n"
+    "stream on with the cut mesh:\n"
     "  pf-slice bunny.obj | pf-cut --plane 0,0,0.1,0,0,1 | pf-sim scene.json\n"
     "  pf-shape box --extent 1,1,1 --cells 12,12,12 | pf-cut --surface knife.obj > out.pfs\n"
     "\n"
     "  FILE           the input stream (default: stdin)\n"
-    "  --plane P,N    cut through the plane of point P and normal N (six numbers): every element\n"
-    "                 the plane crosses or touches is split by it, and the material is separated\n"
-    "                 across it (the faces on the plane become boundary faces of both sides, "
-    "their\n"
-    "                 nodes duplicated), so the mesh may fall into several bodies. Repeatable;\n"
-    "                 the planes are applied in order. Pieces below the sliver fraction are not\n"
-    "                 made (the element stays whole on one side) and a body below it is dropped,\n"
-    "                 its volume reported. The faces the cuts opened form the mesh's face group\n"
-    "                 \"cut\" (GRPS chunk), which pf-sim and pf-render read\n"
-    "  --surface KNIFE  keep every element's intersection with the inside of the closed surface\n"
-    "                 KNIFE (any format pf-import reads, or a stream's first SURF): elements "
-    "wholly\n"
-    "                 inside stay as they are, elements outside are dropped, crossed ones become\n"
-    "                 their exact parts (they must be convex: tets, hexes), slivers merged into a\n"
-    "                 neighbour; the DG paper's bunny cut out of a cube. Applied before the "
-    "planes\n"
+    "  --plane P,N    cut through the plane of point P and normal N (six numbers): every\n"
+    "                 element the plane crosses or touches is split by it, and the material\n"
+    "                 is separated across it (the faces on the plane become boundary faces\n"
+    "                 of both sides, their nodes duplicated), so the mesh may fall into\n"
+    "                 several bodies. Repeatable; the planes are applied in order. Pieces\n"
+    "                 below the sliver fraction are not made (the element stays whole on\n"
+    "                 one side) and a body below it is dropped, its volume reported. The\n"
+    "                 faces the cuts opened form the mesh's face group \"cut\" (GRPS chunk),\n"
+    "                 which pf-sim and pf-render read\n"
+    "  --surface KNIFE  keep every element's intersection with the inside of the closed\n"
+    "                 surface KNIFE (any format pf-import reads, or a stream's first SURF):\n"
+    "                 elements wholly inside stay as they are, elements outside are dropped,\n"
+    "                 crossed ones become their exact parts (they must be convex: tets,\n"
+    "                 hexes), slivers merged into a neighbour; the DG paper's bunny cut out\n"
+    "                 of a cube. Applied before the planes\n"
     "  --keep inside|outside  which side of KNIFE to keep (default inside)\n"
-    "  --merge F      the sliver fraction of an element's volume, in (0, 1) (default "
-    "0.05)\n" PF_CLI_IMPORT_USAGE "                 (these three apply to KNIFE)\n"
+    "  --merge F      the sliver fraction of an element's volume, in (0, 1) (default 0.05)\n"
+    "  --embed M      how the cut embedded surface's new weights are computed: mls\n"
+    "                 (default), bary or harmonic, as pf-embed's --method\n"
+    "  --drop-surface do not cut the embedded surface: drop SURF and WGHT\n" PF_CLI_IMPORT_USAGE
+    "                 (these three apply to KNIFE)\n"
     "  --output FILE  write the stream to FILE (through FILE.part, renamed when complete)\n"
     "                 instead of stdout\n"
     "  --stats FILE   write what was done as JSON to FILE (docs/cut.md)\n"
     "  --quiet        no summary on stderr\n"
     "\n"
-    "The stream's other chunks are passed on; frames, stress and checkpoints of the old mesh are\n"
-    "dropped, and so are its surface (SURF) and embedding weights (WGHT): this version does not\n"
-    "cut an embedded surface yet (pf-render then draws the mesh's boundary, cut faces included).\n"
+    "The stream's embedded surface (SURF) is cut by the planes too: its triangles are split\n"
+    "on the opened faces, its vertices there duplicated per side, the cut capped, and its\n"
+    "weights (WGHT) recomputed so that no vertex moves with material across the cut. After\n"
+    "--surface (or with --drop-surface) the old SURF and WGHT are dropped (pf-render then\n"
+    "draws the mesh's boundary). The stream's other chunks are passed on; frames, stress\n"
+    "and checkpoints of the old mesh are dropped.\n"
     "\n"
     "Exit 0 ok; 1 bad input (the message names the file, chunk or element); 2 bad usage.\n";
 
@@ -56,6 +62,8 @@ enum {
     OPT_SURFACE,
     OPT_KEEP,
     OPT_MERGE,
+    OPT_EMBED,
+    OPT_DROP_SURFACE,
     OPT_OUTPUT,
     OPT_STATS,
     OPT_QUIET,
@@ -75,6 +83,11 @@ typedef struct run {
     pf_stream_state state;  /* the input's latest MESH (with its groups), SURF and WGHT */
     int64_t dropped_chunks; /* FRAM, STRS, CKPT of the old mesh */
     pf_mesh mesh;           /* the mesh being cut */
+    pf_surface surf;        /* the embedded surface being cut, and its weights */
+    pf_weights weights;
+    bool have_surf, surf_dropped, drop_surface;
+    pf_embed_params embed;
+    pf_surface_cut_stats surf_stats; /* summed over the planes */
     /* what was done */
     int32_t in_elems, in_nodes;
     double in_volume;
@@ -108,12 +121,20 @@ static pf_plane parse_plane(const pf_cli *cli, const char *text)
 
 static void parse_arguments(run *r, int argc, char **argv)
 {
-    static const pf_cli_option options[] = {
-        {"plane", true, OPT_PLANE},  {"surface", true, OPT_SURFACE},    {"keep", true, OPT_KEEP},
-        {"merge", true, OPT_MERGE},  {"output", true, OPT_OUTPUT},      {"stats", true, OPT_STATS},
-        {"quiet", false, OPT_QUIET}, PF_CLI_IMPORT_OPTIONS(OPT_IMPORT), {NULL, false, 0}};
+    static const pf_cli_option options[] = {{"plane", true, OPT_PLANE},
+                                            {"surface", true, OPT_SURFACE},
+                                            {"keep", true, OPT_KEEP},
+                                            {"merge", true, OPT_MERGE},
+                                            {"embed", true, OPT_EMBED},
+                                            {"drop-surface", false, OPT_DROP_SURFACE},
+                                            {"output", true, OPT_OUTPUT},
+                                            {"stats", true, OPT_STATS},
+                                            {"quiet", false, OPT_QUIET},
+                                            PF_CLI_IMPORT_OPTIONS(OPT_IMPORT),
+                                            {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-cut", USAGE, argc, argv);
     r->imp = pf_cli_import_default();
+    r->embed = pf_embed_params_default();
     bool keep_given = false;
     const char *value;
     for (int id; (id = pf_cli_next(&r->cli, options, &value)) != PF_CLI_END;) {
@@ -142,6 +163,19 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->min_fraction = pf_cli_parse_double(&r->cli, "merge", value);
             if (!(r->min_fraction > 0 && r->min_fraction < 1))
                 pf_cli_usage_error(&r->cli, "--merge must be in (0, 1)");
+            break;
+        case OPT_EMBED:
+            if (strcmp(value, "mls") == 0)
+                r->embed.method = PF_EMBED_MLS;
+            else if (strcmp(value, "bary") == 0)
+                r->embed.method = PF_EMBED_BARY;
+            else if (strcmp(value, "harmonic") == 0)
+                r->embed.method = PF_EMBED_HARMONIC;
+            else
+                pf_cli_usage_error(&r->cli, "--embed is mls, bary or harmonic, not '%s'", value);
+            break;
+        case OPT_DROP_SURFACE:
+            r->drop_surface = true;
             break;
         case OPT_OUTPUT:
             r->output = value;
@@ -263,6 +297,29 @@ static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, pf_error *err)
         pf_error_prefix(err, "--plane %d", (int)k + 1);
         return st;
     }
+    if (r->have_surf) { /* the embedded surface along the faces this plane opened */
+        pf_surface cut_surf = {0};
+        pf_weights cut_w = {0};
+        pf_surface_cut_stats ss;
+        st = pf_surface_cut(&r->surf, &out, &res, &r->embed, &cut_surf, &cut_w, &ss, err);
+        if (st < 0) {
+            pf_error_prefix(err,
+                            "--plane %d: the embedded surface (--drop-surface cuts the mesh "
+                            "alone)",
+                            (int)k + 1);
+            pf_cut_result_release(&res);
+            pf_mesh_release(&out);
+            return st;
+        }
+        pf_surface_release(&r->surf);
+        pf_weights_release(&r->weights);
+        r->surf = cut_surf;
+        r->weights = cut_w;
+        r->surf_stats.n_split_tris += ss.n_split_tris;
+        r->surf_stats.n_duplicated += ss.n_duplicated;
+        r->surf_stats.n_cap_tris += ss.n_cap_tris;
+        r->surf_stats.cap_area += ss.cap_area;
+    }
     r->split += res.n_split;
     r->snapped += res.n_snapped - missed;
     r->opened += res.n_opened;
@@ -304,6 +361,20 @@ static pf_status cut(run *r, pf_error *err)
     r->in_volume = total_volume(&r->mesh);
     if (r->knife_path)
         PF_TRY(clip(r, err));
+    if (r->knife_path || r->drop_surface) {
+        r->surf_dropped = r->state.have_surface;
+    } else if (r->state.have_surface) {
+        const pf_surface *in = &r->state.surface;
+        PF_TRY(pf_surface_alloc(&r->surf, in->n_verts, in->n_tris, err));
+        r->surf.id = in->id;
+        memcpy(r->surf.x, in->x, 3 * (size_t)in->n_verts * sizeof *in->x);
+        memcpy(r->surf.tri, in->tri, 3 * (size_t)in->n_tris * sizeof *in->tri);
+        if (in->tri_part) {
+            PF_CHECK(PF_ALLOC_N(r->surf.tri_part, in->n_tris), err, PF_ERR_NOMEM, "out of memory");
+            memcpy(r->surf.tri_part, in->tri_part, (size_t)in->n_tris);
+        }
+        r->have_surf = true;
+    }
     uint8_t *cut_face = NULL;
     for (int32_t k = 0; st >= 0 && k < r->n_planes; ++k)
         st = cut_plane(r, k, &cut_face, err);
@@ -337,12 +408,19 @@ static void report(const run *r)
                 r->dropped_volume);
     fprintf(stderr, "pf-cut: %d -> %d elements, %d -> %d nodes; %s\n", (int)r->in_elems,
             (int)r->mesh.n_elems, (int)r->in_nodes, (int)r->mesh.n_nodes, times);
-    if (r->state.have_surface || r->dropped_chunks > 0)
+    if (r->have_surf)
+        fprintf(stderr,
+                "pf-cut: embedded surface: %d triangles split, %d vertices duplicated, %d cap "
+                "triangles (area %.6g), %d triangles; %s weights recomputed\n",
+                (int)r->surf_stats.n_split_tris, (int)r->surf_stats.n_duplicated,
+                (int)r->surf_stats.n_cap_tris, r->surf_stats.cap_area, (int)r->surf.n_tris,
+                pf_embed_method_name(r->embed.method));
+    if (r->surf_dropped || r->dropped_chunks > 0)
         fprintf(stderr,
                 "pf-cut: dropped from the stream:%s%s%s (they belong to the mesh before the "
                 "cut)\n",
-                r->state.have_surface ? " the embedded surface (SURF)" : "",
-                r->state.have_weights ? " and its weights (WGHT)" : "",
+                r->surf_dropped ? " the embedded surface (SURF)" : "",
+                r->surf_dropped && r->state.have_weights ? " and its weights (WGHT)" : "",
                 r->dropped_chunks > 0 ? " frames, stress and checkpoints" : "");
 }
 
@@ -359,14 +437,18 @@ static pf_status write_stats(const run *r, pf_error *err)
         "\"nodes_duplicated\": %d,\n  \"bodies\": %d,\n  \"bodies_dropped\": %d,\n  "
         "\"dropped_volume\": %.17g,\n  \"surface\": %s,\n  \"keep\": \"%s\",\n  "
         "\"elements_kept\": %d,\n  \"elements_clipped\": %d,\n  \"parts\": %d,\n  "
-        "\"slivers_merged\": %d,\n  \"elements_dropped\": %d,\n  \"wall_seconds\": %.6f,\n  "
+        "\"slivers_merged\": %d,\n  \"elements_dropped\": %d,\n  \"embedded_surface\": %s,\n  "
+        "\"surface_triangles_split\": %d,\n  \"surface_vertices_duplicated\": %d,\n  "
+        "\"cap_triangles\": %d,\n  \"cap_area\": %.17g,\n  \"wall_seconds\": %.6f,\n  "
         "\"cpu_seconds\": %.6f\n}\n",
         (int)r->in_elems, (int)r->mesh.n_elems, (int)r->in_nodes, (int)r->mesh.n_nodes,
         r->in_volume, total_volume(&r->mesh), (int)r->n_planes, (int)r->split, (int)r->snapped,
         (int)r->opened, (int)r->duplicated, (int)r->bodies, (int)r->dropped_bodies,
         r->dropped_volume, r->clipped ? "true" : "false",
         r->clip.keep == PF_CLIP_OUTSIDE ? "outside" : "inside", (int)c->n_kept, (int)c->n_clipped,
-        (int)c->n_parts, (int)c->n_merged, (int)c->n_dropped, pf_time_seconds() - r->wall0,
+        (int)c->n_parts, (int)c->n_merged, (int)c->n_dropped, r->have_surf ? "true" : "false",
+        (int)r->surf_stats.n_split_tris, (int)r->surf_stats.n_duplicated,
+        (int)r->surf_stats.n_cap_tris, r->surf_stats.cap_area, pf_time_seconds() - r->wall0,
         pf_cpu_seconds() - r->cpu0);
     PF_CHECK(n > 0 && (size_t)n < sizeof json, err, PF_ERR_INVALID, "statistics too long");
     return pf_write_file_atomic(r->stats_path, json, (size_t)n, "statistics", err);
@@ -397,8 +479,12 @@ static pf_status run_cut(run *r, pf_atomic_file *file, pf_error *err)
         st = read_input(r, in, out, err);
     if (st >= 0)
         st = cut(r, err);
+    if (st >= 0 && r->have_surf)
+        st = pf_stream_write_surface(out, &r->surf, err);
     if (st >= 0)
         st = pf_stream_write_mesh(out, &r->mesh, err);
+    if (st >= 0 && r->have_surf)
+        st = pf_stream_write_weights(out, &r->weights, err);
     if (st >= 0)
         st = pf_stream_writer_finish(out, err);
     pf_stream_writer_destroy(&out);
@@ -429,6 +515,8 @@ int main(int argc, char **argv)
     if (st >= 0)
         report(&r);
     pf_mesh_release(&r.mesh);
+    pf_surface_release(&r.surf);
+    pf_weights_release(&r.weights);
     pf_stream_state_release(&r.state);
     pf_free(r.planes);
     if (st < 0)

@@ -31,7 +31,12 @@ check "near a grid plane: no element was split" grep -q "0 elements split" "$tmp
 "$bin/pf-slice" "$root/data/models/bunny.obj" --res 12 --quiet >"$tmp/bunny_sliced.pfs"
 expect 0 "2 bodies" "$bin/pf-cut" "$tmp/bunny_sliced.pfs" --plane 0,0,0.5,0,0.2,1
 cp "$tmp/out" "$tmp/bunny_cut.pfs"
-check "sliced bunny: its SURF is dropped, and said so" grep -q "dropped from the stream" "$tmp/err"
+check "sliced bunny: its embedded surface is cut and capped" grep -q "embedded surface: [1-9][0-9]* triangles split.*[1-9][0-9]* cap triangles" "$tmp/err"
+"$bin/pf-info" "$tmp/bunny_cut.pfs" >"$tmp/bunny_cut.txt" 2>&1
+check "sliced bunny: SURF, MESH and their WGHT, accepted by pf-info" sh -c "grep -q '^SURF' '$tmp/bunny_cut.txt' && grep -q '^WGHT' '$tmp/bunny_cut.txt' && '$bin/pf-info' '$tmp/bunny_cut.pfs' >/dev/null"
+expect 0 "dropped from the stream: the embedded surface" "$bin/pf-cut" "$tmp/bunny_sliced.pfs" \
+  --plane 0,0,0.5,0,0.2,1 --drop-surface
+check "--drop-surface: no SURF written" sh -c "! '$bin/pf-info' '$tmp/out' | grep -q '^SURF'"
 expect 0 "" "$bin/pf-sim" --frames 2 --quiet --input "$tmp/bunny_cut.pfs"
 check "the cut bunny simulates" sh -c "'$bin/pf-info' '$tmp/out' >/dev/null"
 
@@ -81,6 +86,7 @@ expect 2 "--plane expects six numbers" "$bin/pf-cut" "$tmp/box.pfs" --plane 0,0,
 expect 2 "the normal is zero" "$bin/pf-cut" "$tmp/box.pfs" --plane 0,0,0,0,0,0
 expect 2 "nothing to cut with" "$bin/pf-cut" "$tmp/box.pfs"
 expect 2 "--keep needs --surface" "$bin/pf-cut" "$tmp/box.pfs" --plane 0,0,0,0,0,1 --keep outside
+expect 2 "--embed is mls, bary or harmonic" "$bin/pf-cut" "$tmp/box.pfs" --plane 0,0,0,0,0,1 --embed x
 expect 2 "--keep is inside or outside" "$bin/pf-cut" "$tmp/box.pfs" --surface "$tmp/sphere.pfs" --keep up
 expect 1 "$tmp/missing.pfs" "$bin/pf-cut" "$tmp/missing.pfs" --plane 0,0,0,0,0,1
 expect 1 "$tmp/missing.obj" "$bin/pf-cut" "$tmp/box.pfs" --surface "$tmp/missing.obj"

@@ -87,22 +87,6 @@ static bool has_surface(const cpiece *c)
     return false;
 }
 
-static pf_status ensure_remap(clipper *cl, int32_t n, pf_error *err)
-{
-    if (n <= cl->cap_remap)
-        return PF_OK;
-    int32_t cap = cl->cap_remap ? cl->cap_remap : 1024;
-    while (cap < n)
-        cap *= 2;
-    int32_t *r = pf_realloc_array(cl->remap, (size_t)cap, sizeof *r);
-    PF_CHECK(r, err, PF_ERR_NOMEM, "out of memory clipping");
-    for (int32_t k = cl->cap_remap; k < cap; ++k)
-        r[k] = -1;
-    cl->remap = r;
-    cl->cap_remap = cap;
-    return PF_OK;
-}
-
 /* The pieces of a split on one side, as one piece (several shells when there are several). */
 static pf_status extract_side(clipper *cl, const pf_split *s, const int32_t *in_origin, int side,
                               cpiece *out, pf_error *err)
@@ -175,7 +159,7 @@ static pf_status split_piece(clipper *cl, const cpiece *c, pf_plane pl, cpiece *
     pf_split s;
     PF_TRY(pf_poly_split(&view, c->p.n_nodes, &pl, &cl->sp, &s, err));
     cl->splits++;
-    pf_status st = ensure_remap(cl, s.n_nodes, err);
+    pf_status st = pf_remap_reserve(&cl->remap, &cl->cap_remap, s.n_nodes, err);
     if (st >= 0 && below)
         st = extract_side(cl, &s, c->origin, -1, below, err);
     if (st >= 0 && above)
@@ -314,7 +298,7 @@ static pf_status component_piece(clipper *cl, const piece *p, const int32_t *key
         pf_piece_release(out);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory clipping");
     }
-    PF_TRY(ensure_remap(cl, p->n_nodes, err));
+    PF_TRY(pf_remap_reserve(&cl->remap, &cl->cap_remap, p->n_nodes, err));
     out->face_offsets[0] = 0;
     for (int32_t f = 0; f < p->n_faces; ++f) {
         if (comp[f] != c)

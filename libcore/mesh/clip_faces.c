@@ -18,20 +18,11 @@
 /* ---- welding ----------------------------------------------------------------------------------
  */
 
-static uint64_t mix64(uint64_t h)
-{
-    h ^= h >> 33;
-    h *= 0xff51afd7ed558ccdull;
-    h ^= h >> 33;
-    h *= 0xc4ceb9fe1a85ec53ull;
-    return h ^ (h >> 33);
-}
-
 static uint64_t cell_hash(const int64_t *c)
 {
     uint64_t h = 0;
     for (int k = 0; k < 3; ++k)
-        h = mix64(h ^ (uint64_t)c[k]);
+        h = pf_hash_mix(h ^ (uint64_t)c[k]);
     return h;
 }
 

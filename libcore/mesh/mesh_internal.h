@@ -29,6 +29,11 @@ pf_status pf_surface_piece(const pf_surface *s, piece *p, pf_error *err);
 
 /* Hash of a point's exact coordinates (-0 and +0 alike), for merging nodes by coordinates. */
 uint64_t pf_hash_point(const double *p);
+/* A 64-bit finaliser (MurmurHash3's): every input bit affects every output bit. */
+uint64_t pf_hash_mix(uint64_t h);
+
+/* Grows *remap (*cap entries, all -1) to at least n entries, the new ones -1. PF_ERR_NOMEM. */
+pf_status pf_remap_reserve(int32_t **remap, int32_t *cap, int32_t n, pf_error *err);
 
 /* Builds a mesh from closed pieces: nodes merged by exact coordinates (-0 = +0), faces by their
  * node sets; a face met a second time is used reversed, a third time is an error. Zero-initialise

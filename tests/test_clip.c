@@ -229,6 +229,59 @@ static void test_random_spheres(void **state)
     }
 }
 
+static char *dup_name(const char *n)
+{
+    char *s = pf_alloc(strlen(n) + 1);
+    assert_non_null(s);
+    memcpy(s, n, strlen(n) + 1);
+    return s;
+}
+
+/* Groups are carried: elements keep their element's group, the boundary faces lying in a
+ * grouped face of the box keep its group, and no other face gets one. */
+static void test_groups(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh box = {0}, in = {0};
+    assert_int_equal(pf_mesh_make_box(&box, pf_v3(0, 0, 0), pf_v3(4, 4, 4), 4, 4, 4, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(&box, &err), PF_OK);
+    assert_int_equal(pf_mesh_groups_alloc(&box, 2, &err), PF_OK);
+    box.groups[0] = (pf_mesh_group){1, 3, dup_name("body")};
+    box.groups[1] = (pf_mesh_group){2, 2, dup_name("fixed")};
+    for (int32_t e = 0; e < box.n_elems; ++e)
+        box.elem_group[e] = 1;
+    for (int32_t f = 0; f < box.n_faces; ++f) {
+        bool at_zero = true;
+        for (int64_t q = box.face_offsets[f]; q < box.face_offsets[f + 1]; ++q)
+            at_zero &= box.x[3 * (size_t)box.face_nodes[q]] == 0;
+        box.face_group[f] = at_zero ? 2 : 0;
+    }
+    pf_surface ball = {0};
+    assert_int_equal(pf_surface_make_sphere(&ball, 1.5, 10, 16, &err), PF_OK);
+    for (int32_t v = 0; v < ball.n_verts; ++v)
+        ball.x[3 * v] += 0.31, ball.x[3 * v + 1] += 2.03, ball.x[3 * v + 2] += 1.97;
+    assert_int_equal(pf_mesh_clip_surface(&box, &ball, NULL, &in, NULL, &err), PF_OK);
+    assert_non_null(in.elem_group);
+    assert_non_null(in.face_group);
+    assert_non_null(pf_mesh_find_group(&in, 2, "fixed", 0));
+    for (int32_t e = 0; e < in.n_elems; ++e)
+        assert_int_equal(in.elem_group[e], 1);
+    int32_t fixed = 0;
+    for (int32_t f = 0; f < in.n_faces; ++f) {
+        bool at_zero = true;
+        for (int64_t q = in.face_offsets[f]; q < in.face_offsets[f + 1]; ++q)
+            at_zero &= fabs(in.x[3 * (size_t)in.face_nodes[q]]) <= 1e-12;
+        bool boundary = in.face_elems[2 * f] < 0 || in.face_elems[2 * f + 1] < 0;
+        assert_int_equal(in.face_group[f], at_zero && boundary ? 2 : 0);
+        fixed += in.face_group[f] == 2;
+    }
+    assert_true(fixed > 0);
+    pf_mesh_release(&in);
+    pf_mesh_release(&box);
+    pf_surface_release(&ball);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -276,7 +329,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sphere_hexes),   cmocka_unit_test(test_sphere_tets),
         cmocka_unit_test(test_knife_on_faces), cmocka_unit_test(test_bunny),
-        cmocka_unit_test(test_random_spheres), cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_random_spheres), cmocka_unit_test(test_groups),
+        cmocka_unit_test(test_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -91,6 +91,7 @@ expect 2 "--keep is inside or outside" "$bin/pf-cut" "$tmp/box.pfs" --surface "$
 expect 1 "$tmp/missing.pfs" "$bin/pf-cut" "$tmp/missing.pfs" --plane 0,0,0,0,0,1
 expect 1 "$tmp/missing.obj" "$bin/pf-cut" "$tmp/box.pfs" --surface "$tmp/missing.obj"
 expect 1 "no MESH chunk" "$bin/pf-cut" "$tmp/sphere.pfs" --plane 0,0,0,0,0,1
+expect 1 "clip first, then cut" sh -c "'$bin/pf-cut' '$tmp/cube.pfs' --plane 0,0,0,0,0,1 --quiet | '$bin/pf-cut' --surface '$tmp/sphere.pfs'"
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\n' >"$tmp/open.obj"
 expect 1 "closed" "$bin/pf-cut" "$tmp/box.pfs" --surface "$tmp/open.obj"
 check "a failed --output leaves no file" sh -c "! '$bin/pf-cut' '$tmp/box.pfs' --surface \

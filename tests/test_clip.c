@@ -182,6 +182,13 @@ static void test_bunny(void **state)
                    &in);
     pf_mesh_release(&in);
     pf_mesh_release(&cube);
+    /* and out of a block of tets, whose planes are not the kd tree's */
+    assert_int_equal(pf_mesh_make_box_tets(&cube, lo, hi, 7, 6, 7, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(&cube, &err), PF_OK);
+    clip_and_check("bunny out of tets", &cube, &bunny, PF_CLIP_INSIDE, ss.volume, ss.area, 1e-10,
+                   &in);
+    pf_mesh_release(&in);
+    pf_mesh_release(&cube);
     pf_surface_release(&bunny);
 }
 

@@ -244,6 +244,29 @@ static void test_snapped_sliver(void **state)
     pf_mesh_release(&src);
 }
 
+/* The same plane requested on element 1 only (element 0 lies wholly on its other side, so a
+ * blade finding the elements it crosses would not name it): the snapped element must still open
+ * its face with element 0, or it would bridge the crack. */
+static void test_snapped_next_to_untouched(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = {0}, dst = {0};
+    assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(3, 1, 1), 3, 1, 1, &err), PF_OK);
+    int32_t e1 = -1;
+    for (int32_t e = 0; e < src.n_elems; ++e)
+        e1 = elem_lo(&src, e).x == 1 ? e : e1;
+    pf_cut_request req = plane_req(e1, pf_v3(1.02, 0, 0), pf_v3(1, 0, 0));
+    pf_cut_result r;
+    cut_ok(&src, &req, 1, NULL, &dst, &r);
+    assert_int_equal(r.n_split, 0);
+    assert_int_equal(r.n_opened, 1);
+    assert_int_equal(r.n_bodies, 2);
+    pf_cut_result_release(&r);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
 /* A thin slab cut off a bar (10 %), then cut across: the 3 % corner is alone and below 5 % of the
  * median element: dropped, its volume reported; the 7 % one stays. Earlier cut faces stay cut. */
 static void test_dropped_body(void **state)
@@ -352,9 +375,13 @@ static void test_bad_requests(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_bar_through),  cmocka_unit_test(test_partial),
-        cmocka_unit_test(test_along_face),   cmocka_unit_test(test_snapped_sliver),
-        cmocka_unit_test(test_dropped_body), cmocka_unit_test(test_random_blades),
+        cmocka_unit_test(test_bar_through),
+        cmocka_unit_test(test_partial),
+        cmocka_unit_test(test_along_face),
+        cmocka_unit_test(test_snapped_sliver),
+        cmocka_unit_test(test_snapped_next_to_untouched),
+        cmocka_unit_test(test_dropped_body),
+        cmocka_unit_test(test_random_blades),
         cmocka_unit_test(test_bad_requests),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

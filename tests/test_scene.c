@@ -254,7 +254,7 @@ static const bad_case bad_cases[] = {
     {"{\"gravty\": [0, 0, 0]}", PF_ERR_INVALID,
      "scene.json: gravty: unknown key (expected one of: material, materials, method, corotation, "
      "gravity, "
-     "body_force, damping, fixed, loads, ground, obstacles, time, static, solver, refine)"},
+     "body_force, damping, fixed, loads, ground, obstacles, time, static, solver, refine, cuts)"},
     {"{\"fixed\": [{\"box\": [[0,0,0],[1,1,1]]}, {\"plane\": {\"point\": [0,0,0], "
      "\"normal\": [1,0,0], \"tolerance\": 1}}]}",
      PF_ERR_INVALID,
@@ -424,7 +424,7 @@ static void test_nul_byte_and_unterminated_buffer(void **state)
     assert_string_equal(
         err.msg, "scene.json: frames: unknown key (expected one of: material, "
                  "materials, method, corotation, gravity, body_force, damping, fixed, loads, "
-                 "ground, obstacles, time, static, solver, refine)");
+                 "ground, obstacles, time, static, solver, refine, cuts)");
     pf_scene_release(&s);
     assert_int_equal(parse(&s, "\xEF\xBB\xBF{\"time\": {\"frames\": 1}}", &err), PF_OK);
     assert_int_equal(s.frames, 1);

@@ -117,7 +117,8 @@ typedef struct run {
     pf_stream_state input; /* the latest SURF and WGHT, for contact at the embedded surface */
     bool embedded;         /* contact at the surface's vertices */
     pf_stream_writer *out;
-    uint64_t written_mesh; /* the id of the last MESH written: a refined mesh is written anew */
+    uint64_t written_mesh;    /* the id of the last MESH written: a refined mesh is written anew */
+    uint64_t written_surface; /* the id of the embedded surface in the input or last written */
     int32_t checkpoint_every;
     bool checkpoint_given; /* --checkpoint-every was given */
     int32_t checkpoints;   /* CKPT chunks written (or copied, when resuming) */
@@ -297,14 +298,19 @@ static pf_status write_scene(run *r, pf_error *err)
     return st;
 }
 
-/* A mesh the simulator changed (refinement) goes out before the first frame on it, with the
- * embedded surface's weights on it. */
+/* A mesh the simulator changed (refinement, cuts) goes out before the first frame on it, with
+ * the embedded surface (when a cut changed it) and its weights on it. */
 static pf_status write_changed_mesh(run *r, const pf_sim *sim, pf_error *err)
 {
     const pf_mesh *m = pf_sim_mesh(sim);
     if (m->id == r->written_mesh)
         return PF_OK;
     PF_TRY(pf_stream_write_mesh(r->out, m, err));
+    const pf_surface *s = pf_sim_surface(sim);
+    if (s && s->id != r->written_surface) {
+        PF_TRY(pf_stream_write_surface(r->out, s, err));
+        r->written_surface = s->id;
+    }
     if (pf_sim_weights(sim))
         PF_TRY(pf_stream_write_weights(r->out, pf_sim_weights(sim), err));
     r->written_mesh = m->id;
@@ -404,6 +410,12 @@ static void print_summary(const run *r, const pf_sim *sim)
                 (int)st->refinements, (long long)st->elements_split, (long long)st->elements_merged,
                 (int)r->mesh.n_elems, (int)st->elements, st->refine_seconds,
                 (long long)st->integrals_reused, (long long)st->integrals_computed);
+    if (st->cuts > 0)
+        fprintf(stderr,
+                "pf-sim: cuts: %d (%lld elements split), %d bodies, %.3g dropped (volume %.3g), "
+                "%.3f s cpu\n",
+                (int)st->cuts, (long long)st->elements_cut, (int)st->bodies, st->dropped_mass,
+                st->dropped_volume, st->cut_seconds);
     print_solver_summary(&st->solver);
 }
 
@@ -438,10 +450,11 @@ static pf_status load_obstacles(pf_scene *sc, pf_error *err)
 }
 
 /* A CKPT after frames 0, N, 2N, ... and the last one (the stream format's CKPT); none in a
- * scene that refines: its mesh changes between frames, which a checkpoint does not hold. */
+ * scene that refines or cuts: its mesh changes between frames, which a checkpoint does not
+ * hold. */
 static pf_status write_checkpoint(run *r, pf_sim *sim, int32_t index, bool last, pf_error *err)
 {
-    if (r->checkpoint_every <= 0 || r->scene.refine.enabled ||
+    if (r->checkpoint_every <= 0 || pf_scene_changes_mesh(&r->scene) ||
         (index % r->checkpoint_every != 0 && !last))
         return PF_OK;
     r->checkpoint.size = 0;
@@ -520,13 +533,15 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     const pf_weights *w = &r->input.weights;
     bool embedded = r->embedded = r->input.have_weights;
     r->written_mesh = r->mesh.id;
+    r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(load_obstacles(&r->scene, err));
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
                                   embedded ? w : NULL, err));
-    if (r->scene.refine.enabled && r->checkpoint_given && r->checkpoint_every > 0 && !r->quiet)
-        fprintf(stderr, "pf-sim: the scene refines (its mesh changes between frames): no "
-                        "checkpoints, whatever --checkpoint-every says\n");
+    if (pf_scene_changes_mesh(&r->scene) && r->checkpoint_given && r->checkpoint_every > 0 &&
+        !r->quiet)
+        fprintf(stderr, "pf-sim: the scene refines or cuts (its mesh changes between frames): "
+                        "no checkpoints, whatever --checkpoint-every says\n");
     pf_status st = PF_OK;
     int32_t first = 0;
     if (restore)

@@ -32,7 +32,7 @@ static bool scene_refines(const pf_chunk *c)
     pf_scene scene = {0};
     bool refines = pf_stream_decode_scene(c, &json, &size, &ignored) >= 0 &&
                    pf_scene_parse(&scene, json, size, "SCEN", &ignored) >= 0 &&
-                   scene.refine.enabled;
+                   pf_scene_changes_mesh(&scene);
     pf_scene_release(&scene);
     pf_free(json);
     return refines;

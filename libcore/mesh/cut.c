@@ -24,9 +24,12 @@
 typedef struct cutter {
     const pf_mesh *src;
     double min_fraction;
+    double tol;  /* on-plane tolerance: 1e-10 of the mesh's bounding-box diagonal */
     pf_mesh mid; /* the split mesh */
     pf_refine_result rr;
-    int8_t *side; /* [mid elems] 0: not in the cut; -1, +1 */
+    int8_t *side;     /* [mid elems] 0: not in the cut; -1, +1 */
+    int32_t *snapped; /* [mid elems] the request of an element its plane left whole, else -1 */
+    const pf_cut_request *req;
     /* the working mesh: mid's faces then the opened faces' copies */
     int32_t n_faces;
     int64_t *foff;
@@ -115,19 +118,61 @@ static pf_status find_sides(cutter *c, const pf_cut_request *req, int32_t n_req,
     const pf_mesh *m = &c->mid;
     int32_t *req_of = pf_alloc_array((size_t)c->src->n_elems + 1, sizeof *req_of);
     c->side = pf_calloc((size_t)m->n_elems + 1, sizeof *c->side);
-    PF_CHECK(req_of && c->side, err, PF_ERR_NOMEM, "cut: cannot allocate %d sides",
+    c->snapped = pf_alloc_array((size_t)m->n_elems + 1, sizeof *c->snapped);
+    PF_CHECK(req_of && c->side && c->snapped, err, PF_ERR_NOMEM, "cut: cannot allocate %d sides",
              (int)m->n_elems);
+    c->req = req;
     for (int32_t e = 0; e < c->src->n_elems; ++e)
         req_of[e] = -1;
     for (int32_t r = 0; r < n_req; ++r)
         req_of[req[r].elem] = r;
     for (int32_t e = 0; e < m->n_elems; ++e) {
-        int32_t r = req_of[c->rr.parent[e]];
+        int32_t r = req_of[c->rr.parent[e]], p = c->rr.parent[e];
+        bool whole = (e == 0 || c->rr.parent[e - 1] != p) &&
+                     (e + 1 == m->n_elems || c->rr.parent[e + 1] != p);
+        c->snapped[e] = r >= 0 && whole ? r : -1;
         if (r >= 0)
             c->side[e] = pf_plane_signed_distance(req[r].plane, elem_centroid(m, e)) < 0 ? -1 : 1;
     }
     pf_free(req_of);
     return PF_OK;
+}
+
+/* Whether element e of m lies wholly on side `side` of the plane (its nodes there or within tol
+ * of the plane). */
+static bool wholly_on(const pf_mesh *m, int32_t e, pf_plane pl, int side, double tol)
+{
+    for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        for (int64_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; ++k)
+            if (side *
+                    pf_plane_signed_distance(pl, pf_v3_load(m->x + 3 * (size_t)m->face_nodes[k])) <
+                -tol)
+                return false;
+    }
+    return true;
+}
+
+/* Whether the face between a and b opens: both in the cut on opposite sides; or one of them left
+ * whole by the sliver rule (it reaches a little across its plane) and the other, not in the cut,
+ * wholly on the far side of that plane: else the snapped element would bridge the crack there.
+ * A neighbour straddling the plane is beyond the crack's front and stays attached. */
+static bool opens(const cutter *c, int32_t a, int32_t b)
+{
+    if (a < 0 || b < 0)
+        return false;
+    if (c->side[a] && c->side[b])
+        return c->side[a] != c->side[b];
+    for (int k = 0; k < 2; ++k) {
+        int32_t s = k ? b : a, o = k ? a : b;
+        if (c->snapped[s] >= 0 && !c->side[o]) {
+            pf_plane pl = c->req[c->snapped[s]].plane;
+            double len = pf_v3_norm(pl.n);
+            pl = (pf_plane){pf_v3_scale(pl.n, 1 / len), pl.d / len};
+            return wholly_on(&c->mid, o, pl, -c->side[s], c->tol);
+        }
+    }
+    return false;
 }
 
 /* The working copy of mid's faces with every opened face's second user moved to a reversed copy. */
@@ -138,7 +183,7 @@ static pf_status open_faces(cutter *c, const uint8_t *old_cut, pf_error *err)
     int64_t open_nodes = 0;
     for (int32_t f = 0; f < m->n_faces; ++f) {
         int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
-        if (a >= 0 && b >= 0 && c->side[a] && c->side[b] && c->side[a] != c->side[b])
+        if (opens(c, a, b))
             n_open++, open_nodes += m->face_offsets[f + 1] - m->face_offsets[f];
     }
     int32_t nf = m->n_faces + n_open;
@@ -159,7 +204,7 @@ static pf_status open_faces(cutter *c, const uint8_t *old_cut, pf_error *err)
     int32_t g = m->n_faces;
     for (int32_t f = 0; f < m->n_faces; ++f) {
         int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
-        if (!(a >= 0 && b >= 0 && c->side[a] && c->side[b] && c->side[a] != c->side[b]))
+        if (!opens(c, a, b))
             continue;
         int64_t n = m->face_offsets[f + 1] - m->face_offsets[f], at = c->foff[g];
         for (int64_t k = 0; k < n; ++k) /* the copy runs the other way: b uses it as stored */
@@ -535,6 +580,9 @@ pf_status pf_mesh_cut(const pf_mesh *src, const pf_cut_request *req, int32_t n_r
     memset(dst, 0, sizeof *dst);
     memset(res, 0, sizeof *res);
     cutter c = {.src = src};
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(src, &lo, &hi);
+    c.tol = 1e-10 * pf_v3_dist(lo, hi);
     c.min_fraction =
         params && params->min_fraction > 0 ? params->min_fraction : PF_REFINE_MIN_FRACTION;
     uint8_t *old_cut = NULL;

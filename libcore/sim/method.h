@@ -24,6 +24,8 @@ typedef struct pf_mesh_change {
                                    NULL: every old node keeps its index */
     const int32_t *face_src;    /* [new faces] the old face each new face is, node for node, or
                                    -1 (refinement); NULL: not known */
+    const pf_cut_result *cut;   /* a cut (pf_mesh_cut): the embedded surface is cut with the mesh;
+                                   NULL for refinement and coarsening */
 } pf_mesh_change;
 
 typedef struct pf_method_ops {

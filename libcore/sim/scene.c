@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "scene_json.h"
+#include "scene_reader.h"
 #include "scene_values.h"
 
 static void release_obstacles(pf_scene *s);
@@ -29,207 +30,22 @@ void pf_scene_release(pf_scene *s)
     pf_free(s->loads);
     pf_free(s->materials);
     release_obstacles(s);
+    pf_scene_release_cuts(s);
     pf_free(s->json);
     memset(s, 0, sizeof *s);
 }
 
-/* The shortest of %.15g / %.17g that reads back as v: "0.5", not "0.50000000000000000". */
-static void format_number(double v, char buf[32])
-{
-    snprintf(buf, 32, "%.15g", v);
-    if (strtod(buf, NULL) != v)
-        snprintf(buf, 32, "%.17g", v);
-}
-
-/* ---- the JSON reader ------------------------------------------------------------------------- */
-
-enum { PATH_MAX_CHARS = 256 };
-
-/* Where the reader is: the file name and the key path ("fixed[1].plane.normal") for messages. */
-typedef struct reader {
-    const char *name;
-    pf_error *err;
-    char path[PATH_MAX_CHARS];
-    size_t len;
-    bool corotation_seen; /* given at the top level or in method: only one of them */
-} reader;
-
-/* After snprintf wrote n characters at path[len]: the new length, clamped to the truncation. */
-static void advance(reader *r, int n)
-{
-    if (n > 0)
-        r->len = r->len + (size_t)n < sizeof r->path ? r->len + (size_t)n : sizeof r->path - 1;
-}
-
-static size_t push_key(reader *r, const char *key)
-{
-    size_t mark = r->len;
-    advance(r, snprintf(r->path + r->len, sizeof r->path - r->len, "%s%s", r->len ? "." : "", key));
-    return mark;
-}
-
-static size_t push_index(reader *r, int i)
-{
-    size_t mark = r->len;
-    advance(r, snprintf(r->path + r->len, sizeof r->path - r->len, "[%d]", i));
-    return mark;
-}
-
-static void pop(reader *r, size_t mark)
-{
-    r->len = mark;
-    r->path[mark] = '\0';
-}
-
-/* "name: path: reason" as PF_ERR_INVALID. */
-#if defined(__GNUC__)
-__attribute__((format(printf, 2, 3)))
-#endif
-static pf_status
-fail(reader *r, const char *fmt, ...)
-{
-    char reason[PF_ERROR_MSG_MAX];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(reason, sizeof reason, fmt, ap);
-    va_end(ap);
-    return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__, "%s: %s: %s", r->name,
-                        r->len ? r->path : "top level", reason);
-}
-
-/* A short description of a JSON value for "got ..." in messages. */
-static void describe(const cJSON *v, char buf[64])
-{
-    if (cJSON_IsNumber(v))
-        format_number(v->valuedouble, buf);
-    else if (cJSON_IsString(v))
-        snprintf(buf, 64, "string \"%.40s\"", v->valuestring);
-    else if (cJSON_IsTrue(v))
-        snprintf(buf, 64, "true");
-    else if (cJSON_IsFalse(v))
-        snprintf(buf, 64, "false");
-    else if (cJSON_IsNull(v))
-        snprintf(buf, 64, "null");
-    else if (cJSON_IsArray(v))
-        snprintf(buf, 64, "an array of %d", cJSON_GetArraySize(v));
-    else if (cJSON_IsObject(v))
-        snprintf(buf, 64, "an object");
-    else
-        snprintf(buf, 64, "an invalid value");
-}
-
-static pf_status fail_type(reader *r, const cJSON *v, const char *expected)
-{
-    char got[64];
-    describe(v, got);
-    return fail(r, "must be %s, got %s", expected, got);
-}
-
-/* Checks that v is an object whose keys are all in keys[] (NULL-terminated) and unique. */
-static pf_status begin_object(reader *r, const cJSON *v, const char *const *keys)
-{
-    if (!cJSON_IsObject(v))
-        return fail_type(r, v, "an object");
-    for (const cJSON *it = v->child; it; it = it->next) {
-        bool known = false;
-        for (const char *const *k = keys; *k && !known; ++k)
-            known = strcmp(*k, it->string) == 0;
-        if (!known) {
-            char expected[PF_ERROR_MSG_MAX / 2] = "";
-            size_t used = 0;
-            for (const char *const *k = keys; *k && used < sizeof expected; ++k) {
-                int n = snprintf(expected + used, sizeof expected - used, "%s%s",
-                                 k == keys ? "" : ", ", *k);
-                used += n > 0 ? (size_t)n : 0;
-            }
-            push_key(r, it->string);
-            return fail(r, "unknown key (expected one of: %s)", expected);
-        }
-        for (const cJSON *prev = v->child; prev != it; prev = prev->next)
-            if (strcmp(prev->string, it->string) == 0) {
-                push_key(r, it->string);
-                return fail(r, "duplicate key");
-            }
-    }
-    return PF_OK;
-}
-
-static pf_status read_number(reader *r, const cJSON *v, scene_range rg, double *out)
-{
-    if (!cJSON_IsNumber(v))
-        return fail_type(r, v, pf_scene_range_is_integer(rg) ? "an integer" : "a number");
-    /* cJSON turns a literal beyond the double range (1e999) into an infinity. */
-    if (!isfinite(v->valuedouble))
-        return fail(r, "must be finite (the number overflows a double)");
-    if (!pf_scene_in_range(rg, v->valuedouble)) {
-        char got[32];
-        format_number(v->valuedouble, got);
-        return fail(r, "%s, got %s", pf_scene_range_text(rg), got);
-    }
-    *out = v->valuedouble;
-    return PF_OK;
-}
-
-static pf_status read_int(reader *r, const cJSON *v, scene_range rg, int32_t *out)
-{
-    double d = 0;
-    PF_TRY(read_number(r, v, rg, &d));
-    *out = (int32_t)d;
-    return PF_OK;
-}
-
-static pf_status read_bool(reader *r, const cJSON *v, bool *out)
-{
-    if (!cJSON_IsBool(v))
-        return fail_type(r, v, "true or false");
-    *out = cJSON_IsTrue(v);
-    return PF_OK;
-}
-
-static pf_status read_vec3(reader *r, const cJSON *v, pf_vec3 *out)
-{
-    if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
-        return fail_type(r, v, "an array of 3 numbers");
-    double c[3];
-    int i = 0;
-    for (const cJSON *it = v->child; it; it = it->next, ++i) {
-        size_t mark = push_index(r, i);
-        PF_TRY(read_number(r, it, RANGE_FINITE, &c[i]));
-        pop(r, mark);
-    }
-    *out = pf_v3_load(c);
-    return PF_OK;
-}
-
-/* A direction: non-zero, returned as a unit vector (pf_scene_unit_direction). */
-static pf_status read_normal(reader *r, const cJSON *v, pf_vec3 *out)
-{
-    pf_vec3 n;
-    PF_TRY(read_vec3(r, v, &n));
-    if (!pf_scene_unit_direction(n, out))
-        return fail(r, "must be a non-zero vector");
-    return PF_OK;
-}
-
-/* Reads the key of object item v with the given reader function, path pushed around it. */
-#define READ_KEY(r, it, call)                                                                      \
-    do {                                                                                           \
-        size_t mark_ = push_key((r), (it)->string);                                                \
-        PF_TRY(call);                                                                              \
-        pop((r), mark_);                                                                           \
-    } while (0)
-
 static pf_status read_material(reader *r, const cJSON *v, pf_scene *s)
 {
     static const char *const keys[] = {"E", "nu", "density", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "E"))
-            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &s->E));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &s->E));
         else if (!strcmp(it->string, "nu"))
-            READ_KEY(r, it, read_number(r, it, RANGE_POISSON, &s->nu));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POISSON, &s->nu));
         else
-            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &s->density));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &s->density));
     }
     return PF_OK;
 }
@@ -237,30 +53,31 @@ static pf_status read_material(reader *r, const cJSON *v, pf_scene *s)
 static pf_status read_mass(reader *r, const cJSON *v, pf_mass *out)
 {
     if (!cJSON_IsString(v) || !pf_scene_parse_mass_name(v->valuestring, out))
-        return fail_type(r, v, "\"consistent\" or \"lumped\"");
+        return pf_scene_fail_type(r, v, "\"consistent\" or \"lumped\"");
     return PF_OK;
 }
 
 static pf_status read_method_name(reader *r, const cJSON *v, pf_method *out)
 {
     if (!cJSON_IsString(v) || !pf_scene_parse_method_name(v->valuestring, out))
-        return fail_type(r, v, "\"dg\" or \"cg\"");
+        return pf_scene_fail_type(r, v, "\"dg\" or \"cg\"");
     return PF_OK;
 }
 
 static pf_status read_flux(reader *r, const cJSON *v, pf_flux *out)
 {
     if (!cJSON_IsString(v) || !pf_scene_parse_flux_name(v->valuestring, out))
-        return fail_type(r, v, "\"ip\" or \"bz\"");
+        return pf_scene_fail_type(r, v, "\"ip\" or \"bz\"");
     return PF_OK;
 }
 
 static pf_status read_corotation(reader *r, const cJSON *v, pf_scene *s)
 {
     if (r->corotation_seen)
-        return fail(r, "corotation is given both at the top level and in method: give it once");
+        return pf_scene_fail(
+            r, "corotation is given both at the top level and in method: give it once");
     r->corotation_seen = true;
-    return read_bool(r, v, &s->corotation);
+    return pf_scene_read_bool(r, v, &s->corotation);
 }
 
 static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
@@ -268,23 +85,23 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
     if (cJSON_IsString(v))
         return read_method_name(r, v, &s->method);
     if (!cJSON_IsObject(v))
-        return fail_type(r, v, "\"dg\", \"cg\" or an object");
+        return pf_scene_fail_type(r, v, "\"dg\", \"cg\" or an object");
     static const char *const keys[] = {"name",       "degree", "flux",         "penalty",
                                        "corotation", "mass",   "edge_samples", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "name"))
             READ_KEY(r, it, read_method_name(r, it, &s->method));
         else if (!strcmp(it->string, "degree"))
-            READ_KEY(r, it, read_int(r, it, RANGE_DEGREE, &s->degree));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_DEGREE, &s->degree));
         else if (!strcmp(it->string, "flux"))
             READ_KEY(r, it, read_flux(r, it, &s->flux));
         else if (!strcmp(it->string, "penalty"))
-            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->penalty));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &s->penalty));
         else if (!strcmp(it->string, "mass"))
             READ_KEY(r, it, read_mass(r, it, &s->mass));
         else if (!strcmp(it->string, "edge_samples"))
-            READ_KEY(r, it, read_int(r, it, RANGE_EDGE_SAMPLES, &s->edge_samples));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_EDGE_SAMPLES, &s->edge_samples));
         else
             READ_KEY(r, it, read_corotation(r, it, s));
     }
@@ -294,7 +111,7 @@ static pf_status read_method(reader *r, const cJSON *v, pf_scene *s)
 static pf_status read_solver_name(reader *r, const cJSON *v, pf_solver_method *out)
 {
     if (!cJSON_IsString(v) || !pf_scene_parse_solver_name(v->valuestring, out))
-        return fail_type(r, v, "\"auto\", \"direct\", \"pcg\" or \"petsc\"");
+        return pf_scene_fail_type(r, v, "\"auto\", \"direct\", \"pcg\" or \"petsc\"");
     return PF_OK;
 }
 
@@ -303,16 +120,16 @@ static pf_status read_solver(reader *r, const cJSON *v, pf_solver_params *p)
     if (cJSON_IsString(v))
         return read_solver_name(r, v, &p->method);
     if (!cJSON_IsObject(v))
-        return fail_type(r, v, "\"auto\", \"direct\", \"pcg\", \"petsc\" or an object");
+        return pf_scene_fail_type(r, v, "\"auto\", \"direct\", \"pcg\", \"petsc\" or an object");
     static const char *const keys[] = {"method", "tolerance", "max_iterations", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "method"))
             READ_KEY(r, it, read_solver_name(r, it, &p->method));
         else if (!strcmp(it->string, "tolerance"))
-            READ_KEY(r, it, read_number(r, it, RANGE_OPEN_UNIT, &p->tolerance));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_OPEN_UNIT, &p->tolerance));
         else
-            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &p->max_iterations));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_INT_POS, &p->max_iterations));
     }
     return PF_OK;
 }
@@ -320,7 +137,7 @@ static pf_status read_solver(reader *r, const cJSON *v, pf_solver_params *p)
 static pf_status read_split(reader *r, const cJSON *v, pf_split_kind *out)
 {
     if (!cJSON_IsString(v) || !pf_scene_parse_split_name(v->valuestring, out))
-        return fail_type(r, v, "\"octs\" or \"halves\"");
+        return pf_scene_fail_type(r, v, "\"octs\" or \"halves\"");
     return PF_OK;
 }
 
@@ -329,27 +146,27 @@ static pf_status read_refine(reader *r, const cJSON *v, pf_refine_params *p)
     static const char *const keys[] = {"threshold",     "split",    "max_level",
                                        "max_elements",  "min_size", "coarsen_fraction",
                                        "coarsen_after", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     bool threshold = false;
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "threshold")) {
-            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &p->threshold));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &p->threshold));
             threshold = true;
         } else if (!strcmp(it->string, "split"))
             READ_KEY(r, it, read_split(r, it, &p->split));
         else if (!strcmp(it->string, "max_level"))
-            READ_KEY(r, it, read_int(r, it, RANGE_INT_NONNEG, &p->max_level));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_INT_NONNEG, &p->max_level));
         else if (!strcmp(it->string, "max_elements"))
-            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &p->max_elements));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_INT_POS, &p->max_elements));
         else if (!strcmp(it->string, "coarsen_fraction"))
-            READ_KEY(r, it, read_number(r, it, RANGE_UNIT_INTERVAL, &p->coarsen_fraction));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_UNIT_INTERVAL, &p->coarsen_fraction));
         else if (!strcmp(it->string, "coarsen_after"))
-            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &p->coarsen_after));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_INT_POS, &p->coarsen_after));
         else
-            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &p->min_size));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &p->min_size));
     }
     if (!threshold)
-        return fail(r, "needs a threshold (stress units)");
+        return pf_scene_fail(r, "needs a threshold (stress units)");
     p->enabled = true;
     return PF_OK;
 }
@@ -357,12 +174,12 @@ static pf_status read_refine(reader *r, const cJSON *v, pf_refine_params *p)
 static pf_status read_damping(reader *r, const cJSON *v, pf_scene *s)
 {
     static const char *const keys[] = {"alpha", "beta", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "alpha"))
-            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->damping_alpha));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &s->damping_alpha));
         else
-            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->damping_beta));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &s->damping_beta));
     }
     return PF_OK;
 }
@@ -370,14 +187,14 @@ static pf_status read_damping(reader *r, const cJSON *v, pf_scene *s)
 static pf_status read_time(reader *r, const cJSON *v, pf_scene *s)
 {
     static const char *const keys[] = {"dt", "frames", "substeps", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "dt"))
-            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &s->dt));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &s->dt));
         else if (!strcmp(it->string, "frames"))
-            READ_KEY(r, it, read_int(r, it, RANGE_INT_NONNEG, &s->frames));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_INT_NONNEG, &s->frames));
         else
-            READ_KEY(r, it, read_int(r, it, RANGE_INT_POS, &s->substeps));
+            READ_KEY(r, it, pf_scene_read_int(r, it, RANGE_INT_POS, &s->substeps));
     }
     return PF_OK;
 }
@@ -386,20 +203,21 @@ static pf_status read_time(reader *r, const cJSON *v, pf_scene *s)
 static pf_status read_box(reader *r, const cJSON *v, pf_region *out)
 {
     if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 2)
-        return fail_type(r, v, "[[xlo, ylo, zlo], [xhi, yhi, zhi]]");
-    size_t mark = push_index(r, 0);
-    PF_TRY(read_vec3(r, v->child, &out->lo));
-    pop(r, mark);
-    push_index(r, 1);
-    PF_TRY(read_vec3(r, v->child->next, &out->hi));
-    pop(r, mark);
+        return pf_scene_fail_type(r, v, "[[xlo, ylo, zlo], [xhi, yhi, zhi]]");
+    size_t mark = pf_scene_push_index(r, 0);
+    PF_TRY(pf_scene_read_vec3(r, v->child, &out->lo));
+    pf_scene_pop(r, mark);
+    pf_scene_push_index(r, 1);
+    PF_TRY(pf_scene_read_vec3(r, v->child->next, &out->hi));
+    pf_scene_pop(r, mark);
     for (int i = 0; i < 3; ++i) {
         double lo = pf_v3_get(out->lo, i), hi = pf_v3_get(out->hi, i);
         if (lo > hi) {
             char a[32], b[32];
-            format_number(lo, a);
-            format_number(hi, b);
-            return fail(r, "lower corner above upper corner along %c (%s > %s)", "xyz"[i], a, b);
+            pf_scene_format_number(lo, a);
+            pf_scene_format_number(hi, b);
+            return pf_scene_fail(r, "lower corner above upper corner along %c (%s > %s)", "xyz"[i],
+                                 a, b);
         }
     }
     out->kind = PF_REGION_BOX;
@@ -410,23 +228,23 @@ static pf_status read_box(reader *r, const cJSON *v, pf_region *out)
 static pf_status read_plane(reader *r, const cJSON *v, pf_region *out)
 {
     static const char *const keys[] = {"point", "normal", "tol", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     pf_vec3 point = {0, 0, 0}, normal = {0, 0, 0};
     bool has_point = false, has_normal = false;
     out->tol = -1;
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "point")) {
-            READ_KEY(r, it, read_vec3(r, it, &point));
+            READ_KEY(r, it, pf_scene_read_vec3(r, it, &point));
             has_point = true;
         } else if (!strcmp(it->string, "normal")) {
-            READ_KEY(r, it, read_normal(r, it, &normal));
+            READ_KEY(r, it, pf_scene_read_normal(r, it, &normal));
             has_normal = true;
         } else {
-            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &out->tol));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &out->tol));
         }
     }
     if (!has_point || !has_normal)
-        return fail(r, "missing key \"%s\"", has_point ? "normal" : "point");
+        return pf_scene_fail(r, "missing key \"%s\"", has_point ? "normal" : "point");
     out->kind = PF_REGION_PLANE;
     out->plane = (pf_plane){.n = normal, .d = pf_v3_dot(normal, point)}; /* normal: unit */
     out->point = point;
@@ -440,14 +258,15 @@ static pf_status read_group(reader *r, const cJSON *v, pf_region *out)
     if (cJSON_IsString(v)) {
         size_t n = strlen(v->valuestring);
         if (n == 0 || n >= PF_GROUP_NAME_MAX)
-            return fail(r, "a group name has 1 to %d bytes, got %zu", PF_GROUP_NAME_MAX - 1, n);
+            return pf_scene_fail(r, "a group name has 1 to %d bytes, got %zu",
+                                 PF_GROUP_NAME_MAX - 1, n);
         memcpy(out->group_name, v->valuestring, n + 1);
         return PF_OK;
     }
     if (!cJSON_IsNumber(v))
-        return fail_type(r, v, "a group name or number");
+        return pf_scene_fail_type(r, v, "a group name or number");
     double d = 0;
-    PF_TRY(read_number(r, v, RANGE_INT_POS, &d));
+    PF_TRY(pf_scene_read_number(r, v, RANGE_INT_POS, &d));
     out->group = (int32_t)d;
     return PF_OK;
 }
@@ -458,7 +277,7 @@ static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector
                                    bool vector_required, pf_region *region, pf_vec3 *vector)
 {
     const char *const keys[] = {"box", "plane", "group", vector_key, NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     int n_regions = 0;
     bool has_vector = false;
     for (const cJSON *it = v->child; it; it = it->next) {
@@ -472,22 +291,23 @@ static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector
             READ_KEY(r, it, read_group(r, it, region));
             ++n_regions;
         } else {
-            READ_KEY(r, it, read_vec3(r, it, vector));
+            READ_KEY(r, it, pf_scene_read_vec3(r, it, vector));
             has_vector = true;
         }
     }
     if (n_regions != 1)
-        return fail(r, n_regions ? "give one region, \"box\", \"plane\" or \"group\", not several"
-                                 : "missing region: give \"box\", \"plane\" or \"group\"");
+        return pf_scene_fail(
+            r, n_regions ? "give one region, \"box\", \"plane\" or \"group\", not several"
+                         : "missing region: give \"box\", \"plane\" or \"group\"");
     if (vector_required && !has_vector)
-        return fail(r, "missing key \"%s\"", vector_key);
+        return pf_scene_fail(r, "missing key \"%s\"", vector_key);
     return PF_OK;
 }
 
 static pf_status read_fixed(reader *r, const cJSON *v, pf_scene *s)
 {
     if (!cJSON_IsArray(v))
-        return fail_type(r, v, "an array");
+        return pf_scene_fail_type(r, v, "an array");
     int n = cJSON_GetArraySize(v);
     pf_free(s->fixed);
     s->n_fixed = 0;
@@ -496,10 +316,10 @@ static pf_status read_fixed(reader *r, const cJSON *v, pf_scene *s)
     s->n_fixed = n;
     int i = 0;
     for (const cJSON *it = v->child; it; it = it->next, ++i) {
-        size_t mark = push_index(r, i);
+        size_t mark = pf_scene_push_index(r, i);
         PF_TRY(read_region_entry(r, it, "displacement", false, &s->fixed[i].region,
                                  &s->fixed[i].displacement));
-        pop(r, mark);
+        pf_scene_pop(r, mark);
     }
     return PF_OK;
 }
@@ -507,7 +327,7 @@ static pf_status read_fixed(reader *r, const cJSON *v, pf_scene *s)
 static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
 {
     if (!cJSON_IsArray(v))
-        return fail_type(r, v, "an array");
+        return pf_scene_fail_type(r, v, "an array");
     int n = cJSON_GetArraySize(v);
     pf_free(s->loads);
     s->n_loads = 0;
@@ -516,10 +336,10 @@ static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
     s->n_loads = n;
     int i = 0;
     for (const cJSON *it = v->child; it; it = it->next, ++i) {
-        size_t mark = push_index(r, i);
+        size_t mark = pf_scene_push_index(r, i);
         PF_TRY(
             read_region_entry(r, it, "traction", true, &s->loads[i].region, &s->loads[i].traction));
-        pop(r, mark);
+        pf_scene_pop(r, mark);
     }
     return PF_OK;
 }
@@ -529,7 +349,7 @@ static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
 static pf_status read_material_entry(reader *r, const cJSON *v, pf_material_region *m)
 {
     static const char *const keys[] = {"box", "group", "E", "nu", "density", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     m->E = m->nu = m->density = NAN;
     int n_regions = 0;
     for (const cJSON *it = v->child; it; it = it->next) {
@@ -540,23 +360,23 @@ static pf_status read_material_entry(reader *r, const cJSON *v, pf_material_regi
             READ_KEY(r, it, read_group(r, it, &m->region));
             ++n_regions;
         } else if (!strcmp(it->string, "E")) {
-            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &m->E));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &m->E));
         } else if (!strcmp(it->string, "nu")) {
-            READ_KEY(r, it, read_number(r, it, RANGE_POISSON, &m->nu));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POISSON, &m->nu));
         } else {
-            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &m->density));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &m->density));
         }
     }
     if (n_regions != 1)
-        return fail(r, n_regions ? "give one region, \"box\" or \"group\", not both"
-                                 : "missing region: give \"box\" or \"group\"");
+        return pf_scene_fail(r, n_regions ? "give one region, \"box\" or \"group\", not both"
+                                          : "missing region: give \"box\" or \"group\"");
     return PF_OK;
 }
 
 static pf_status read_materials(reader *r, const cJSON *v, pf_scene *s)
 {
     if (!cJSON_IsArray(v))
-        return fail_type(r, v, "an array");
+        return pf_scene_fail_type(r, v, "an array");
     int n = cJSON_GetArraySize(v);
     pf_free(s->materials);
     s->n_materials = 0;
@@ -565,9 +385,9 @@ static pf_status read_materials(reader *r, const cJSON *v, pf_scene *s)
     s->n_materials = n;
     int i = 0;
     for (const cJSON *it = v->child; it; it = it->next, ++i) {
-        size_t mark = push_index(r, i);
+        size_t mark = pf_scene_push_index(r, i);
         PF_TRY(read_material_entry(r, it, &s->materials[i]));
-        pop(r, mark);
+        pf_scene_pop(r, mark);
     }
     return PF_OK;
 }
@@ -581,19 +401,19 @@ static pf_status read_ground(reader *r, const cJSON *v, pf_scene *s)
         return PF_OK;
     }
     if (!cJSON_IsObject(v))
-        return fail_type(r, v, "true, false or an object");
+        return pf_scene_fail_type(r, v, "true, false or an object");
     static const char *const keys[] = {"point", "normal", "stiffness", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     s->ground = true;
     s->ground_auto = true;
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "point")) {
-            READ_KEY(r, it, read_vec3(r, it, &s->ground_point));
+            READ_KEY(r, it, pf_scene_read_vec3(r, it, &s->ground_point));
             s->ground_auto = false;
         } else if (!strcmp(it->string, "normal")) {
-            READ_KEY(r, it, read_normal(r, it, &s->ground_normal));
+            READ_KEY(r, it, pf_scene_read_normal(r, it, &s->ground_normal));
         } else {
-            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &s->ground_stiffness));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &s->ground_stiffness));
         }
     }
     return PF_OK;
@@ -623,19 +443,19 @@ static void release_obstacles(pf_scene *s)
 static pf_status read_obstacle_plane(reader *r, const cJSON *v, pf_obstacle *o)
 {
     static const char *const keys[] = {"point", "normal", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     bool has_point = false, has_normal = false;
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "point")) {
-            READ_KEY(r, it, read_vec3(r, it, &o->point));
+            READ_KEY(r, it, pf_scene_read_vec3(r, it, &o->point));
             has_point = true;
         } else {
-            READ_KEY(r, it, read_normal(r, it, &o->normal));
+            READ_KEY(r, it, pf_scene_read_normal(r, it, &o->normal));
             has_normal = true;
         }
     }
     if (!has_point || !has_normal)
-        return fail(r, "missing key \"%s\"", has_point ? "normal" : "point");
+        return pf_scene_fail(r, "missing key \"%s\"", has_point ? "normal" : "point");
     o->kind = PF_OBSTACLE_PLANE;
     return PF_OK;
 }
@@ -644,19 +464,19 @@ static pf_status read_obstacle_plane(reader *r, const cJSON *v, pf_obstacle *o)
 static pf_status read_obstacle_sphere(reader *r, const cJSON *v, pf_obstacle *o)
 {
     static const char *const keys[] = {"centre", "radius", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     bool has_centre = false, has_radius = false;
     for (const cJSON *it = v->child; it; it = it->next) {
         if (!strcmp(it->string, "centre")) {
-            READ_KEY(r, it, read_vec3(r, it, &o->centre));
+            READ_KEY(r, it, pf_scene_read_vec3(r, it, &o->centre));
             has_centre = true;
         } else {
-            READ_KEY(r, it, read_number(r, it, RANGE_POSITIVE, &o->radius));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &o->radius));
             has_radius = true;
         }
     }
     if (!has_centre || !has_radius)
-        return fail(r, "missing key \"%s\"", has_centre ? "radius" : "centre");
+        return pf_scene_fail(r, "missing key \"%s\"", has_centre ? "radius" : "centre");
     o->kind = PF_OBSTACLE_SPHERE;
     return PF_OK;
 }
@@ -668,7 +488,8 @@ static pf_status read_obstacle_box(reader *r, const cJSON *v, pf_obstacle *o)
     PF_TRY(read_box(r, v, &box));
     for (int i = 0; i < 3; ++i)
         if (pf_v3_get(box.lo, i) == pf_v3_get(box.hi, i))
-            return fail(r, "the box is flat along %c: an obstacle box needs lo < hi", "xyz"[i]);
+            return pf_scene_fail(r, "the box is flat along %c: an obstacle box needs lo < hi",
+                                 "xyz"[i]);
     o->kind = PF_OBSTACLE_BOX;
     o->lo = box.lo;
     o->hi = box.hi;
@@ -693,65 +514,29 @@ static pf_status resolve_file(reader *r, const char *file, char **out)
 static pf_status read_obstacle_mesh(reader *r, const cJSON *v, pf_obstacle *o)
 {
     static const char *const keys[] = {"file", "depth", "up", "scale", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     o->up = PF_UP_AUTO;
     o->scale = 1;
     for (const cJSON *it = v->child; it; it = it->next) {
-        size_t mark = push_key(r, it->string);
+        size_t mark = pf_scene_push_key(r, it->string);
         if (!strcmp(it->string, "file")) {
             if (!cJSON_IsString(it) || !it->valuestring[0])
-                return fail_type(r, it, "a non-empty file name");
+                return pf_scene_fail_type(r, it, "a non-empty file name");
             PF_TRY(resolve_file(r, it->valuestring, &o->file));
         } else if (!strcmp(it->string, "up")) {
             if (!cJSON_IsString(it) || !pf_up_axis_parse(it->valuestring, &o->up))
-                return fail_type(r, it, "\"x\", \"y\", \"z\", \"-x\", \"-y\", \"-z\" or \"auto\"");
+                return pf_scene_fail_type(
+                    r, it, "\"x\", \"y\", \"z\", \"-x\", \"-y\", \"-z\" or \"auto\"");
         } else if (!strcmp(it->string, "scale")) {
-            PF_TRY(read_number(r, it, RANGE_POSITIVE, &o->scale));
+            PF_TRY(pf_scene_read_number(r, it, RANGE_POSITIVE, &o->scale));
         } else {
-            PF_TRY(read_number(r, it, RANGE_NONNEG, &o->depth));
+            PF_TRY(pf_scene_read_number(r, it, RANGE_NONNEG, &o->depth));
         }
-        pop(r, mark);
+        pf_scene_pop(r, mark);
     }
     if (!o->file)
-        return fail(r, "missing key \"file\"");
+        return pf_scene_fail(r, "missing key \"file\"");
     o->kind = PF_OBSTACLE_MESH;
-    return PF_OK;
-}
-
-/* [{"time": t, "translation": [...]}, ...]: at least one key, times strictly increasing. */
-static pf_status read_path(reader *r, const cJSON *v, pf_obstacle *o)
-{
-    if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) == 0)
-        return fail_type(r, v, "a non-empty array of {\"time\", \"translation\"} keys");
-    int n = cJSON_GetArraySize(v);
-    o->key_time = pf_alloc_array((size_t)n, sizeof *o->key_time);
-    o->key_translation = pf_alloc_array((size_t)n, sizeof *o->key_translation);
-    PF_CHECK(o->key_time && o->key_translation, r->err, PF_ERR_NOMEM, "%s: %s: out of memory",
-             r->name, r->path);
-    static const char *const keys[] = {"time", "translation", NULL};
-    int i = 0;
-    for (const cJSON *it = v->child; it; it = it->next, ++i) {
-        size_t mark = push_index(r, i);
-        PF_TRY(begin_object(r, it, keys));
-        bool has_time = false, has_translation = false;
-        for (const cJSON *k = it->child; k; k = k->next) {
-            if (!strcmp(k->string, "time")) {
-                READ_KEY(r, k, read_number(r, k, RANGE_FINITE, &o->key_time[i]));
-                has_time = true;
-            } else {
-                READ_KEY(r, k, read_vec3(r, k, &o->key_translation[i]));
-                has_translation = true;
-            }
-        }
-        if (!has_time || !has_translation)
-            return fail(r, "missing key \"%s\"", has_time ? "translation" : "time");
-        if (i > 0 && !(o->key_time[i] > o->key_time[i - 1])) {
-            push_key(r, "time");
-            return fail(r, "times must increase strictly along the path");
-        }
-        pop(r, mark);
-        o->n_keys = i + 1;
-    }
     return PF_OK;
 }
 
@@ -759,21 +544,23 @@ static pf_status read_path(reader *r, const cJSON *v, pf_obstacle *o)
 static pf_status read_obstacle(reader *r, const cJSON *v, pf_obstacle *o)
 {
     static const char *const keys[] = {"plane", "sphere", "box", "mesh", "stiffness", "path", NULL};
-    PF_TRY(begin_object(r, v, keys));
+    PF_TRY(pf_scene_begin_object(r, v, keys));
     int n_shapes = 0;
     for (const cJSON *it = v->child; it; it = it->next) {
         const char *k = it->string;
         if (!strcmp(k, "stiffness")) {
-            READ_KEY(r, it, read_number(r, it, RANGE_NONNEG, &o->stiffness));
+            READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_NONNEG, &o->stiffness));
             continue;
         }
         if (!strcmp(k, "path")) {
-            READ_KEY(r, it, read_path(r, it, o));
+            READ_KEY(r, it,
+                     pf_scene_read_path(r, it, &o->n_keys, &o->key_time, &o->key_translation));
             continue;
         }
         if (n_shapes++)
-            return fail(r, "give one shape, \"plane\", \"sphere\", \"box\" or \"mesh\", not "
-                           "several");
+            return pf_scene_fail(r,
+                                 "give one shape, \"plane\", \"sphere\", \"box\" or \"mesh\", not "
+                                 "several");
         if (!strcmp(k, "plane"))
             READ_KEY(r, it, read_obstacle_plane(r, it, o));
         else if (!strcmp(k, "sphere"))
@@ -784,14 +571,14 @@ static pf_status read_obstacle(reader *r, const cJSON *v, pf_obstacle *o)
             READ_KEY(r, it, read_obstacle_mesh(r, it, o));
     }
     if (n_shapes == 0)
-        return fail(r, "missing shape: give \"plane\", \"sphere\", \"box\" or \"mesh\"");
+        return pf_scene_fail(r, "missing shape: give \"plane\", \"sphere\", \"box\" or \"mesh\"");
     return PF_OK;
 }
 
 static pf_status read_obstacles(reader *r, const cJSON *v, pf_scene *s)
 {
     if (!cJSON_IsArray(v))
-        return fail_type(r, v, "an array");
+        return pf_scene_fail_type(r, v, "an array");
     int n = cJSON_GetArraySize(v);
     release_obstacles(s);
     s->obstacles = pf_calloc((size_t)n, sizeof *s->obstacles);
@@ -799,9 +586,9 @@ static pf_status read_obstacles(reader *r, const cJSON *v, pf_scene *s)
     s->n_obstacles = n;
     int i = 0;
     for (const cJSON *it = v->child; it; it = it->next, ++i) {
-        size_t mark = push_index(r, i);
+        size_t mark = pf_scene_push_index(r, i);
         PF_TRY(read_obstacle(r, it, &s->obstacles[i]));
-        pop(r, mark);
+        pf_scene_pop(r, mark);
     }
     return PF_OK;
 }
@@ -810,15 +597,15 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
 {
     if (!cJSON_IsObject(root)) {
         char got[64];
-        describe(root, got);
+        pf_scene_describe(root, got);
         return pf_error_set(r->err, PF_ERR_INVALID, __FILE__, __LINE__,
                             "%s: the scene must be a JSON object, got %s", r->name, got);
     }
-    static const char *const keys[] = {"material", "materials",  "method",    "corotation",
-                                       "gravity",  "body_force", "damping",   "fixed",
-                                       "loads",    "ground",     "obstacles", "time",
-                                       "static",   "solver",     "refine",    NULL};
-    PF_TRY(begin_object(r, root, keys));
+    static const char *const keys[] = {"material",   "materials", "method", "corotation", "gravity",
+                                       "body_force", "damping",   "fixed",  "loads",      "ground",
+                                       "obstacles",  "time",      "static", "solver",     "refine",
+                                       "cuts",       NULL};
+    PF_TRY(pf_scene_begin_object(r, root, keys));
     for (const cJSON *it = root->child; it; it = it->next) {
         const char *k = it->string;
         if (!strcmp(k, "material"))
@@ -830,9 +617,9 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
         else if (!strcmp(k, "corotation"))
             READ_KEY(r, it, read_corotation(r, it, s));
         else if (!strcmp(k, "gravity"))
-            READ_KEY(r, it, read_vec3(r, it, &s->gravity));
+            READ_KEY(r, it, pf_scene_read_vec3(r, it, &s->gravity));
         else if (!strcmp(k, "body_force"))
-            READ_KEY(r, it, read_vec3(r, it, &s->body_force));
+            READ_KEY(r, it, pf_scene_read_vec3(r, it, &s->body_force));
         else if (!strcmp(k, "damping"))
             READ_KEY(r, it, read_damping(r, it, s));
         else if (!strcmp(k, "fixed"))
@@ -847,10 +634,12 @@ static pf_status read_scene(reader *r, const cJSON *root, pf_scene *s)
             READ_KEY(r, it, read_time(r, it, s));
         else if (!strcmp(k, "solver"))
             READ_KEY(r, it, read_solver(r, it, &s->solver));
+        else if (!strcmp(k, "cuts"))
+            READ_KEY(r, it, pf_scene_read_cuts(r, it, s));
         else if (!strcmp(k, "refine"))
             READ_KEY(r, it, read_refine(r, it, &s->refine));
         else
-            READ_KEY(r, it, read_bool(r, it, &s->is_static));
+            READ_KEY(r, it, pf_scene_read_bool(r, it, &s->is_static));
     }
     pf_scene_apply_static_ground_rule(s);
     for (int32_t k = 0; k < s->n_materials; ++k) { /* what an entry did not give */

@@ -7,19 +7,27 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "scene_values.h"
+
+pf_vec3 pf_scene_path_at(int32_t n_keys, const double *key_time, const pf_vec3 *key_translation,
+                         double t)
+{
+    if (n_keys == 0)
+        return pf_v3(0, 0, 0);
+    if (t <= key_time[0])
+        return key_translation[0];
+    for (int32_t k = 1; k < n_keys; ++k)
+        if (t < key_time[k]) {
+            double s = (t - key_time[k - 1]) / (key_time[k] - key_time[k - 1]);
+            return pf_v3_add(pf_v3_scale(key_translation[k - 1], 1 - s),
+                             pf_v3_scale(key_translation[k], s));
+        }
+    return key_translation[n_keys - 1];
+}
+
 pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t)
 {
-    if (o->n_keys == 0)
-        return pf_v3(0, 0, 0);
-    if (t <= o->key_time[0])
-        return o->key_translation[0];
-    for (int32_t k = 1; k < o->n_keys; ++k)
-        if (t < o->key_time[k]) {
-            double s = (t - o->key_time[k - 1]) / (o->key_time[k] - o->key_time[k - 1]);
-            return pf_v3_add(pf_v3_scale(o->key_translation[k - 1], 1 - s),
-                             pf_v3_scale(o->key_translation[k], s));
-        }
-    return o->key_translation[o->n_keys - 1];
+    return pf_scene_path_at(o->n_keys, o->key_time, o->key_translation, t);
 }
 
 pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surface, pf_error *err)

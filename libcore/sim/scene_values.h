@@ -45,4 +45,9 @@ bool pf_scene_unit_direction(pf_vec3 n, pf_vec3 *out);
  * this rule, hence ground_given. */
 void pf_scene_apply_static_ground_rule(pf_scene *s);
 
+/* A path's translation at time t: linear between keyframes (key_time strictly increasing), the
+ * first and last held before and after; zero without keys (obstacles, blades). */
+pf_vec3 pf_scene_path_at(int32_t n_keys, const double *key_time, const pf_vec3 *key_translation,
+                         double t);
+
 #endif

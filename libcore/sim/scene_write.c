@@ -67,6 +67,19 @@ static cJSON *region(const pf_region *r)
     return o;
 }
 
+/* "path": [{"time", "translation"}, ...] of an obstacle or a blade. */
+static void add_path(cJSON *j, int32_t n_keys, const double *key_time,
+                     const pf_vec3 *key_translation)
+{
+    cJSON *path = cJSON_AddArrayToObject(j, "path");
+    for (int32_t k = 0; k < n_keys; ++k) {
+        cJSON *key = cJSON_CreateObject();
+        add_number(key, "time", key_time[k]);
+        cJSON_AddItemToObject(key, "translation", vector(key_translation[k]));
+        cJSON_AddItemToArray(path, key);
+    }
+}
+
 /* The mesh file as resolved (relative to the working directory, or absolute), so the SCEN chunk
  * names a file a tool reading the stream from the same directory finds. */
 static cJSON *obstacle(const pf_obstacle *o)
@@ -92,15 +105,25 @@ static cJSON *obstacle(const pf_obstacle *o)
         add_number(mesh, "scale", o->scale > 0 ? o->scale : 1);
     }
     add_number(j, "stiffness", o->stiffness);
-    if (o->n_keys > 0) {
-        cJSON *path = cJSON_AddArrayToObject(j, "path");
-        for (int32_t k = 0; k < o->n_keys; ++k) {
-            cJSON *key = cJSON_CreateObject();
-            add_number(key, "time", o->key_time[k]);
-            cJSON_AddItemToObject(key, "translation", vector(o->key_translation[k]));
-            cJSON_AddItemToArray(path, key);
-        }
+    if (o->n_keys > 0)
+        add_path(j, o->n_keys, o->key_time, o->key_translation);
+    return j;
+}
+
+static cJSON *blade(const pf_blade *b)
+{
+    cJSON *j = cJSON_CreateObject();
+    if (b->kind == PF_BLADE_PLANE) {
+        cJSON *plane = cJSON_AddObjectToObject(j, "plane");
+        cJSON_AddItemToObject(plane, "point", vector(b->point));
+        cJSON_AddItemToObject(plane, "normal", vector(b->normal));
+        add_number(j, "time", b->time);
+        return j;
     }
+    cJSON *segment = cJSON_AddArrayToObject(j, "blade");
+    cJSON_AddItemToArray(segment, vector(b->a));
+    cJSON_AddItemToArray(segment, vector(b->b));
+    add_path(j, b->n_keys, b->key_time, b->key_translation);
     return j;
 }
 
@@ -182,6 +205,11 @@ static cJSON *scene_object(const pf_scene *s)
     cJSON *obstacles = cJSON_AddArrayToObject(root, "obstacles");
     for (int32_t k = 0; k < s->n_obstacles; ++k)
         cJSON_AddItemToArray(obstacles, obstacle(&s->obstacles[k]));
+    if (s->n_cuts > 0) {
+        cJSON *cuts = cJSON_AddArrayToObject(root, "cuts");
+        for (int32_t k = 0; k < s->n_cuts; ++k)
+            cJSON_AddItemToArray(cuts, blade(&s->cuts[k]));
+    }
 
     cJSON *time = cJSON_AddObjectToObject(root, "time");
     add_number(time, "dt", s->dt);

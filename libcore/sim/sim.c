@@ -283,6 +283,10 @@ void pf_sim_release(pf_sim *s)
         pf_weights_release(s->owned_weights);
     pf_free(s->owned_weights);
     s->owned_weights = NULL;
+    if (s->owned_surface)
+        pf_surface_release(s->owned_surface);
+    pf_free(s->owned_surface);
+    s->owned_surface = NULL;
     if (s->owned_mesh)
         pf_mesh_release(s->owned_mesh);
     pf_free(s->owned_mesh);
@@ -475,7 +479,7 @@ pf_status pf_sim_frame(pf_sim *s, pf_error *err)
     }
     memcpy(s->u_prev, s->u, n * sizeof *s->u);
     memcpy(s->v_prev, s->v, n * sizeof *s->v);
-    double h = sc->dt / sc->substeps;
+    double h = sc->dt / sc->substeps, t_start = s->time;
     for (int32_t k = 0; k < sc->substeps; ++k) {
         pf_status st = step(s, h, err);
         double kinetic = 0, bound = 0;
@@ -501,6 +505,13 @@ pf_status pf_sim_frame(pf_sim *s, pf_error *err)
         s->time += h;
     }
     s->frame++;
+    if (sc->n_cuts > 0) {
+        pf_status st = pf_sim_apply_cuts(s, t_start, s->time, NULL, err);
+        if (st < 0) {
+            pf_error_prefix(err, "frame %d", (int)s->frame);
+            return st;
+        }
+    }
     if (sc->refine.enabled) {
         pf_status st = pf_sim_refine(s, NULL, err);
         if (st < 0) {

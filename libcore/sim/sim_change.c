@@ -24,6 +24,11 @@ const pf_weights *pf_sim_weights(const pf_sim *s)
     return s->weights;
 }
 
+const pf_surface *pf_sim_surface(const pf_sim *s)
+{
+    return s->surface;
+}
+
 /* Statistics: cumulative ones from s, what describes the mesh from t. */
 static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
 {
@@ -74,9 +79,19 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
     *t->owned_mesh = *mesh;
     memset(mesh, 0, sizeof *mesh);
     PF_TRY(pf_mesh_derive(t->owned_mesh, err));
-    PF_TRY(pf_mesh_carry_groups(t->owned_mesh, s->mesh, change->parent, change->merged_into,
-                                 change->face_src, err));
-    if (s->surface) {
+    if (!t->owned_mesh->elem_group) /* a cut carries them itself */
+        PF_TRY(pf_mesh_carry_groups(t->owned_mesh, s->mesh, change->parent, change->merged_into,
+                                    change->face_src, err));
+    if (s->surface && change->cut) {
+        t->owned_surface = pf_calloc(1, sizeof *t->owned_surface);
+        t->owned_weights = pf_calloc(1, sizeof *t->owned_weights);
+        PF_CHECK(t->owned_surface && t->owned_weights, err, PF_ERR_NOMEM,
+                 "cannot allocate the cut surface");
+        PF_TRY(pf_surface_cut(s->surface, t->owned_mesh, change->cut, NULL, t->owned_surface,
+                              t->owned_weights, NULL, err));
+        t->surface = t->owned_surface;
+        t->weights = t->owned_weights;
+    } else if (s->surface) {
         t->owned_weights = pf_calloc(1, sizeof *t->owned_weights);
         PF_CHECK(t->owned_weights, err, PF_ERR_NOMEM, "cannot allocate the surface's weights");
         PF_TRY(pf_embed_compute(t->owned_mesh, s->surface, NULL, t->owned_weights, NULL, err));
@@ -123,6 +138,10 @@ pf_status pf_sim_change_mesh(pf_sim *s, pf_mesh *next, const pf_mesh_change *cha
     t->stats.refinements++;
     t->stats.refine_method_seconds += t->method_seconds;
     t->stats.refine_setup_seconds += build_seconds - t->method_seconds;
+    if (!t->owned_surface) { /* the surface of an earlier cut goes on */
+        t->owned_surface = s->owned_surface;
+        s->owned_surface = NULL;
+    }
     pf_sim swap = *s;
     *s = *t;
     *t = swap;

@@ -16,6 +16,7 @@ struct pf_sim {
     const pf_surface *surface; /* the embedded surface (the caller's), NULL without */
     const pf_weights *weights; /* its weights on mesh: the caller's, or owned_weights */
     pf_weights *owned_weights;
+    pf_surface *owned_surface; /* the surface after a cut (surface then points to it) */
     /* refinement bookkeeping (sim_refine.c), NULL until the first refinement or criterion:
      * per element its depth, its family (the split that made it, an index into families, -1
      * for the first mesh's elements) and the frames in a row it has been calm */

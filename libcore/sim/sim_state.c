@@ -73,7 +73,7 @@ static pf_status fingerprint(const pf_sim *sim, uint32_t *out, pf_error *err)
 
 pf_status pf_sim_checkpoint(pf_sim *s, pf_buffer *out, pf_error *err)
 {
-    PF_CHECK(!s->scene->refine.enabled && !s->owned_mesh, err, PF_ERR_UNSUPPORTED,
+    PF_CHECK(!pf_scene_changes_mesh(s->scene) && !s->owned_mesh, err, PF_ERR_UNSUPPORTED,
              "checkpoint of a simulator whose mesh changes (refinement): not supported yet");
     uint32_t print;
     PF_TRY(fingerprint(s, &print, err));

@@ -70,6 +70,21 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
         wall_cpu(sec, "factorisation", st->solver.factor_seconds, st->solver.factor_cpu_seconds);
         wall_cpu(sec, "solves", st->solver.solve_seconds, st->solver.solve_cpu_seconds);
         add_solver(root, &st->solver);
+        cJSON *changes = cJSON_AddObjectToObject(root, "mesh_changes");
+        add_int(changes, "changes", st->refinements);
+        add_int(changes, "elements", st->elements);
+        add_int(changes, "elements_split", st->elements_split);
+        add_int(changes, "elements_merged", st->elements_merged);
+        add_int(changes, "integrals_reused", st->integrals_reused);
+        add_int(changes, "integrals_computed", st->integrals_computed);
+        cJSON_AddNumberToObject(changes, "seconds", st->refine_seconds);
+        cJSON *cuts = cJSON_AddObjectToObject(root, "cuts");
+        add_int(cuts, "cuts", st->cuts);
+        add_int(cuts, "elements_cut", st->elements_cut);
+        add_int(cuts, "bodies", st->bodies);
+        cJSON_AddNumberToObject(cuts, "dropped_volume", st->dropped_volume);
+        cJSON_AddNumberToObject(cuts, "dropped_mass", st->dropped_mass);
+        cJSON_AddNumberToObject(cuts, "seconds", st->cut_seconds);
     }
     return pf_sim_json_print(root, "the run's statistics", json, err);
 }

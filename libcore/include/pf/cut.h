@@ -58,8 +58,8 @@ typedef struct pf_cut_result {
     uint8_t *changed;  /* [dst->n_elems] 0 exactly for elements whose faces are those of their
                           parent node for node (pf_refine_result.changed, and also 1 for
                           elements that got a duplicated node) */
-    int32_t *face_src; /* [dst->n_faces] the src face a dst face is, node for node (same node
-                          indices), or -1 */
+    int32_t *face_src; /* [dst->n_faces] the src face a dst face is, node for node through
+                          node_map (same order, same orientation), or -1 */
     int32_t *node_map; /* [src->n_nodes] the dst index of each src node (its first copy when it
                           was duplicated), -1 when it was dropped with a dropped piece */
     int32_t *node_src; /* [dst->n_nodes] the src node a dst node is or is a copy of, -1 for the

@@ -14,6 +14,7 @@
 #include <pf/fem.h>
 #include <pf/geom.h>
 #include <pf/mesh.h>
+#include <pf/cut.h>
 #include <pf/refine.h>
 #include <pf/solve.h>
 
@@ -111,6 +112,25 @@ typedef struct pf_obstacle {
 /* The obstacle's translation at time t (zero without keys). */
 pf_vec3 pf_obstacle_translation(const pf_obstacle *o, double t);
 
+/* A blade of the scene's "cuts" (docs/scene.md): a segment whose end points a, b are moved by a
+ * path like an obstacle's, cutting the elements the surface it sweeps between two frames passes
+ * through (progressive cutting); or a plane (point, unit normal) cutting every element it crosses
+ * at the first frame ending at or after time. */
+typedef enum pf_blade_kind { PF_BLADE_SEGMENT = 0, PF_BLADE_PLANE = 1 } pf_blade_kind;
+
+typedef struct pf_blade {
+    pf_blade_kind kind;
+    pf_vec3 a, b;          /* segment: end points before the path's translation, a != b */
+    pf_vec3 point, normal; /* plane */
+    double time;           /* plane: when it cuts */
+    int32_t n_keys;
+    double *key_time;         /* [n_keys] segment: the path, as an obstacle's */
+    pf_vec3 *key_translation; /* [n_keys] */
+} pf_blade;
+
+/* The segment blade's end points at time t (its path's translation applied). */
+void pf_blade_at(const pf_blade *b, double t, pf_vec3 *a, pf_vec3 *bb);
+
 /* Stress-based refinement (docs/scene.md, "refine"; DG paper sec. 9.3, harmonic paper sec. 8):
  * after every frame, an element whose largest absolute principal stress (sampled at its centroid
  * and vertices) exceeds threshold is split, up to max_level splits deep, while the mesh has fewer
@@ -189,11 +209,18 @@ typedef struct pf_scene {
     /* stress-based refinement and coarsening (off unless the scene has a "refine" key) */
     pf_refine_params refine;
 
+    /* cutting (the "cuts" key): blades, applied between frames in order */
+    int32_t n_cuts;
+    pf_blade *cuts;
+
     char *json; /* the scene text as read (NUL-terminated), for the SCEN chunk; NULL without file */
 } pf_scene;
 
 /* The defaults above (no file). */
 void pf_scene_default(pf_scene *s);
+
+/* Whether a simulation of the scene changes its mesh between frames (refinement or cuts). */
+bool pf_scene_changes_mesh(const pf_scene *s);
 
 /* Parses JSON text (len bytes, need not be NUL-terminated) into s (defaults first, then every key
  * given). name (the file name; "scene" when NULL) prefixes every message. Errors: PF_ERR_FORMAT
@@ -315,6 +342,13 @@ typedef struct pf_sim_stats {
     /* DG: element and face integrals copied from the set-up of the mesh before a change, and
      * computed (by every set-up, the first included) */
     int64_t integrals_reused, integrals_computed;
+    /* cutting (the scene's "cuts"; each cut is also a mesh change above) */
+    int32_t cuts;            /* cuts applied (a blade's sweep over one frame, or a plane) */
+    int64_t elements_cut;    /* elements split by them */
+    int32_t bodies;          /* connected pieces after the latest cut (0 before any) */
+    double dropped_volume;   /* pieces too small to keep alone (pf/cut.h), model units */
+    double dropped_mass;     /* their mass (their elements' densities) */
+    double cut_seconds;      /* finding the elements, the cut, the new set-up, CPU seconds */
 } pf_sim_stats;
 
 /* Sets everything up for the scene (resolved with pf_scene_resolve; mesh obstacles' triangles handed
@@ -397,6 +431,8 @@ const pf_sim_stats *pf_sim_get_stats(const pf_sim *sim);
  * surface's weights on it (NULL without an embedded surface). */
 const pf_mesh *pf_sim_mesh(const pf_sim *sim);
 const pf_weights *pf_sim_weights(const pf_sim *sim);
+/* The embedded surface in force: the caller's, or the cut one after a cut (NULL without). */
+const pf_surface *pf_sim_surface(const pf_sim *sim);
 
 /* Splits the requested elements of the current mesh (pf_mesh_refine) and carries the state over
  * (DG: each child the parent's polynomial, exact; CG: new nodes take the parent's field at their
@@ -414,6 +450,24 @@ pf_status pf_sim_split(pf_sim *sim, const pf_refine_request *req, int32_t n_req,
  * linear momentum exactly; CG: the nodes the merged mesh keeps keep their values). *n_merged
  * (may be NULL) receives the groups merged. On failure the simulator is unchanged. */
 pf_status pf_sim_merge(pf_sim *sim, const int32_t *group, int32_t *n_merged, pf_error *err);
+
+/* Cuts the current mesh by the requests (pf_mesh_cut on the rest shape; requests name elements
+ * of pf_sim_mesh) and carries the state over in one transaction, as pf_sim_split: DG copies each
+ * piece its parent's polynomial (exact), CG gives each node the field at its position (a copy of
+ * a node its value). The embedded surface is cut with the mesh (pf_surface_cut) and re-weighted.
+ * res (may be NULL) receives the cut's description (release it with pf_cut_result_release). On
+ * failure the simulator is unchanged. */
+pf_status pf_sim_cut(pf_sim *sim, const pf_cut_request *req, int32_t n_req, pf_cut_result *res,
+                     pf_error *err);
+
+/* The scene's cuts (docs/scene.md, "cuts") over the time from t0 to t1: each segment blade cuts
+ * the elements, as they are deformed now, that the surface it swept from t0 to t1 passes
+ * through; each plane whose time lies in (t0, t1] (or at or before t1 when t0 is 0) cuts every
+ * element it crosses. A blade's plane reaches the rest shape through the affine map that best
+ * fits the deformation of the elements it cuts (exact when they move rigidly or deform
+ * affinely). pf_sim_frame calls it after each frame; *n_cut (may be NULL) receives the
+ * elements split. */
+pf_status pf_sim_apply_cuts(pf_sim *sim, double t0, double t1, int32_t *n_cut, pf_error *err);
 
 /* Stress-based refinement by the scene's "refine" parameters: every element whose largest absolute
  * corotated principal stress (at its centroid and vertices) exceeds the threshold, below

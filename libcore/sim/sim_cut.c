@@ -1,0 +1,346 @@
+/* Cutting while the simulation runs (DG paper sec. 9.4, harmonic paper sec. 8 "Progressive
+ * Cutting"): the scene's blades find the elements they pass through in the deformed body, their
+ * plane is carried into the rest shape, pf_mesh_cut splits and separates, and the change is one
+ * transaction of sim_change.c (state carried over, surface cut and re-weighted). */
+#include <pf/cut.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sim_change.h"
+
+/* Bookkeeping of refinement on the cut mesh: a piece keeps its parent's level and leaves its
+ * family (a family with a piece missing never merges back), everything starts calm again. */
+static pf_status carry_bookkeeping(pf_sim *s, const pf_cut_result *r, const int32_t *old_level,
+                                   const int32_t *old_family, pf_error *err)
+{
+    int32_t n = s->mesh->n_elems;
+    int32_t *level = pf_calloc((size_t)n + 1, sizeof *level);
+    int32_t *family = pf_alloc_array((size_t)n + 1, sizeof *family);
+    int32_t *calm = pf_calloc((size_t)n + 1, sizeof *calm);
+    if (!level || !family || !calm) {
+        pf_free(level), pf_free(family), pf_free(calm);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate the bookkeeping of %d elements", (int)n);
+    }
+    for (int32_t e = 0; e < n; ++e) {
+        int32_t p = r->parent[e];
+        level[e] = old_level[p];
+        family[e] = r->split[p] ? -1 : old_family[p];
+    }
+    pf_free(s->level), pf_free(s->family), pf_free(s->calm);
+    s->level = level, s->family = family, s->calm = calm;
+    return PF_OK;
+}
+
+pf_status pf_sim_cut(pf_sim *s, const pf_cut_request *req, int32_t n_req, pf_cut_result *out,
+                     pf_error *err)
+{
+    double t0 = pf_cpu_seconds();
+    if (out)
+        memset(out, 0, sizeof *out);
+    pf_mesh next = {0};
+    pf_cut_result r = {0};
+    PF_TRY(pf_mesh_cut(s->mesh, req, n_req, NULL, &next, &r, err));
+    pf_mesh_change change = {.old_mesh = s->mesh,
+                             .parent = r.parent,
+                             .split = r.split,
+                             .node_map = r.node_map,
+                             .face_src = r.face_src,
+                             .cut = &r};
+    pf_sim *old = NULL;
+    pf_status st = pf_sim_change_mesh(s, &next, &change, r.changed, &old, err);
+    if (st >= 0 && old && old->level)
+        st = carry_bookkeeping(s, &r, old->level, old->family, err);
+    if (st >= 0) {
+        s->stats.cuts++;
+        s->stats.elements_cut += r.n_split;
+        s->stats.elements_split += r.n_split;
+        s->stats.bodies = r.n_bodies;
+        s->stats.dropped_volume += r.dropped_volume;
+        s->stats.dropped_mass += r.dropped_volume * s->scene->density;
+        s->stats.cut_seconds += pf_cpu_seconds() - t0;
+        s->stats.refine_seconds += pf_cpu_seconds() - t0;
+    } else {
+        pf_error_prefix(err, "cutting %d elements", (int)n_req);
+    }
+    pf_sim_destroy(&old);
+    pf_mesh_release(&next);
+    if (st >= 0 && out)
+        *out = r;
+    else
+        pf_cut_result_release(&r);
+    return st;
+}
+
+/* ---- which elements a blade passes through ----------------------------------------------------
+ */
+
+/* The swept parallelogram of a segment blade: origin o, edges ea (along the blade) and eb (its
+ * motion); n = ea x eb normalised. */
+typedef struct sweep {
+    pf_vec3 o, ea, eb, n;
+    bool bounded; /* a segment's sweep (false: a whole plane) */
+} sweep;
+
+/* (s, r) with p - o = s ea + r eb for p in the sweep's plane (least squares in the plane). */
+static void sweep_coords(const sweep *w, pf_vec3 p, double *s, double *r)
+{
+    pf_vec3 d = pf_v3_sub(p, w->o);
+    double aa = pf_v3_dot(w->ea, w->ea), ab = pf_v3_dot(w->ea, w->eb), bb = pf_v3_dot(w->eb, w->eb);
+    double da = pf_v3_dot(d, w->ea), db = pf_v3_dot(d, w->eb), det = aa * bb - ab * ab;
+    *s = (da * bb - db * ab) / det;
+    *r = (db * aa - da * ab) / det;
+}
+
+/* Whether the convex polygon of the points (s, r)[n] (any order) meets the unit square: the
+ * separating-axis test over the square's axes and the hull's edge normals (the hull by the
+ * monotone chain). */
+static int cmp_pt(const void *a, const void *b)
+{
+    const double *p = a, *q = b;
+    return p[0] < q[0] ? -1 : p[0] > q[0] ? 1 : (p[1] > q[1]) - (p[1] < q[1]);
+}
+
+static double cross2(const double *o, const double *a, const double *b)
+{
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+}
+
+static bool polygon_meets_square(double (*pt)[2], int n, double (*hull)[2])
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 2; ++c)
+            lo[c] = fmin(lo[c], pt[i][c]), hi[c] = fmax(hi[c], pt[i][c]);
+    if (hi[0] < 0 || lo[0] > 1 || hi[1] < 0 || lo[1] > 1)
+        return false;
+    qsort(pt, (size_t)n, sizeof *pt, cmp_pt);
+    int k = 0;
+    for (int i = 0; i < n; ++i) { /* lower hull */
+        while (k >= 2 && cross2(hull[k - 2], hull[k - 1], pt[i]) <= 0)
+            --k;
+        memcpy(hull[k++], pt[i], sizeof *pt);
+    }
+    for (int i = n - 2, t = k + 1; i >= 0; --i) { /* upper hull */
+        while (k >= t && cross2(hull[k - 2], hull[k - 1], pt[i]) <= 0)
+            --k;
+        memcpy(hull[k++], pt[i], sizeof *pt);
+    }
+    const double sq[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    for (int i = 0; i + 1 < k; ++i) { /* the square wholly outside one hull edge separates */
+        int outside = 0;
+        for (int j = 0; j < 4; ++j)
+            outside += cross2(hull[i], hull[i + 1], sq[j]) < 0;
+        if (outside == 4)
+            return false;
+    }
+    return true;
+}
+
+/* Whether element e (deformed node positions y) is crossed by the sweep: nodes strictly on both
+ * sides of its plane (beyond tol) and, for a bounded sweep, its section meeting the
+ * parallelogram. scratch holds 2 * (2 face nodes) points. */
+static bool element_crossed(const pf_mesh *m, const double *y, int32_t e, const sweep *w,
+                            double tol, double (*pt)[2], double (*hull)[2])
+{
+    bool below = false, above = false;
+    int n = 0;
+    for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        int64_t o = m->face_offsets[f], len = m->face_offsets[f + 1] - o;
+        for (int64_t k = 0; k < len; ++k) {
+            pf_vec3 a = pf_v3_load(y + 3 * (size_t)m->face_nodes[o + k]);
+            pf_vec3 b = pf_v3_load(y + 3 * (size_t)m->face_nodes[o + (k + 1) % len]);
+            double da = pf_v3_dot(w->n, pf_v3_sub(a, w->o)),
+                   db = pf_v3_dot(w->n, pf_v3_sub(b, w->o));
+            below |= da<-tol, above |= da> tol;
+            if (!w->bounded || !((da < 0 && db > 0) || (da > 0 && db < 0)))
+                continue;
+            pf_vec3 p = pf_v3_add(a, pf_v3_scale(pf_v3_sub(b, a), da / (da - db)));
+            sweep_coords(w, p, &pt[n][0], &pt[n][1]);
+            n++;
+        }
+    }
+    if (!(below && above))
+        return false;
+    return !w->bounded || (n >= 3 && polygon_meets_square(pt, n, hull)) ||
+           (n > 0 && n < 3 && pt[0][0] >= 0 && pt[0][0] <= 1 && pt[0][1] >= 0 && pt[0][1] <= 1);
+}
+
+/* The rest-shape plane of the world plane n . (y - o) = 0 over the nodes of the elements cut:
+ * y = F x + t fitted by least squares (centred), then n . (F x + t - o) = 0. */
+static pf_plane rest_plane(const pf_mesh *m, const double *y, const pf_cut_request *req, int32_t k,
+                           const sweep *w)
+{
+    pf_vec3 xs = pf_v3(0, 0, 0), ys = pf_v3(0, 0, 0);
+    double count = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+        double c[3][3] = {{0}}, b[3][3] = {{0}}; /* sum dx dx^T, sum dy dx^T */
+        pf_vec3 xm = pf_v3_scale(xs, 1 / fmax(count, 1)), ym = pf_v3_scale(ys, 1 / fmax(count, 1));
+        for (int32_t i = 0; i < k; ++i) {
+            int32_t e = req[i].elem;
+            for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+                int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+                for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+                    pf_vec3 x = pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]);
+                    pf_vec3 yy = pf_v3_load(y + 3 * (size_t)m->face_nodes[j]);
+                    if (pass == 0) {
+                        xs = pf_v3_add(xs, x), ys = pf_v3_add(ys, yy), count += 1;
+                        continue;
+                    }
+                    double dx[3] = {x.x - xm.x, x.y - xm.y, x.z - xm.z};
+                    double dy[3] = {yy.x - ym.x, yy.y - ym.y, yy.z - ym.z};
+                    for (int a = 0; a < 3; ++a)
+                        for (int bb = 0; bb < 3; ++bb)
+                            c[a][bb] += dx[a] * dx[bb], b[a][bb] += dy[a] * dx[bb];
+                }
+            }
+        }
+        if (pass == 0)
+            continue;
+        /* F = B C^-1, and the rest normal F^T n = C^-1 (B^T n) (C symmetric) */
+        pf_mat3 cm, bt;
+        for (int a = 0; a < 3; ++a)
+            for (int bb = 0; bb < 3; ++bb)
+                cm.m[a][bb] = c[a][bb], bt.m[a][bb] = b[bb][a];
+        double det;
+        pf_mat3 ci = pf_m3_inverse(cm, &det);
+        pf_vec3 rn = pf_m3_mulv(ci, pf_m3_mulv(bt, w->n));
+        if (!(det > 0) || !(pf_v3_norm(rn) > 0) || !isfinite(pf_v3_norm(rn)))
+            rn = w->n; /* the nodes span no volume: cannot happen for elements; keep the plane */
+        double d = pf_v3_dot(rn, xm) - pf_v3_dot(w->n, pf_v3_sub(ym, w->o));
+        double len = pf_v3_norm(rn);
+        return (pf_plane){pf_v3_scale(rn, 1 / len), d / len};
+    }
+    return (pf_plane){w->n, pf_v3_dot(w->n, w->o)};
+}
+
+/* The pieces of earlier cuts (elements with a cut face: the mesh's face group "cut") next to
+ * the elements crossed, req[0 .. *k), are requested too, appended in element order. The plane of
+ * a blade is fitted anew at every frame, so a crack made over several frames is a few planes a
+ * rounding apart: where this frame's plane leaves a thin strip of a face between an earlier
+ * piece and a new one on the other side, the strip must open too, or the crack would stay
+ * bridged there. An earlier piece the new plane only grazes is not split (the sliver rule) but
+ * takes its side. */
+static void add_earlier_pieces(const pf_mesh *m, pf_cut_request *req, int32_t *k)
+{
+    const pf_mesh_group *g = pf_mesh_find_group(m, 2, "cut", 0);
+    if (!g || *k == 0)
+        return;
+    uint8_t *in = pf_calloc((size_t)m->n_elems + 1, 1);
+    if (!in)
+        return; /* the cut is then only less clean; nothing is wrong */
+    for (int32_t i = 0; i < *k; ++i)
+        in[req[i].elem] = 1;
+    int32_t n0 = *k;
+    for (int32_t i = 0; i < n0; ++i) {
+        int32_t e = req[i].elem;
+        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            int32_t nb =
+                m->face_elems[2 * f] == e ? m->face_elems[2 * f + 1] : m->face_elems[2 * f];
+            if (nb < 0 || in[nb])
+                continue;
+            for (int64_t p = m->elem_offsets[nb]; p < m->elem_offsets[nb + 1]; ++p)
+                if (m->face_group[PF_FACE_INDEX(m->elem_faces[p])] == g->number) {
+                    in[nb] = 2;
+                    break;
+                }
+        }
+    }
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        if (in[e] == 2)
+            req[(*k)++].elem = e;
+    pf_free(in);
+}
+
+/* The elements the sweep passes through, each with the sweep's plane in the rest shape. */
+static pf_status blade_requests(pf_sim *s, const sweep *w, pf_cut_request **req, int32_t *k,
+                                pf_error *err)
+{
+    const pf_mesh *m = s->mesh;
+    *k = 0;
+    int64_t most = 0; /* face nodes of the largest element */
+    for (int32_t e = 0; e < m->n_elems; ++e) {
+        int64_t c = 0;
+        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            c += m->face_offsets[f + 1] - m->face_offsets[f];
+        }
+        most = c > most ? c : most;
+    }
+    double *y = pf_alloc_array(3 * (size_t)m->n_nodes + 1, sizeof *y);
+    double(*pt)[2] = pf_alloc_array(2 * (size_t)most + 2, sizeof *pt);
+    double(*hull)[2] = pf_alloc_array(2 * (size_t)most + 4, sizeof *hull);
+    *req = pf_alloc_array((size_t)m->n_elems + 1, sizeof **req);
+    if (!y || !pt || !hull || !*req) {
+        pf_free(y), pf_free(pt), pf_free(hull), pf_free(*req);
+        *req = NULL;
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate the cut's search over %d elements", (int)m->n_elems);
+    }
+    pf_sim_nodal_displacements(s, y);
+    for (int32_t i = 0; i < 3 * m->n_nodes; ++i)
+        y[i] += m->x[i];
+    double tol = 1e-12 * s->model_size;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        if (element_crossed(m, y, e, w, tol, pt, hull))
+            (*req)[(*k)++].elem = e;
+    pf_plane pl = rest_plane(m, y, *req, *k, w);
+    add_earlier_pieces(m, *req, k);
+    for (int32_t i = 0; i < *k; ++i)
+        (*req)[i].plane = pl;
+    pf_free(y), pf_free(pt), pf_free(hull);
+    return PF_OK;
+}
+
+/* The sweep of blade b from t0 to t1; false when it sweeps nothing in that time. */
+static bool blade_sweep(const pf_blade *b, double t0, double t1, bool first, sweep *w)
+{
+    if (b->kind == PF_BLADE_PLANE) {
+        /* times reached by summing steps: compare within a millionth of the frame */
+        double eps = 1e-6 * (t1 - t0);
+        if (!(b->time <= t1 + eps && (b->time > t0 + eps || first)))
+            return false;
+        *w = (sweep){.o = b->point, .n = b->normal, .bounded = false};
+        return true;
+    }
+    pf_vec3 a0, b0, a1, b1;
+    pf_blade_at(b, t0, &a0, &b0);
+    pf_blade_at(b, t1, &a1, &b1);
+    pf_vec3 ea = pf_v3_sub(b0, a0), eb = pf_v3_sub(a1, a0), n = pf_v3_cross(ea, eb);
+    /* a blade moving along itself (or not at all) sweeps no area */
+    if (!(pf_v3_norm(n) > 1e-9 * pf_v3_norm(ea) * pf_v3_norm(eb)))
+        return false;
+    *w = (sweep){.o = a0, .ea = ea, .eb = eb, .n = pf_v3_normalize(n), .bounded = true};
+    return true;
+}
+
+pf_status pf_sim_apply_cuts(pf_sim *s, double t0, double t1, int32_t *n_cut, pf_error *err)
+{
+    if (n_cut)
+        *n_cut = 0;
+    for (int32_t i = 0; i < s->scene->n_cuts; ++i) {
+        double c0 = pf_cpu_seconds();
+        sweep w;
+        if (!blade_sweep(&s->scene->cuts[i], t0, t1, t0 <= 0, &w))
+            continue;
+        pf_cut_request *req = NULL;
+        int32_t k = 0;
+        PF_TRY(blade_requests(s, &w, &req, &k, err));
+        s->stats.cut_seconds += pf_cpu_seconds() - c0;
+        pf_cut_result r = {0};
+        pf_status st = k > 0 ? pf_sim_cut(s, req, k, &r, err) : PF_OK;
+        pf_free(req);
+        if (st < 0) {
+            pf_error_prefix(err, "cuts[%d]", (int)i);
+            return st;
+        }
+        if (n_cut)
+            *n_cut += r.n_split;
+        pf_cut_result_release(&r);
+    }
+    return PF_OK;
+}

@@ -169,8 +169,11 @@ static bool element_crossed(const pf_mesh *m, const double *y, int32_t e, const 
            (n > 0 && n < 3 && pt[0][0] >= 0 && pt[0][0] <= 1 && pt[0][1] >= 0 && pt[0][1] <= 1);
 }
 
-/* The rest-shape plane of the world plane n . (y - o) = 0 over the nodes of the elements cut:
- * y = F x + t fitted by least squares (centred), then n . (F x + t - o) = 0. */
+/* The rest-shape plane of the world plane n . (y - o) = 0 over the nodes of the elements
+ * req[0 .. k): y = F x + t fitted by least squares (centred), then n . (F x + t - o) = 0. Each
+ * element gets its own (k = 1): the deformation of a body is not one affine map, and one plane
+ * for all would miss elements the blade passes through; neighbours' planes then differ a little,
+ * and the faces between them open wherever their sides differ (pf_mesh_cut). */
 static pf_plane rest_plane(const pf_mesh *m, const double *y, const pf_cut_request *req, int32_t k,
                            const sweep *w)
 {
@@ -288,10 +291,9 @@ static pf_status blade_requests(pf_sim *s, const sweep *w, pf_cut_request **req,
     for (int32_t e = 0; e < m->n_elems; ++e)
         if (element_crossed(m, y, e, w, tol, pt, hull))
             (*req)[(*k)++].elem = e;
-    pf_plane pl = rest_plane(m, y, *req, *k, w);
     add_earlier_pieces(m, *req, k);
     for (int32_t i = 0; i < *k; ++i)
-        (*req)[i].plane = pl;
+        (*req)[i].plane = rest_plane(m, y, *req + i, 1, w);
     pf_free(y), pf_free(pt), pf_free(hull);
     return PF_OK;
 }

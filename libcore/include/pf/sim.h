@@ -463,9 +463,9 @@ pf_status pf_sim_cut(pf_sim *sim, const pf_cut_request *req, int32_t n_req, pf_c
 /* The scene's cuts (docs/scene.md, "cuts") over the time from t0 to t1: each segment blade cuts
  * the elements, as they are deformed now, that the surface it swept from t0 to t1 passes
  * through; each plane whose time lies in (t0, t1] (or at or before t1 when t0 is 0) cuts every
- * element it crosses. A blade's plane reaches the rest shape through the affine map that best
- * fits the deformation of the elements it cuts (exact when they move rigidly or deform
- * affinely). pf_sim_frame calls it after each frame; *n_cut (may be NULL) receives the
+ * element it crosses. A blade's plane reaches the rest shape of each element it cuts through
+ * the affine map that best fits that element's deformation (exact when it moves rigidly or
+ * deforms affinely). pf_sim_frame calls it after each frame; *n_cut (may be NULL) receives the
  * elements split. */
 pf_status pf_sim_apply_cuts(pf_sim *sim, double t0, double t1, int32_t *n_cut, pf_error *err);
 

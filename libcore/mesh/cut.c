@@ -52,7 +52,7 @@ static void cutter_release(cutter *c)
     pf_mesh_release(&c->mid);
     pf_refine_result_release(&c->rr);
     void *a[] = {c->side, c->foff,      c->fnodes, c->fuser,    c->fflag,  c->efaces,
-                 c->x,    c->node_orig, c->body,   c->echanged, c->dropped};
+                 c->x,    c->node_orig, c->body,   c->echanged, c->dropped, c->snapped};
     for (size_t i = 0; i < sizeof a / sizeof *a; ++i)
         pf_free(a[i]);
     memset(c, 0, sizeof *c);

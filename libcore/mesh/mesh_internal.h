@@ -29,6 +29,11 @@ pf_status pf_surface_piece(const pf_surface *s, piece *p, pf_error *err);
 
 /* Hash of a point's exact coordinates (-0 and +0 alike), for merging nodes by coordinates. */
 uint64_t pf_hash_point(const double *p);
+/* A 64-bit finaliser (MurmurHash3's): every input bit affects every output bit. */
+uint64_t pf_hash_mix(uint64_t h);
+
+/* Grows *remap (*cap entries, all -1) to at least n entries, the new ones -1. PF_ERR_NOMEM. */
+pf_status pf_remap_reserve(int32_t **remap, int32_t *cap, int32_t n, pf_error *err);
 
 /* Builds a mesh from closed pieces: nodes merged by exact coordinates (-0 = +0), faces by their
  * node sets; a face met a second time is used reversed, a third time is an error. Zero-initialise
@@ -64,9 +69,10 @@ pf_status pf_glue_to_mesh(const glue *g, pf_mesh *m, pf_error *err);
  * forest in which every group below min_volume (model units cubed) is joined to the neighbouring
  * group sharing the most face area with it, groups in index order (sweeps repeated until none
  * below min_volume has a neighbour left); *merged counts the joins, *isolated the groups left
- * below min_volume because they touch no other element. */
-pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent, int32_t *merged,
-                        int32_t *isolated, pf_error *err);
+ * below min_volume because they touch no other element. elem_min, when not NULL, gives every
+ * element its own threshold instead ([n_elems]; a group's is its first member's). */
+pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, const double *elem_min,
+                           int32_t *parent, int32_t *merged, int32_t *isolated, pf_error *err);
 /* out: m with every group of parent one element (faces inside a group dropped, nodes compacted),
  * derived. parent is path-compressed in place. */
 pf_status pf_rebuild_merged(const pf_mesh *m, int32_t *parent, pf_mesh *out, pf_error *err);

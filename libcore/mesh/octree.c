@@ -44,19 +44,10 @@ static uint64_t leaf_key(int level, int32_t i, int32_t j, int32_t k)
     return (uint64_t)level << 48 | (uint64_t)i << 32 | (uint64_t)j << 16 | (uint64_t)k;
 }
 
-static uint64_t mix64(uint64_t h)
-{
-    h ^= h >> 33;
-    h *= 0xff51afd7ed558ccdull;
-    h ^= h >> 33;
-    h *= 0xc4ceb9fe1a85ec53ull;
-    return h ^ (h >> 33);
-}
-
 static void map_put(octree *oc, uint64_t key, int32_t val)
 {
     uint64_t mask = (uint64_t)oc->slots - 1;
-    for (uint64_t s = mix64(key) & mask;; s = (s + 1) & mask)
+    for (uint64_t s = pf_hash_mix(key) & mask;; s = (s + 1) & mask)
         if (oc->keys[s] == UINT64_MAX) {
             oc->keys[s] = key;
             oc->vals[s] = val;
@@ -67,7 +58,7 @@ static void map_put(octree *oc, uint64_t key, int32_t val)
 static int32_t map_get(const octree *oc, uint64_t key)
 {
     uint64_t mask = (uint64_t)oc->slots - 1;
-    for (uint64_t s = mix64(key) & mask; oc->keys[s] != UINT64_MAX; s = (s + 1) & mask)
+    for (uint64_t s = pf_hash_mix(key) & mask; oc->keys[s] != UINT64_MAX; s = (s + 1) & mask)
         if (oc->keys[s] == key)
             return oc->vals[s];
     return -1;
@@ -175,22 +166,6 @@ static pf_status list_push(piece_list *l, piece *p, pf_error *err)
     return PF_OK;
 }
 
-static pf_status ensure_remap(octree *oc, int32_t n, pf_error *err)
-{
-    if (n <= oc->cap_remap)
-        return PF_OK;
-    int32_t cap = oc->cap_remap ? oc->cap_remap : 1024;
-    while (cap < n)
-        cap *= 2;
-    int32_t *r = pf_realloc_array(oc->remap, (size_t)cap, sizeof *r);
-    PF_CHECK(r, err, PF_ERR_NOMEM, "out of memory cutting");
-    for (int32_t k = oc->cap_remap; k < cap; ++k)
-        r[k] = -1;
-    oc->remap = r;
-    oc->cap_remap = cap;
-    return PF_OK;
-}
-
 /* Splits every piece of in (emptied) at the plane x_axis = c into below and above. */
 static pf_status cut_list(octree *oc, piece_list *in, int axis, double c, piece_list *below,
                           piece_list *above, pf_error *err)
@@ -213,7 +188,7 @@ static pf_status cut_list(octree *oc, piece_list *in, int axis, double c, piece_
         pf_piece_release(p);
         oc->splits++;
         if (st >= 0)
-            st = ensure_remap(oc, split.n_nodes, err);
+            st = pf_remap_reserve(&oc->remap, &oc->cap_remap, split.n_nodes, err);
         for (int32_t q = 0; st >= 0 && q < split.n_pieces; ++q) {
             piece sub;
             st = pf_extract_piece(&split, q, oc->remap, &sub, err);
@@ -471,7 +446,7 @@ static pf_status add_point_lines(const octree *oc, const double *x, pf_buffer *l
 static bool point_set_insert(uint64_t *set, int64_t slots, uint64_t key)
 {
     uint64_t mask = (uint64_t)slots - 1;
-    uint64_t s = mix64(key) & mask;
+    uint64_t s = pf_hash_mix(key) & mask;
     for (; set[s] != UINT64_MAX; s = (s + 1) & mask)
         if (set[s] == key)
             return false;
@@ -825,8 +800,8 @@ pf_status pf_octree_mesh(pf_mesh *m, const pf_surface *s, const pf_octree_params
         st = parent ? PF_OK
                     : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory merging");
         if (st >= 0)
-            st = pf_merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, parent,
-                               &stats->merged, &stats->isolated_slivers, err);
+            st = pf_merge_slivers(&glued, p.merge * stats->h * stats->h * stats->h, NULL, parent,
+                                  &stats->merged, &stats->isolated_slivers, err);
         if (st >= 0)
             st = pf_rebuild_merged(&glued, parent, m, err);
         pf_free(parent);

@@ -92,7 +92,7 @@ pf_status pf_extract_piece(const pf_split *s, int32_t k, int32_t *remap, piece *
 /* ---- gluing: nodes by exact coordinates, faces by node sets ------------------------------- */
 
 
-static uint64_t mix(uint64_t h)
+uint64_t pf_hash_mix(uint64_t h)
 {
     h ^= h >> 33;
     h *= 0xff51afd7ed558ccdull;
@@ -108,7 +108,7 @@ uint64_t pf_hash_point(const double *p)
         double v = p[c] == 0 ? 0 : p[c]; /* -0 and +0 are the same point */
         uint64_t bits;
         memcpy(&bits, &v, sizeof bits);
-        h = mix(h ^ bits);
+        h = pf_hash_mix(h ^ bits);
     }
     return h;
 }
@@ -197,9 +197,9 @@ static void sort_u32(uint32_t *v, int64_t n)
 static uint64_t hash_face(uint32_t *key, int64_t n)
 {
     sort_u32(key, n);
-    uint64_t h = mix((uint64_t)n);
+    uint64_t h = pf_hash_mix((uint64_t)n);
     for (int64_t k = 0; k < n; ++k)
-        h = mix(h ^ key[k]);
+        h = pf_hash_mix(h ^ key[k]);
     return h;
 }
 
@@ -364,19 +364,19 @@ static double plane_coordinate(const pf_grid *g, int axis, int32_t index)
     return o[axis] + g->h * index;
 }
 
-static pf_status ensure_remap(slicer *sl, int32_t n, pf_error *err)
+pf_status pf_remap_reserve(int32_t **remap, int32_t *cap, int32_t n, pf_error *err)
 {
-    if (n <= sl->cap_remap)
+    if (n <= *cap)
         return PF_OK;
-    int32_t cap = sl->cap_remap ? sl->cap_remap : 1024;
-    while (cap < n)
-        cap *= 2;
-    int32_t *r = pf_realloc_array(sl->remap, (size_t)cap, sizeof *r);
-    PF_CHECK(r, err, PF_ERR_NOMEM, "out of memory slicing");
-    for (int32_t k = sl->cap_remap; k < cap; ++k)
+    int32_t c = *cap ? *cap : 1024;
+    while (c < n)
+        c *= 2;
+    int32_t *r = pf_realloc_array(*remap, (size_t)c, sizeof *r);
+    PF_CHECK(r, err, PF_ERR_NOMEM, "out of memory for %d node slots", (int)c);
+    for (int32_t k = *cap; k < c; ++k)
         r[k] = -1;
-    sl->remap = r;
-    sl->cap_remap = cap;
+    *remap = r;
+    *cap = c;
     return PF_OK;
 }
 
@@ -424,7 +424,7 @@ static pf_status slice_axis(slicer *sl, piece *p, int axis, int32_t lo, int32_t 
     pf_piece_release(p);
     sl->splits++;
     if (st >= 0)
-        st = ensure_remap(sl, split.n_nodes, err);
+        st = pf_remap_reserve(&sl->remap, &sl->cap_remap, split.n_nodes, err);
     for (int32_t k = 0; st >= 0 && k < split.n_pieces; ++k) {
         piece sub;
         st = pf_extract_piece(&split, k, sl->remap, &sub, err);
@@ -526,8 +526,8 @@ static int32_t best_neighbour(const pf_mesh *m, int32_t *parent, const int32_t *
 /* Merges every group of volume below min_volume into its best neighbour (DG paper sec. 9.4, which
  * merges slivers into neighbours without prescribing an order): groups in index order, sweeps
  * repeated until no group below min_volume has a neighbour left, so the result is deterministic. */
-pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
-                               int32_t *merged, int32_t *isolated, pf_error *err)
+pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, const double *elem_min,
+                           int32_t *parent, int32_t *merged, int32_t *isolated, pf_error *err)
 {
     int32_t ne = m->n_elems;
     int32_t *next = pf_alloc_array((size_t)ne, sizeof *next);
@@ -548,7 +548,7 @@ pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
     for (bool changed = true; changed;) {
         changed = false;
         for (int32_t e = 0; e < ne; ++e) {
-            if (parent[e] != e || volume[e] >= min_volume)
+            if (parent[e] != e || volume[e] >= (elem_min ? elem_min[e] : min_volume))
                 continue;
             int32_t into = best_neighbour(m, parent, next, e, cand, area, CAP);
             if (into < 0)
@@ -562,7 +562,7 @@ pf_status pf_merge_slivers(const pf_mesh *m, double min_volume, int32_t *parent,
         }
     }
     for (int32_t e = 0; e < ne; ++e)
-        if (parent[e] == e && volume[e] < min_volume)
+        if (parent[e] == e && volume[e] < (elem_min ? elem_min[e] : min_volume))
             ++*isolated;
     pf_free(next), pf_free(last), pf_free(volume);
     return PF_OK;
@@ -701,8 +701,8 @@ static pf_status slice_clean(pf_mesh *m, const pf_surface *s, const pf_slice_par
     }
     double h = stats->grid.h;
     if (st >= 0)
-        st = pf_merge_slivers(&glued, p->merge * h * h * h, parent, &stats->merged,
-                           &stats->isolated_slivers, err);
+        st = pf_merge_slivers(&glued, p->merge * h * h * h, NULL, parent, &stats->merged,
+                              &stats->isolated_slivers, err);
     if (st >= 0)
         st = pf_rebuild_merged(&glued, parent, m, err);
     pf_free(parent);

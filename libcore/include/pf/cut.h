@@ -97,6 +97,60 @@ pf_status pf_mesh_cut(const pf_mesh *src, const pf_cut_request *req, int32_t n_r
 /* Frees the arrays and zeroes *r. Safe on a zeroed result. */
 void pf_cut_result_release(pf_cut_result *r);
 
+/* ---- clipping by a closed surface (DG paper sec. 9.4, fig. 10: a bunny cut out of a cube) ------
+ *
+ * Every element of src becomes its intersection with the inside (or the outside) of the solid a
+ * closed surface bounds: elements wholly on the kept side stay as they are, elements wholly on the
+ * other side are dropped, and every element the surface crosses is replaced by its part(s) there,
+ * one element per connected part, exact (the surface's own triangles become faces). The mesh stays
+ * conforming: the parts of two neighbours meet on identical faces (their regions on the shared face
+ * are rebuilt from welded nodes in the shared face's orientation), and a part smaller than
+ * min_fraction of its element is merged into the neighbour it shares the most face area with (the
+ * slicer's rule, pf_mesh_slice), so the merged element may be non-convex.
+ * The elements the surface crosses must be convex with no node inside a straight edge of a face
+ * (tets, hexes, convex polyhedra); elements it misses may be anything. */
+typedef enum pf_clip_keep {
+    PF_CLIP_INSIDE = 0, /* keep what lies inside the surface */
+    PF_CLIP_OUTSIDE = 1 /* keep what lies outside */
+} pf_clip_keep;
+
+/* Zero values mean "default". */
+typedef struct pf_clip_params {
+    pf_clip_keep keep;
+    /* Parts below min_fraction of their element's volume are merged into a neighbour; <= 0:
+     * PF_REFINE_MIN_FRACTION (5 %). */
+    double min_fraction;
+} pf_clip_params;
+
+typedef struct pf_clip_stats {
+    int32_t n_kept;     /* elements kept whole */
+    int32_t n_dropped;  /* elements dropped whole */
+    int32_t n_clipped;  /* elements the surface crosses */
+    int32_t n_parts;    /* their parts, before merging */
+    int32_t n_merged;   /* parts merged into a neighbour */
+    int32_t n_isolated; /* parts below min_fraction with no neighbour (kept) */
+    int64_t n_splits;   /* plane splits */
+    double volume;      /* of dst, model units cubed */
+    double seconds;
+} pf_clip_stats;
+
+/* Clips src (valid and derived) by the closed surface s into dst (zeroed or released first;
+ * derived; nodes numbered in order of first use by dst's elements, elements in the order of their
+ * src elements; dst->id = src->id + 1; src's groups carried: an element takes its src element's,
+ * a boundary face the label of the src boundary face it lies in, pf_mesh_carry_groups). stats
+ * may be NULL.
+ * Statuses: PF_ERR_INVALID for a surface that is not closed, manifold and outward (its open,
+ * non-manifold and flipped edge counts in the message) or a non-finite coordinate, and for
+ * nothing left (every element on the dropped side); PF_ERR_UNSUPPORTED naming the element for a
+ * crossed element that is not convex or has a node inside a straight edge, for a part that
+ * would hold a whole shell of the surface (a cavity) inside it, and for two src nodes at one
+ * position (a mesh already cut: clip first, then cut); PF_ERR_NUMERIC naming the elements when the
+ * geometry is too degenerate at the tolerance (1e-10 of the model's size) for matching faces;
+ * PF_ERR_NOMEM. On failure dst is released. */
+pf_status pf_mesh_clip_surface(const pf_mesh *src, const pf_surface *s,
+                               const pf_clip_params *params, pf_mesh *dst, pf_clip_stats *stats,
+                               pf_error *err);
+
 /* ---- the embedded render surface ------------------------------------------------------------
  *
  * The surface a user sees is cut where the mesh was: s (rest positions, as it was before the

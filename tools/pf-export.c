@@ -33,7 +33,8 @@ static const char USAGE[] =
     "                on the mesh boundary the von Mises stress per triangle (primvar 'stress')\n"
     "                The surface is the SURF chunk moved by its WGHT embedding when the stream\n"
     "                has both, else the boundary of the MESH (its referenced nodes only) moved by\n"
-    "                the frame's displacements.\n"
+    "                the frame's displacements. The caps a cut adds to the SURF are OBJ group\n"
+    "                and material 'cap', PLY face property 'part' (1), USD GeomSubset 'cap'.\n"
     "  --frames A:B  only frames with index A..B inclusive ('A:' from A on, ':B' up to B, 'A'\n"
     "                just A)\n"
     "  --quiet       no progress and no summary on stderr\n"
@@ -395,13 +396,14 @@ static pf_status take_frame(exporter *x, const pf_chunk *c, pf_error *err)
     return s;
 }
 
-/* A pending frame is written on the mesh it came with, before a new MESH replaces it, or when the
- * STRS chunk of its index arrives. */
+/* A pending frame is written on the mesh and surface it came with, before a new MESH, SURF or
+ * WGHT replaces them, or when the STRS chunk of its index arrives. */
 static pf_status take_chunk(exporter *x, const pf_chunk *c, pf_error *err)
 {
     if (strcmp(c->tag, "FRAM") == 0)
         return take_frame(x, c, err);
-    if (strcmp(c->tag, "MESH") == 0 || strcmp(c->tag, "END_") == 0)
+    if (strcmp(c->tag, "MESH") == 0 || strcmp(c->tag, "SURF") == 0 || strcmp(c->tag, "WGHT") == 0 ||
+        strcmp(c->tag, "END_") == 0)
         PF_TRY(flush_pending(x, err));
     PF_TRY(pf_stream_state_take(&x->st, c, err));
     if (strcmp(c->tag, "STRS") == 0 && x->have_pending && x->st.stress.frame == x->pending.index)

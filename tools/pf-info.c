@@ -12,15 +12,18 @@ static const char USAGE[] =
     "Prints every chunk of a pf stream (default: stdin).\n"
     "  MESH  counts of nodes, faces, elements by kind, exact total volume, smallest and largest\n"
     "        element volume, bounding box, and the validation result (first offending entity)\n"
-    "  SURF  vertices, triangles, enclosed volume, closed / manifold, and whether every\n"
-    "        coordinate is a float32 value (the surface came through single precision)\n"
+    "  SURF  vertices, triangles (and how many are caps of a cut), enclosed volume, closed /\n"
+    "        manifold, and whether every coordinate is a float32 value (the surface came\n"
+    "        through single precision)\n"
     "  FRAM  consecutive frames as one entry: frame count, time range, largest displacement\n"
     "  STRS  consecutive stress chunks as one entry: count, largest value\n"
     "  CKPT  pf-sim's checkpoints among those frames: count, the last one's frame\n"
     "  SCEN  the scene as simulated (JSON, every key, overrides applied)\n"
     "  others: tag, version, size; unknown chunks are listed, not interpreted\n"
     "and at the end every mesh of the stream (a refining or cutting run has several) with the\n"
-    "frames on it. WGHT, STRS and FRAM chunks must refer to the latest MESH (and SURF).\n"
+    "frames on it, and every surface (a cut writes a new one, with caps) with the frames drawn\n"
+    "on it (those after its WGHT). WGHT, STRS and FRAM chunks must refer to the latest MESH (and\n"
+    "SURF).\n"
     "\n"
     "  --json          one JSON object per line and entry, for scripts\n"
     "  --probe X,Y,Z   for every frame, the displacement of the mesh node nearest to the point,\n"
@@ -157,12 +160,12 @@ static void print_surface_chunk(const info *in, const pf_chunk *c, const pf_surf
         printf("{\"chunk\":\"SURF\",\"offset\":%llu,\"version\":%u,\"id\":%llu,\"vertices\":%d,"
                "\"triangles\":%d,\"volume\":%.17g,\"area\":%.17g,\"closed\":%s,\"manifold\":%s,"
                "\"boundary_edges\":%lld,\"nonmanifold_edges\":%lld,\"flipped_edges\":%lld,"
-               "\"single_precision\":%s,\"bbox\":[",
+               "\"single_precision\":%s,\"caps\":%d,\"bbox\":[",
                (unsigned long long)c->offset, c->version, (unsigned long long)s->id,
                (int)st.n_verts, (int)st.n_tris, st.volume, st.area, st.closed ? "true" : "false",
                st.manifold ? "true" : "false", (long long)st.n_boundary_edges,
                (long long)st.n_nonmanifold_edges, (long long)st.n_flipped_edges,
-               single ? "true" : "false");
+               single ? "true" : "false", (int)pf_surface_count_caps(s));
         json_vec(lo);
         printf(",");
         json_vec(hi);
@@ -173,6 +176,9 @@ static void print_surface_chunk(const info *in, const pf_chunk *c, const pf_surf
                (int)st.n_tris, st.closed ? "closed" : "open (not watertight)",
                st.manifold ? "manifold" : "not manifold");
         printf("      enclosed volume %.17g, area %.17g\n", st.volume, st.area);
+        if (pf_surface_count_caps(s))
+            printf("      %d cap triangles (closing cuts), %d of the model's surface\n",
+                   (int)pf_surface_count_caps(s), (int)(st.n_tris - pf_surface_count_caps(s)));
         if (single)
             printf("      every coordinate is a float32 value: single precision (as from assimp, "
                    "a float STL or PLY)\n");
@@ -417,7 +423,7 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
     /* A non-critical chunk of a version this pf does not read is skipped (the stream spec);
      * critical ones reach their decoder, which refuses them. */
     if (pf_stream_tag_is_known(c->tag) && !pf_stream_tag_is_critical(c->tag) &&
-        c->version != pf_stream_tag_version(c->tag)) {
+        !pf_stream_version_is_read(c->tag, c->version)) {
         print_frames(in);
         print_other(in, c, " (a version this pf does not read: skipped)");
         return PF_OK;
@@ -512,6 +518,42 @@ static void print_meshes(const info *in)
         printf("]}\n");
 }
 
+/* Every surface, its caps and the frames drawn on it. */
+static void print_surfaces(const info *in)
+{
+    const pf_stream_state *st = &in->st;
+    if (st->n_surfaces == 0)
+        return;
+    if (in->json)
+        printf("{\"surfaces\":[");
+    else
+        printf("surfaces: %d\n", (int)st->n_surfaces);
+    for (int32_t k = 0; k < st->n_surfaces; ++k) {
+        const pf_stream_surface_use *u = &st->surfaces[k];
+        if (in->json) {
+            printf("%s{\"id\":%llu,\"offset\":%llu,\"vertices\":%d,\"triangles\":%d,"
+                   "\"caps\":%d,\"frames\":%lld",
+                   k ? "," : "", (unsigned long long)u->id, (unsigned long long)u->offset,
+                   (int)u->n_verts, (int)u->n_tris, (int)u->n_caps, (long long)u->n_frames);
+            if (u->n_frames)
+                printf(",\"first_frame\":%u,\"last_frame\":%u", (unsigned)u->first_frame,
+                       (unsigned)u->last_frame);
+            printf("}");
+        } else {
+            printf("      surface %llu (SURF at byte %llu): %d vertices, %d triangles, %d caps; ",
+                   (unsigned long long)u->id, (unsigned long long)u->offset, (int)u->n_verts,
+                   (int)u->n_tris, (int)u->n_caps);
+            if (u->n_frames)
+                printf("frames %u .. %u (%lld)\n", (unsigned)u->first_frame,
+                       (unsigned)u->last_frame, (long long)u->n_frames);
+            else
+                printf("no frames\n");
+        }
+    }
+    if (in->json)
+        printf("]}\n");
+}
+
 static pf_status run(info *in, FILE *f, const char *name, pf_error *err)
 {
     pf_stream_reader *r = NULL;
@@ -530,6 +572,7 @@ static pf_status run(info *in, FILE *f, const char *name, pf_error *err)
     if (!in->scene_only) {
         print_frames(in);
         print_meshes(in);
+        print_surfaces(in);
     }
     pf_stream_reader_destroy(&r);
     if (s >= 0 && in->scene_only) {

@@ -19,15 +19,15 @@
 
 static const char USAGE[] =
     "Usage: pf-render [--out DIR] [--size WxH] [--frames A:B] [--camera JSON|auto]\n"
-    "                 [--mode surface|mesh|stress] [--mp4 FILE] [--fps N] [--quiet]\n"
-    "                 [--progress[=S]] [FILE | -]\n"
+    "                 [--mode surface|mesh|stress] [--cap-color RRGGBB] [--mp4 FILE]\n"
+    "                 [--fps N] [--quiet] [--progress[=S]] [FILE | -]\n"
     "\n"
     "Renders every frame (FRAM chunk) of a pf stream (default: stdin) to DIR/frame_NNNNN.png,\n"
     "NNNNN being the frame's index, while the stream arrives: 'pf-sim ... | pf-render' renders\n"
     "as the simulation runs. A stream without frames gives one image, frame_00000.png, of the\n"
-    "mesh (or surface) at rest. Each frame is drawn on its own MESH (refinement and cutting\n"
-    "write a new one mid-stream). The same input gives byte-identical images on every run and at\n"
-    "any LP_NUM_THREADS.\n"
+    "mesh (or surface) at rest. Each frame is drawn on its own MESH and SURF (refinement and\n"
+    "cutting write new ones mid-stream). The same input gives byte-identical images on every run\n"
+    "and at any LP_NUM_THREADS.\n"
     "\n"
     "  --out DIR        output directory, created if missing (default: frames)\n"
     "  --size WxH       image size in pixels (default: 1280x720)\n"
@@ -47,6 +47,11 @@ static const char USAGE[] =
     "  --mode stress    coloured by the frame's STRS chunk (von Mises) with the viridis map and\n"
     "                   a legend; the range is that of all frames for a file, of the frames so\n"
     "                   far on a pipe\n"
+    "  --cap-color RRGGBB  the colour (sRGB hex, e.g. cc6b57, the default: a warm flesh red)\n"
+    "                   of the caps a cut adds to the embedded surface (its SURF's cap\n"
+    "                   triangles); the model's own surface stays clay (--mode stress colours\n"
+    "                   caps by the stress too). Without an embedded surface the cut faces are\n"
+    "                   part of the mesh boundary, drawn as the rest of it\n"
     "  --mp4 FILE       also pipe the frames into ffmpeg (H.264), which must be on PATH; an odd\n"
     "                   width or height is padded by one black pixel in the MP4 only (H.264's\n"
     "                   yuv420p needs even sizes), with a note on stderr\n"
@@ -61,7 +66,7 @@ static const char USAGE[] =
     "frames before the damage are written, then the error; exit 1. Exit 2 on bad usage.\n";
 
 enum { OPT_OUT = 1, OPT_SIZE, OPT_FRAMES, OPT_CAMERA, OPT_MODE, OPT_MP4, OPT_FPS, OPT_QUIET,
-       OPT_PROG };
+       OPT_PROG, OPT_CAP };
 
 typedef struct options {
     pf_render_stream_params p;
@@ -87,6 +92,18 @@ static void parse_size(const pf_cli *cli, const char *text, options *o)
         pf_cli_usage_error(cli, "--size expects WxH with 1 <= W, H <= 8192, got '%s'", text);
     o->p.width = (int32_t)w;
     o->p.height = (int32_t)h;
+}
+
+/* --cap-color: 6 hex digits of sRGB (a leading '#' allowed), kept as linear RGB. */
+static void parse_cap_color(const pf_cli *cli, const char *text, options *o)
+{
+    const char *h = text[0] == '#' ? text + 1 : text;
+    if (strlen(h) != 6 || strspn(h, "0123456789abcdefABCDEF") != 6)
+        pf_cli_usage_error(cli, "--cap-color expects 6 hex digits of sRGB (RRGGBB), got '%s'",
+                           text);
+    unsigned long v = strtoul(h, NULL, 16);
+    for (int c = 0; c < 3; ++c)
+        o->p.cap_rgb[c] = (float)pf_srgb_to_linear((double)((v >> (16 - 8 * c)) & 0xff) / 255.0);
 }
 
 /* The camera: inline JSON, or a file holding it. */
@@ -118,7 +135,7 @@ static void parse_options(pf_cli *cli, options *o)
         {"out", true, OPT_OUT},       {"size", true, OPT_SIZE},    {"frames", true, OPT_FRAMES},
         {"camera", true, OPT_CAMERA}, {"mode", true, OPT_MODE},    {"mp4", true, OPT_MP4},
         {"fps", true, OPT_FPS},       {"quiet", false, OPT_QUIET}, {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROG},
-        {NULL, false, 0}};
+        {"cap-color", true, OPT_CAP}, {NULL, false, 0}};
     *o = (options){.p = pf_render_stream_params_default(), .fps = 30, .plain_progress = -1};
     static const char *const MODES[] = {"surface", "mesh", "stress"};
     const char *value;
@@ -132,6 +149,7 @@ static void parse_options(pf_cli *cli, options *o)
         case OPT_FPS: o->fps = pf_cli_parse_long(cli, "fps", value, 1, 1000); break;
         case OPT_QUIET: o->quiet = true; break;
         case OPT_PROG: o->plain_progress = pf_cli_parse_progress(cli, value); break;
+        case OPT_CAP: parse_cap_color(cli, value, o); break;
         case OPT_MODE: {
             int m = 0;
             while (m < 3 && strcmp(value, MODES[m]) != 0)

@@ -14,7 +14,10 @@
 struct pf_usd_writer {
     char *path;
     pf_buffer points, normals, counts, indices, stress; /* "time: [...],\n" samples as text */
-    uint32_t *tri;                                      /* [3 n_tris] the last sampled topology */
+    pf_buffer caps; /* the cap triangles' indices, sampled with the topology */
+    bool any_caps;  /* some sample has caps: the GeomSubset "cap" is written */
+    uint32_t *tri;  /* [3 n_tris] the last sampled topology */
+    uint8_t *part;  /* [n_tris] its parts (PF_SURFACE_MODEL / PF_SURFACE_CAP) */
     int32_t n_tris;
     int64_t samples;
     double first_code, last_code, first_time, last_time;
@@ -64,10 +67,32 @@ pf_status pf_usd_writer_create(pf_usd_writer **w, const char *path, pf_error *er
     return PF_OK;
 }
 
+static uint8_t part_of(const pf_surface *s, int32_t t)
+{
+    return s->tri_part ? s->tri_part[t] : PF_SURFACE_MODEL;
+}
+
 static bool same_topology(const pf_usd_writer *w, const pf_surface *s)
 {
-    return w->tri && w->n_tris == s->n_tris &&
-           memcmp(w->tri, s->tri, 3 * (size_t)s->n_tris * sizeof *s->tri) == 0;
+    if (!w->tri || w->n_tris != s->n_tris ||
+        memcmp(w->tri, s->tri, 3 * (size_t)s->n_tris * sizeof *s->tri) != 0)
+        return false;
+    for (int32_t t = 0; t < s->n_tris; ++t)
+        if (w->part[t] != part_of(s, t))
+            return false;
+    return true;
+}
+
+/* "CODE: [i, j, ...],\n": the cap triangles of s. */
+static pf_status sample_caps(pf_usd_writer *w, double code, const pf_surface *s, pf_error *err)
+{
+    PF_TRY(append_text(&w->caps, err, "                %.17g: [", code));
+    int32_t k = 0;
+    for (int32_t t = 0; t < s->n_tris; ++t)
+        if (part_of(s, t) == PF_SURFACE_CAP)
+            PF_TRY(append_text(&w->caps, err, "%s%d", k++ ? ", " : "", (int)t));
+    w->any_caps |= k > 0;
+    return append_text(&w->caps, err, "],\n");
 }
 
 static pf_status sample_topology(pf_usd_writer *w, double code, const pf_surface *s, pf_error *err)
@@ -75,10 +100,17 @@ static pf_status sample_topology(pf_usd_writer *w, double code, const pf_surface
     if (same_topology(w, s))
         return PF_OK;
     uint32_t *tri = pf_realloc_array(w->tri, 3 * (size_t)s->n_tris + 1, sizeof *tri);
-    PF_CHECK(tri, err, PF_ERR_NOMEM, "%s: out of memory", w->path);
-    w->tri = tri;
+    if (tri)
+        w->tri = tri;
+    uint8_t *part = pf_realloc_array(w->part, (size_t)s->n_tris + 1, 1);
+    if (part)
+        w->part = part;
+    PF_CHECK(tri && part, err, PF_ERR_NOMEM, "%s: out of memory", w->path);
     memcpy(w->tri, s->tri, 3 * (size_t)s->n_tris * sizeof *tri);
+    for (int32_t t = 0; t < s->n_tris; ++t)
+        w->part[t] = part_of(s, t);
     w->n_tris = s->n_tris;
+    PF_TRY(sample_caps(w, code, s, err));
     PF_TRY(append_text(&w->counts, err, "            %.17g: [", code));
     PF_TRY(append_text(&w->indices, err, "            %.17g: [", code));
     for (int32_t t = 0; t < s->n_tris; ++t) {
@@ -116,7 +148,7 @@ pf_status pf_usd_writer_add(pf_usd_writer *w, double code, double time, const pf
         w->scratch = n;
         w->scratch_size = need;
     }
-    pf_surface_vertex_normals(s, x, w->scratch);
+    PF_TRY(pf_surface_part_normals(s, x, w->scratch, err));
     PF_TRY(sample_topology(w, code, s, err));
     PF_TRY(append_vec3s(&w->points, code, x, s->n_verts, err));
     PF_TRY(append_vec3s(&w->normals, code, w->scratch, s->n_verts, err));
@@ -181,6 +213,16 @@ pf_status pf_usd_writer_finish(pf_usd_writer *w, pf_error *err)
     write_samples(f, "normal3f[] normals", "interpolation = \"vertex\"", &w->normals);
     if (w->stress.size)
         write_samples(f, "float[] primvars:stress", "interpolation = \"uniform\"", &w->stress);
+    if (w->any_caps) { /* the caps of cuts: a subset a material can be bound to */
+        fputs("\n        def GeomSubset \"cap\"\n"
+              "        {\n"
+              "            uniform token elementType = \"face\"\n"
+              "            uniform token familyName = \"materialBind\"\n"
+              "            int[] indices.timeSamples = {\n",
+              f);
+        fwrite(w->caps.data, 1, w->caps.size, f);
+        fputs("            }\n        }\n", f);
+    }
     fputs("    }\n}\n", f);
     return pf_atomic_file_commit(&out, "USD file", err);
 }
@@ -195,7 +237,9 @@ void pf_usd_writer_destroy(pf_usd_writer **w)
     pf_buffer_release(&(*w)->counts);
     pf_buffer_release(&(*w)->indices);
     pf_buffer_release(&(*w)->stress);
+    pf_buffer_release(&(*w)->caps);
     pf_free((*w)->tri);
+    pf_free((*w)->part);
     pf_free((*w)->scratch);
     pf_free(*w);
     *w = NULL;

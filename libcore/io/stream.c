@@ -28,16 +28,19 @@ enum { FIRST_PIECE = 64 * 1024 };
 
 typedef struct tag_entry {
     char tag[5];
-    uint32_t version;    /* the version this pf reads and writes */
+    uint32_t version;    /* the newest version this pf reads and writes */
+    uint32_t oldest;     /* the oldest version it still reads (0: the same) */
     bool critical;       /* a consumer that cannot decode it must stop */
     bool mesh_dependent; /* refers to the latest MESH: dropped or recomputed with a new MESH */
 } tag_entry;
 
+/* SURF 2 adds the part of each triangle (model or cap); a surface without caps is still written
+ * as SURF 1, byte for byte. */
 static const tag_entry TAGS[] = {
-    {"INFO", 1, false, false}, {"SCEN", 1, true, false}, {"MESH", 1, true, false},
-    {"SURF", 1, true, false},  {"WGHT", 1, true, true},  {"FRAM", 1, true, true},
-    {"STRS", 1, false, true},  {"END_", 1, true, false}, {"GRPS", 1, false, true},
-    {"CKPT", 1, false, true},
+    {"INFO", 1, 0, false, false}, {"SCEN", 1, 0, true, false}, {"MESH", 1, 0, true, false},
+    {"SURF", 2, 1, true, false},  {"WGHT", 1, 0, true, true},  {"FRAM", 1, 0, true, true},
+    {"STRS", 1, 0, false, true},  {"END_", 1, 0, true, false}, {"GRPS", 1, 0, false, true},
+    {"CKPT", 1, 0, false, true},
 };
 
 static const tag_entry *find_tag(const char *tag)
@@ -73,11 +76,21 @@ uint32_t pf_stream_tag_version(const char *tag)
     return t ? t->version : 0;
 }
 
+bool pf_stream_version_is_read(const char *tag, uint32_t version)
+{
+    const tag_entry *t = find_tag(tag);
+    return t && version <= t->version && version >= (t->oldest ? t->oldest : t->version);
+}
+
 pf_status pf_stream_check_version(const pf_chunk *c, pf_error *err)
 {
     const tag_entry *t = find_tag(c->tag);
-    if (!t || c->version == t->version)
+    if (!t || pf_stream_version_is_read(c->tag, c->version))
         return PF_OK;
+    if (t->oldest)
+        return pf_stream_chunk_error(err, PF_ERR_UNSUPPORTED, __FILE__, __LINE__, c,
+                                     "version %u not supported (this pf reads %u to %u)",
+                                     c->version, t->oldest, t->version);
     return pf_stream_chunk_error(err, PF_ERR_UNSUPPORTED, __FILE__, __LINE__, c,
                                  "version %u not supported (this pf reads %u)", c->version,
                                  t->version);
@@ -602,7 +615,8 @@ pf_status pf_stream_write_surface(pf_stream_writer *w, const pf_surface *s, pf_e
 {
     w->scratch.size = 0;
     PF_TRY(pf_stream_encode_surface(s, &w->scratch, err));
-    return write_scratch(w, "SURF", err);
+    return pf_stream_write_chunk(w, "SURF", pf_stream_surface_version(s), w->scratch.data,
+                                 w->scratch.size, err);
 }
 
 pf_status pf_stream_write_weights(pf_stream_writer *w, const pf_weights *wt, pf_error *err)

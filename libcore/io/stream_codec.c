@@ -340,6 +340,11 @@ pf_status pf_stream_decode_mesh(const pf_chunk *c, pf_mesh *m, pf_error *err)
 
 /* ---- SURF ------------------------------------------------------------------------------------ */
 
+uint32_t pf_stream_surface_version(const pf_surface *s)
+{
+    return pf_surface_count_caps(s) > 0 ? 2 : 1;
+}
+
 pf_status pf_stream_encode_surface(const pf_surface *s, pf_buffer *out, pf_error *err)
 {
     char label[48];
@@ -348,7 +353,13 @@ pf_status pf_stream_encode_surface(const pf_surface *s, pf_buffer *out, pf_error
     PF_TRY(enc_check_finite(s->x, 3 * (int64_t)s->n_verts, 3, "vertex", "coordinate", label, err));
     PF_TRY(enc_check_indices(s->tri, 3 * (int64_t)s->n_tris, s->n_verts, UINT32_MAX, "tri", label,
                              err));
-    uint64_t total = sizeof(surf_head) + 24 * (uint64_t)s->n_verts + 12 * (uint64_t)s->n_tris;
+    for (int32_t t = 0; s->tri_part && t < s->n_tris; ++t)
+        PF_CHECK(s->tri_part[t] <= PF_SURFACE_CAP, err, PF_ERR_INVALID,
+                 "%s: triangle %d has part %u (0: model, 1: cap)", label, (int)t,
+                 (unsigned)s->tri_part[t]);
+    bool parts = pf_stream_surface_version(s) == 2;
+    uint64_t total =
+        sizeof(surf_head) + 24 * (uint64_t)s->n_verts + (parts ? 13 : 12) * (uint64_t)s->n_tris;
     unsigned char *p = NULL;
     PF_TRY(extend(out, total, label, &p, err));
     surf_head h;
@@ -357,7 +368,9 @@ pf_status pf_stream_encode_surface(const pf_surface *s, pf_buffer *out, pf_error
     le_put_u32(h.n_tris, (uint32_t)s->n_tris);
     memcpy(p, &h, sizeof h);
     p = put_f64s(p + sizeof h, s->x, 3 * (uint64_t)s->n_verts);
-    put_u32s(p, s->tri, 3 * (uint64_t)s->n_tris);
+    p = put_u32s(p, s->tri, 3 * (uint64_t)s->n_tris);
+    if (parts)
+        memcpy(p, s->tri_part, (size_t)s->n_tris);
     return PF_OK;
 }
 
@@ -366,18 +379,34 @@ pf_status pf_stream_decode_surface(const pf_chunk *c, pf_surface *s, pf_error *e
     memset(s, 0, sizeof *s);
     cursor k;
     PF_TRY(begin(c, "SURF", &k, err));
-    const unsigned char *hp = NULL, *px = NULL, *pt = NULL;
+    const unsigned char *hp = NULL, *px = NULL, *pt = NULL, *pp = NULL;
     PF_TRY(take(&k, 1, sizeof(surf_head), &hp, "header", err));
     surf_head h;
     memcpy(&h, hp, sizeof h);
     uint64_t nv = le_get_u32(h.n_verts), nt = le_get_u32(h.n_tris);
     PF_TRY(take(&k, nv, 24, &px, "vertices", err));
     PF_TRY(take(&k, nt, 12, &pt, "triangles", err));
+    if (c->version >= 2) /* version 2: the part of each triangle */
+        PF_TRY(take(&k, nt, 1, &pp, "triangle parts", err));
     PF_TRY(finish(&k, err));
     PF_TRY(check_count(&k, nv, "vertices", err));
     PF_TRY(check_count(&k, nt, "triangles", err));
+    for (uint64_t t = 0; pp && t < nt; ++t)
+        CHUNK_CHECK(pp[t] <= PF_SURFACE_CAP, c, err, PF_ERR_FORMAT,
+                    "triangle %llu has part %u (0: model, 1: cap)", (unsigned long long)t,
+                    (unsigned)pp[t]);
     PF_TRY(pf_surface_alloc(s, (int32_t)nv, (int32_t)nt, err));
     s->id = le_get_u64(h.id);
+    if (pp) {
+        s->tri_part = pf_alloc((size_t)nt + 1);
+        if (!s->tri_part) {
+            pf_surface_release(s);
+            return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                "cannot allocate the parts of %llu triangles",
+                                (unsigned long long)nt);
+        }
+        memcpy(s->tri_part, pp, (size_t)nt);
+    }
     int64_t bad = get_finite(s->x, px, 3 * nv);
     pf_status st = PF_OK;
     if (bad >= 0)

@@ -18,6 +18,7 @@ void pf_stream_state_release(pf_stream_state *s)
     pf_stress_data_release(&s->stress);
     pf_free(s->scene_json);
     pf_free(s->meshes);
+    pf_free(s->surfaces);
     memset(s, 0, sizeof *s);
 }
 
@@ -29,22 +30,50 @@ const pf_stream_mesh_use *pf_stream_state_find_mesh(const pf_stream_state *s, ui
     return NULL;
 }
 
+/* Room for one more entry in a list of *cap entries of size bytes each. */
+static pf_status grow_list(void **list, int32_t n, int32_t *cap, size_t size, const char *what,
+                           pf_error *err)
+{
+    if (n < *cap)
+        return PF_OK;
+    int32_t more = *cap ? 2 * *cap : 8;
+    PF_CHECK(more > *cap, err, PF_ERR_TOO_LARGE, "too many %s chunks", what);
+    void *grown = pf_realloc_array(*list, (size_t)more, size);
+    PF_CHECK(grown, err, PF_ERR_NOMEM, "out of memory for the list of %s chunks", what);
+    *list = grown;
+    *cap = more;
+    return PF_OK;
+}
+
 static pf_status record_mesh(pf_stream_state *s, const pf_chunk *c, const pf_mesh *m,
                              pf_error *err)
 {
-    if (s->n_meshes == s->cap_meshes) {
-        int32_t cap = s->cap_meshes ? 2 * s->cap_meshes : 8;
-        PF_CHECK(cap > s->cap_meshes, err, PF_ERR_TOO_LARGE, "too many MESH chunks");
-        pf_stream_mesh_use *grown = pf_realloc_array(s->meshes, (size_t)cap, sizeof *grown);
-        PF_CHECK(grown, err, PF_ERR_NOMEM, "out of memory for the list of meshes");
-        s->meshes = grown;
-        s->cap_meshes = cap;
-    }
+    void *list = s->meshes;
+    pf_status st = grow_list(&list, s->n_meshes, &s->cap_meshes, sizeof *s->meshes, "MESH", err);
+    s->meshes = list;
+    PF_TRY(st);
     s->meshes[s->n_meshes++] = (pf_stream_mesh_use){.id = m->id,
                                                     .offset = c->offset,
                                                     .n_nodes = m->n_nodes,
                                                     .n_faces = m->n_faces,
                                                     .n_elems = m->n_elems};
+    return PF_OK;
+}
+
+static pf_status record_surface(pf_stream_state *s, const pf_chunk *c, const pf_surface *sf,
+                                pf_error *err)
+{
+    void *list = s->surfaces;
+    pf_status st =
+        grow_list(&list, s->n_surfaces, &s->cap_surfaces, sizeof *s->surfaces, "SURF", err);
+    s->surfaces = list;
+    PF_TRY(st);
+    s->surfaces[s->n_surfaces++] = (pf_stream_surface_use){.id = sf->id,
+                                                           .offset = c->offset,
+                                                           .version = c->version,
+                                                           .n_verts = sf->n_verts,
+                                                           .n_tris = sf->n_tris,
+                                                           .n_caps = pf_surface_count_caps(sf)};
     return PF_OK;
 }
 
@@ -72,6 +101,11 @@ static pf_status take_surface(pf_stream_state *s, const pf_chunk *c, pf_error *e
 {
     pf_surface sf = {0};
     PF_TRY(pf_stream_decode_surface(c, &sf, err));
+    pf_status st = record_surface(s, c, &sf, err);
+    if (st < 0) {
+        pf_surface_release(&sf);
+        return st;
+    }
     pf_surface_release(&s->surface);
     s->surface = sf;
     s->have_surface = true;
@@ -149,6 +183,15 @@ static pf_status take_scene(pf_stream_state *s, const pf_chunk *c, pf_error *err
     return PF_OK;
 }
 
+static void count_frame(int64_t *n, uint32_t *first, uint32_t *last, uint32_t index)
+{
+    if (*n == 0 || index < *first)
+        *first = index;
+    if (*n == 0 || index > *last)
+        *last = index;
+    ++*n;
+}
+
 /* A frame must be on the latest MESH: mesh-dependent chunks refer to it (a tool that emits a new
  * MESH emits it before the first FRAM on it). */
 static pf_status check_frame(pf_stream_state *s, const pf_chunk *c, uint64_t mesh_id,
@@ -174,11 +217,11 @@ static pf_status check_frame(pf_stream_state *s, const pf_chunk *c, uint64_t mes
                           (unsigned)index, (int)n_nodes, latest_mesh(s, buf, sizeof buf),
                           (int)s->mesh.n_nodes);
     pf_stream_mesh_use *u = &s->meshes[s->n_meshes - 1];
-    if (u->n_frames == 0 || index < u->first_frame)
-        u->first_frame = index;
-    if (u->n_frames == 0 || index > u->last_frame)
-        u->last_frame = index;
-    ++u->n_frames;
+    count_frame(&u->n_frames, &u->first_frame, &u->last_frame, index);
+    if (s->have_weights) { /* drawn on the latest surface */
+        pf_stream_surface_use *v = &s->surfaces[s->n_surfaces - 1];
+        count_frame(&v->n_frames, &v->first_frame, &v->last_frame, index);
+    }
     ++s->n_frames;
     return PF_OK;
 }

@@ -29,6 +29,14 @@ void pf_surface_release(pf_surface *s)
     memset(s, 0, sizeof *s);
 }
 
+int32_t pf_surface_count_caps(const pf_surface *s)
+{
+    int32_t n = 0;
+    for (int32_t t = 0; s->tri_part && t < s->n_tris; ++t)
+        n += s->tri_part[t] == PF_SURFACE_CAP;
+    return n;
+}
+
 static int compare_u64(const void *a, const void *b)
 {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
@@ -186,4 +194,50 @@ void pf_surface_vertex_normals(const pf_surface *s, const double *x, double *nor
         pf_vec3 n = pf_v3_normalize(pf_v3_load(normals + 3 * (size_t)i));
         normals[3 * i] = n.x, normals[3 * i + 1] = n.y, normals[3 * i + 2] = n.z;
     }
+}
+
+/* The area vectors of the triangles of one part (cap or not) added to the vertices not in skip. */
+static void add_part_normals(const pf_surface *s, const double *x, bool cap, const uint8_t *skip,
+                             double *normals)
+{
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        if ((s->tri_part[t] == PF_SURFACE_CAP) != cap)
+            continue;
+        const uint32_t *v = s->tri + 3 * (size_t)t;
+        pf_vec3 a = pf_v3_load(x + 3 * (size_t)v[0]), b = pf_v3_load(x + 3 * (size_t)v[1]);
+        pf_vec3 c = pf_v3_load(x + 3 * (size_t)v[2]);
+        pf_vec3 n = pf_v3_cross(pf_v3_sub(b, a), pf_v3_sub(c, a));
+        for (int k = 0; k < 3; ++k) {
+            if (skip && skip[v[k]])
+                continue;
+            double *o = normals + 3 * (size_t)v[k];
+            o[0] += n.x, o[1] += n.y, o[2] += n.z;
+        }
+    }
+}
+
+pf_status pf_surface_part_normals(const pf_surface *s, const double *x, double *normals,
+                                  pf_error *err)
+{
+    if (pf_surface_count_caps(s) == 0) {
+        pf_surface_vertex_normals(s, x, normals);
+        return PF_OK;
+    }
+    if (!x)
+        x = s->x;
+    uint8_t *model = pf_calloc((size_t)s->n_verts + 1, 1);
+    PF_CHECK(model, err, PF_ERR_NOMEM, "cannot allocate the parts of %d vertices", (int)s->n_verts);
+    for (int32_t t = 0; t < s->n_tris; ++t)
+        if (s->tri_part[t] != PF_SURFACE_CAP)
+            for (int k = 0; k < 3; ++k)
+                model[s->tri[3 * (size_t)t + (size_t)k]] = 1;
+    memset(normals, 0, 3 * (size_t)s->n_verts * sizeof *normals);
+    add_part_normals(s, x, false, NULL, normals);
+    add_part_normals(s, x, true, model, normals);
+    for (int32_t i = 0; i < s->n_verts; ++i) {
+        pf_vec3 n = pf_v3_normalize(pf_v3_load(normals + 3 * (size_t)i));
+        normals[3 * i] = n.x, normals[3 * i + 1] = n.y, normals[3 * i + 2] = n.z;
+    }
+    pf_free(model);
+    return PF_OK;
 }

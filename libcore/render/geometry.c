@@ -26,6 +26,10 @@ pf_paint pf_paint_default(void)
     p.rgb[0] = (float)pf_srgb_to_linear(0.82);
     p.rgb[1] = (float)pf_srgb_to_linear(0.74);
     p.rgb[2] = (float)pf_srgb_to_linear(0.66);
+    /* caps, the inside of the material a cut shows: a warm flesh red (sRGB #cc6b57) */
+    p.cap_rgb[0] = (float)pf_srgb_to_linear(204 / 255.0);
+    p.cap_rgb[1] = (float)pf_srgb_to_linear(107 / 255.0);
+    p.cap_rgb[2] = (float)pf_srgb_to_linear(87 / 255.0);
     return p;
 }
 
@@ -186,16 +190,30 @@ pf_status pf_render_add_boundary(pf_render_geometry *g, const pf_mesh *m, const 
     return PF_OK;
 }
 
-/* Area-weighted vertex normals: the sum of the (unnormalised) normals of the adjacent triangles. */
+static bool is_cap(const pf_surface *s, int32_t t)
+{
+    return s->tri_part && s->tri_part[t] == PF_SURFACE_CAP;
+}
+
+static pf_vec3 triangle_normal(const pf_surface *s, const double *x, int32_t t)
+{
+    const uint32_t *c = s->tri + 3 * (size_t)t;
+    pf_vec3 a = pf_v3_load(x + 3 * (size_t)c[0]), b = pf_v3_load(x + 3 * (size_t)c[1]);
+    pf_vec3 d = pf_v3_load(x + 3 * (size_t)c[2]);
+    return pf_v3_cross(pf_v3_sub(b, a), pf_v3_sub(d, a));
+}
+
+/* Area-weighted vertex normals: the sum of the (unnormalised) normals of the adjacent triangles,
+ * the model's only (caps are drawn on vertices of their own). */
 static void vertex_normals(const pf_surface *s, const double *x, pf_vec3 *n)
 {
     for (int32_t i = 0; i < s->n_verts; ++i)
         n[i] = pf_v3(0, 0, 0);
     for (int32_t t = 0; t < s->n_tris; ++t) {
+        if (is_cap(s, t))
+            continue;
         const uint32_t *c = s->tri + 3 * (size_t)t;
-        pf_vec3 a = pf_v3_load(x + 3 * (size_t)c[0]), b = pf_v3_load(x + 3 * (size_t)c[1]);
-        pf_vec3 d = pf_v3_load(x + 3 * (size_t)c[2]);
-        pf_vec3 fn = pf_v3_cross(pf_v3_sub(b, a), pf_v3_sub(d, a));
+        pf_vec3 fn = triangle_normal(s, x, t);
         for (int k = 0; k < 3; ++k)
             n[c[k]] = pf_v3_add(n[c[k]], fn);
     }
@@ -203,12 +221,30 @@ static void vertex_normals(const pf_surface *s, const double *x, pf_vec3 *n)
         n[i] = pf_v3_normalize(n[i]);
 }
 
-static void vertex_color(const pf_paint *p, int32_t i, float rgb[3])
+static void vertex_color(const pf_paint *p, int32_t i, bool cap, float rgb[3])
 {
     if (p->kind == PF_PAINT_VERT_VALUE)
         pf_colormap_viridis(map_value(p, p->values[i]), rgb);
     else
-        memcpy(rgb, p->rgb, 3 * sizeof *rgb);
+        memcpy(rgb, cap ? p->cap_rgb : p->rgb, 3 * sizeof *rgb);
+}
+
+/* Triangle t on three vertices of its own (wire tags, or a cap's flat normal and colour). */
+static void put_own_triangle(pf_render_geometry *g, const pf_surface *s, const double *x,
+                             const pf_vec3 *n, const pf_paint *p, int32_t t)
+{
+    static const float E[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    bool cap = is_cap(s, t);
+    pf_vec3 flat = cap ? pf_v3_normalize(triangle_normal(s, x, t)) : pf_v3(0, 0, 0);
+    int64_t v0 = g->n_verts;
+    float rgb[3];
+    for (int c = 0; c < 3; ++c) {
+        uint32_t i = s->tri[3 * (size_t)t + (size_t)c];
+        vertex_color(p, (int32_t)i, cap, rgb);
+        put_vertex(g, pf_v3_load(x + 3 * (size_t)i), cap ? flat : n[i], rgb,
+                   p->wire ? E[c] : NO_WIRE);
+    }
+    put_triangle(g, v0, v0 + 1, v0 + 2);
 }
 
 pf_status pf_render_add_surface(pf_render_geometry *g, const pf_surface *s, const double *x,
@@ -218,35 +254,32 @@ pf_status pf_render_add_surface(pf_render_geometry *g, const pf_surface *s, cons
              PF_ERR_INVALID, "a surface is painted uniformly or by vertex values");
     if (!x)
         x = s->x;
+    int32_t caps = pf_surface_count_caps(s);
     pf_vec3 *n = pf_alloc_array((size_t)s->n_verts + 1, sizeof *n);
     PF_CHECK(n, err, PF_ERR_NOMEM, "cannot allocate %d vertex normals", (int)s->n_verts);
-    pf_status st = reserve(g, p->wire ? 3 * (int64_t)s->n_tris : s->n_verts, s->n_tris, err);
+    int64_t nv = p->wire ? 3 * (int64_t)s->n_tris : s->n_verts + 3 * (int64_t)caps;
+    pf_status st = reserve(g, nv, s->n_tris, err);
     if (st != PF_OK) {
         pf_free(n);
         return st;
     }
     vertex_normals(s, x, n);
-    float rgb[3];
     if (p->wire) {
-        static const float E[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-        for (int32_t t = 0; t < s->n_tris; ++t) {
-            int64_t v0 = g->n_verts;
-            for (int c = 0; c < 3; ++c) {
-                uint32_t i = s->tri[3 * (size_t)t + (size_t)c];
-                vertex_color(p, (int32_t)i, rgb);
-                put_vertex(g, pf_v3_load(x + 3 * (size_t)i), n[i], rgb, E[c]);
-            }
-            put_triangle(g, v0, v0 + 1, v0 + 2);
-        }
+        for (int32_t t = 0; t < s->n_tris; ++t)
+            put_own_triangle(g, s, x, n, p, t);
     } else {
         int64_t v0 = g->n_verts;
+        float rgb[3];
         for (int32_t i = 0; i < s->n_verts; ++i) {
-            vertex_color(p, i, rgb);
+            vertex_color(p, i, false, rgb);
             put_vertex(g, pf_v3_load(x + 3 * (size_t)i), n[i], rgb, NO_WIRE);
         }
         for (int32_t t = 0; t < s->n_tris; ++t) {
             const uint32_t *c = s->tri + 3 * (size_t)t;
-            put_triangle(g, v0 + c[0], v0 + c[1], v0 + c[2]);
+            if (is_cap(s, t))
+                put_own_triangle(g, s, x, n, p, t);
+            else
+                put_triangle(g, v0 + c[0], v0 + c[1], v0 + c[2]);
         }
     }
     pf_free(n);

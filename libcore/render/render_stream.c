@@ -50,12 +50,15 @@ struct pf_render_stream {
 
 pf_render_stream_params pf_render_stream_params_default(void)
 {
-    return (pf_render_stream_params){.width = 1280,
-                                     .height = 720,
-                                     .mode = PF_RENDER_MODE_SURFACE,
-                                     .first = 0,
-                                     .last = (int64_t)UINT32_MAX,
-                                     .out_dir = "frames"};
+    pf_render_stream_params p = {.width = 1280,
+                                 .height = 720,
+                                 .mode = PF_RENDER_MODE_SURFACE,
+                                 .first = 0,
+                                 .last = (int64_t)UINT32_MAX,
+                                 .out_dir = "frames"};
+    pf_paint d = pf_paint_default();
+    memcpy(p.cap_rgb, d.cap_rgb, sizeof p.cap_rgb);
+    return p;
 }
 
 static bool in_range(const pf_render_stream *rs, uint32_t index)
@@ -304,6 +307,7 @@ static pf_status build_geometry(pf_render_stream *rs, const pf_frame_data *f, bo
         p.wire = mode == PF_RENDER_MODE_MESH;
         if (p.kind == PF_PAINT_ELEM_VALUE) /* stress without weights cannot reach the surface */
             p = pf_paint_default(), *legend = false;
+        memcpy(p.cap_rgb, rs->p.cap_rgb, sizeof p.cap_rgb);
         rs->geom.closed = pic->surface_closed;
         return pf_render_add_surface(&rs->geom, &st->surface, x, &p, err);
     }
@@ -417,7 +421,8 @@ pf_status pf_render_stream_take(pf_render_stream *rs, const pf_chunk *c, pf_erro
 {
     if (strcmp(c->tag, "FRAM") == 0)
         return take_frame(rs, c, err);
-    if (strcmp(c->tag, "MESH") == 0) /* a pending frame is drawn on its own mesh */
+    /* a pending frame is drawn on its own mesh, surface and weights */
+    if (strcmp(c->tag, "MESH") == 0 || strcmp(c->tag, "SURF") == 0 || strcmp(c->tag, "WGHT") == 0)
         PF_TRY(flush_pending(rs, err));
     PF_TRY(picture_take(&rs->pic, c, err));
     if (strcmp(c->tag, "SCEN") == 0 && rs->p.hooks.on_scene)

@@ -45,7 +45,11 @@ static int decode_and_reencode(const pf_chunk *c, pf_buffer *re)
         pf_surface v = {0};
         if ((s = pf_stream_decode_surface(c, &v, &err)) == PF_OK)
             require(pf_stream_encode_surface(&v, re, &err) == PF_OK, "decoded SURF re-encodes");
+        /* a version 2 SURF without caps re-encodes as version 1: nothing to compare */
+        bool same = s != PF_OK || pf_stream_surface_version(&v) == c->version;
         pf_surface_release(&v);
+        if (!same)
+            return 0;
     } else if (strcmp(c->tag, "WGHT") == 0) {
         pf_weights w = {0};
         if ((s = pf_stream_decode_weights(c, &w, &err)) == PF_OK)

@@ -86,6 +86,9 @@ enum {
     FULL_END
 };
 
+/* The SURF of full_stream with its last triangle a cap (SURF version 2). */
+static bool with_cap;
+
 /* INFO SCEN MESH SURF WGHT XTRA FRAM STRS(1) FRAM STRS(6) END_ on one tetrahedron. */
 static bytes full_stream(bool finish)
 {
@@ -105,6 +108,12 @@ static bytes full_stream(bool finish)
     s.id = 2;
     memcpy(s.x, TET_X, sizeof TET_X);
     memcpy(s.tri, TET_TRI, sizeof TET_TRI);
+    if (with_cap) {
+        s.tri_part = pf_calloc(4, 1);
+        if (!s.tri_part)
+            die("surface parts", NULL);
+        s.tri_part[3] = PF_SURFACE_CAP;
+    }
     check(pf_stream_write_surface(w, &s, &err), "SURF", &err);
     pf_weights wt = {0};
     check(pf_weights_alloc(&wt, 4, 4, 4, &err), "weights", &err);
@@ -262,6 +271,11 @@ static void strs_components(bytes *b)
 {
     payload_edit(b, FULL_STRS6, 16, 3, 4);
 }
+/* SURF version 2 (with_cap): the parts after the 4 vertices and 4 triangles */
+static void surf_part(bytes *b)
+{
+    payload_edit(b, FULL_SURF, 16 + 24 * 4 + 12 * 4 + 1, 7, 1);
+}
 static void info_utf8(bytes *b)
 {
     payload_edit(b, FULL_INFO, 4, 0xff, 1);
@@ -336,6 +350,13 @@ int main(int argc, char **argv)
     };
     for (size_t i = 0; i < sizeof EDITS / sizeof EDITS[0]; ++i)
         save_edited(dir, EDITS[i].name, EDITS[i].edit);
+    /* the caps of a cut: SURF version 2, valid and with a part that is neither */
+    with_cap = true;
+    bytes caps = full_stream(true);
+    save(dir, "valid-caps.pfs", &caps);
+    free(caps.data);
+    save_edited(dir, "surf-part-7.pfs", surf_part);
+    with_cap = false;
     static const unsigned char TEXT[] = "solid cube\nendsolid cube\n";
     bytes text = {(unsigned char *)TEXT, sizeof TEXT - 1};
     save(dir, "not-a-stream.stl", &text);

@@ -59,8 +59,11 @@ typedef struct pf_chunk {
 bool pf_stream_tag_is_known(const char *tag);
 bool pf_stream_tag_is_critical(const char *tag);
 bool pf_stream_tag_is_mesh_dependent(const char *tag);
-/* The version of a known chunk that this pf reads and writes; 0 for an unknown tag. */
+/* The newest version of a known chunk that this pf reads and writes; 0 for an unknown tag. */
 uint32_t pf_stream_tag_version(const char *tag);
+/* Whether this pf's decoder reads version of the known chunk tag (SURF: 1 and 2, the others:
+ * pf_stream_tag_version only); false for an unknown tag. */
+bool pf_stream_version_is_read(const char *tag, uint32_t version);
 /* PF_ERR_UNSUPPORTED (naming chunk, offset and versions) when c is a known chunk of a version this
  * pf does not read; PF_OK otherwise, unknown tags included. */
 pf_status pf_stream_check_version(const pf_chunk *c, pf_error *err);
@@ -175,6 +178,11 @@ pf_status pf_stream_encode_info(const char *producer, const char *version, const
                                 pf_buffer *out, pf_error *err);
 pf_status pf_stream_encode_scene(const char *json, size_t size, pf_buffer *out, pf_error *err);
 pf_status pf_stream_encode_mesh(const pf_mesh *m, pf_buffer *out, pf_error *err);
+/* SURF: version 1 for a surface without cap triangles (tri_part NULL or all PF_SURFACE_MODEL),
+ * version 2 (with the part of each triangle) otherwise: pf_stream_surface_version says which
+ * layout pf_stream_encode_surface writes. pf_stream_decode_surface reads both; a version 1 chunk
+ * gives tri_part NULL, a version 2 chunk the parts as stored. */
+uint32_t pf_stream_surface_version(const pf_surface *s);
 pf_status pf_stream_encode_surface(const pf_surface *s, pf_buffer *out, pf_error *err);
 pf_status pf_stream_encode_weights(const pf_weights *w, pf_buffer *out, pf_error *err);
 pf_status pf_stream_encode_frame(const pf_frame_data *f, pf_buffer *out, pf_error *err);
@@ -237,7 +245,8 @@ pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, p
  * to skip a frame without decoding it, pf_stream_state_skip_frame). The state decodes and checks:
  * - MESH replaces the latest mesh and is recorded in the list of meshes; the weights and stress
  *   of the previous mesh are dropped (mesh-dependent chunks refer to the latest MESH);
- * - SURF replaces the latest surface and drops the weights;
+ * - SURF replaces the latest surface, is recorded in the list of surfaces and drops the weights
+ *   (a cut writes a new MESH, a new SURF with its caps and their WGHT between two frames);
  * - GRPS gives the latest MESH its groups when it names it (id, element and face counts); the
  *   groups of another mesh, or of a version this pf does not read, are ignored (not critical);
  * - WGHT must name the latest SURF and the latest MESH by id, with their vertex and node counts;
@@ -260,6 +269,17 @@ typedef struct pf_stream_mesh_use {
     uint32_t first_frame, last_frame; /* their smallest and largest index (n_frames > 0) */
 } pf_stream_mesh_use;
 
+/* One SURF of the stream and the frames drawn on it: those that came while the weights of this
+ * surface in the latest mesh were in force. */
+typedef struct pf_stream_surface_use {
+    uint64_t id;                      /* the surface id */
+    uint64_t offset;                  /* byte offset of its SURF chunk */
+    uint32_t version;                 /* of its SURF chunk (2: with triangle parts) */
+    int32_t n_verts, n_tris, n_caps;  /* n_caps: triangles of part PF_SURFACE_CAP */
+    int64_t n_frames;                 /* FRAM chunks on this surface */
+    uint32_t first_frame, last_frame; /* their smallest and largest index (n_frames > 0) */
+} pf_stream_surface_use;
+
 typedef struct pf_stream_state {
     pf_mesh mesh;              /* the latest MESH (valid when have_mesh) */
     bool have_mesh;
@@ -277,6 +297,8 @@ typedef struct pf_stream_state {
     uint64_t scene_serial;     /* incremented by every SCEN */
     pf_stream_mesh_use *meshes; /* [n_meshes] every MESH so far, in stream order */
     int32_t n_meshes, cap_meshes;
+    pf_stream_surface_use *surfaces; /* [n_surfaces] every SURF so far, in stream order */
+    int32_t n_surfaces, cap_surfaces;
     int64_t n_frames;          /* FRAM chunks accepted */
 } pf_stream_state;
 
@@ -285,7 +307,8 @@ typedef struct pf_stream_state {
 pf_status pf_stream_state_take(pf_stream_state *s, const pf_chunk *c, pf_error *err);
 
 /* Decodes a FRAM chunk into f (zeroed or released by the caller; zero again after a failure) and
- * checks it against the latest MESH; counts it in that mesh's pf_stream_mesh_use. */
+ * checks it against the latest MESH; counts it in that mesh's pf_stream_mesh_use and, when the
+ * weights of the latest SURF are in force, in that surface's pf_stream_surface_use. */
 pf_status pf_stream_state_frame(pf_stream_state *s, const pf_chunk *c, pf_frame_data *f,
                                 pf_error *err);
 
@@ -436,8 +459,10 @@ pf_status pf_export_pvd(const char *path, const char *const *files, const double
 /* A triangle surface at positions x [3 n_verts] (NULL: s->x) as Wavefront OBJ (v, vn and f a//a
  * lines, 1-based, positions %.17g, normals %.9g) or binary little-endian PLY (float32 positions x
  * y z and normals nx ny nz per vertex, uint32 indices) for
- * Blender/Houdini sequences. PF_ERR_INVALID for an index out of range or a non-finite position
- * (for PLY also one beyond float32's range); PF_ERR_IO as above. */
+ * Blender/Houdini sequences. A surface with caps (tri_part, PF_SURFACE_CAP) gets "g cap" /
+ * "usemtl cap" runs (and "g model") and flat cap normals in OBJ, a face property "uchar part" in
+ * PLY; vertex normals from pf_surface_part_normals. PF_ERR_INVALID for an index out of range or a
+ * non-finite position (for PLY also one beyond float32's range); PF_ERR_IO as above. */
 pf_status pf_export_obj(const char *path, const pf_surface *s, const double *x, pf_error *err);
 pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, pf_error *err);
 
@@ -446,7 +471,9 @@ pf_status pf_export_ply(const char *path, const pf_surface *s, const double *x, 
  * Z) whose points and vertex normals are time samples, the time code being the frame index and
  * timeCodesPerSecond derived from the frames' times (24 for a single frame); faceVertexCounts /
  * faceVertexIndices sampled at the first frame and again whenever the triangles change; an
- * optional per-triangle primvar "stress" (interpolation uniform). Values as float32 (%.9g). */
+ * optional per-triangle primvar "stress" (interpolation uniform); a GeomSubset "cap" (family
+ * materialBind) of the cap triangles, sampled with the topology, when some sample has caps. Values
+ * as float32 (%.9g). */
 typedef struct pf_usd_writer pf_usd_writer;
 
 /* path is copied; nothing is written before pf_usd_writer_finish. PF_ERR_NOMEM. */

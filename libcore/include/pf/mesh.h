@@ -186,6 +186,8 @@ enum { PF_SURFACE_MODEL = 0, PF_SURFACE_CAP = 1 };
 
 pf_status pf_surface_alloc(pf_surface *s, int32_t n_verts, int32_t n_tris, pf_error *err);
 void pf_surface_release(pf_surface *s);
+/* The triangles whose tri_part is PF_SURFACE_CAP (0 when tri_part is NULL). */
+int32_t pf_surface_count_caps(const pf_surface *s);
 
 typedef struct pf_surface_stats {
     int32_t n_verts, n_tris;
@@ -297,6 +299,12 @@ pf_status pf_surface_repair(pf_surface *s, const pf_surface_repair_params *param
  * outward surface); the zero vector for a vertex no triangle with area uses. Indices must be in
  * range (pf_surface_compute_stats checks them). */
 void pf_surface_vertex_normals(const pf_surface *s, const double *x, double *normals);
+/* The same for a surface with cap triangles (tri_part PF_SURFACE_CAP), one normal per vertex for
+ * formats that hold no more: a vertex used by the model's triangles takes theirs only (the sharp
+ * rim of a cut does not bend the model's shading), a vertex of caps only its caps'. Without caps,
+ * pf_surface_vertex_normals exactly. PF_ERR_NOMEM. */
+pf_status pf_surface_part_normals(const pf_surface *s, const double *x, double *normals,
+                                  pf_error *err);
 
 /* ---- generated models (tests, benchmarks, the demo) -------------------------------------------- */
 

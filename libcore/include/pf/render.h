@@ -88,9 +88,11 @@ typedef struct pf_paint {
     const double *values; /* borrowed: [n_elems] or [n_verts] for the value kinds */
     double lo, hi;        /* colour-map range; hi <= lo maps everything to the middle */
     bool wire;            /* tag polygon edges (pf_render_vertex.edge) so that they are drawn */
+    float cap_rgb[3];     /* linear RGB of a surface's cap triangles (tri_part PF_SURFACE_CAP)
+                             under PF_PAINT_UNIFORM */
 } pf_paint;
 
-/* The default: uniform, a light clay colour, no wire. */
+/* The default: uniform, a light clay colour, no wire; caps a warm flesh red (sRGB #cc6b57). */
 pf_paint pf_paint_default(void);
 
 /* Appends the boundary b of mesh m, nodes at m->x + u (u [3 n_nodes] or NULL for the rest
@@ -101,7 +103,9 @@ pf_status pf_render_add_boundary(pf_render_geometry *g, const pf_mesh *m, const 
                                  const double *u, const pf_paint *p, pf_error *err);
 
 /* Appends surface s with vertices at x ([3 s->n_verts], NULL: s->x), smooth-shaded (area-weighted
- * vertex normals), painted by p (PF_PAINT_UNIFORM or PF_PAINT_VERT_VALUE). Same statuses. */
+ * vertex normals), painted by p (PF_PAINT_UNIFORM or PF_PAINT_VERT_VALUE). Cap triangles (tri_part
+ * PF_SURFACE_CAP) are flat-shaded on vertices of their own, in p->cap_rgb when uniform, and do
+ * not bend the normals of the model's triangles they touch. Same statuses. */
 pf_status pf_render_add_surface(pf_render_geometry *g, const pf_surface *s, const double *x,
                                 const pf_paint *p, pf_error *err);
 
@@ -226,6 +230,8 @@ typedef struct pf_render_stream_params {
     bool has_camera;        /* false (default): the automatic camera */
     pf_camera camera;       /* when has_camera; its up is also the ground's normal */
     int64_t first, last;    /* frames drawn: index first..last inclusive (default all) */
+    float cap_rgb[3];       /* linear RGB of the surface's cap triangles (default
+                               pf_paint_default's) */
     const char *out_dir;    /* borrowed, must exist (default "frames") */
     pf_render_stream_hooks hooks;
 } pf_render_stream_params;

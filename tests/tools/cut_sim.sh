@@ -1,0 +1,75 @@
+# Cutting while the simulation runs (the scene's "cuts"): a sliced bunny hanging by its ears cut in
+# two by a moving blade (data/scenes/bunny_cut.json); a blade that stops half way leaves one body
+# (both methods); pf-sim writes a MESH (with the "cut" face group) before the first frame on each
+# cut mesh; pf-info, pf-export and pf-render read the stream; the stream is the same twice and on
+# one thread; an embedded surface is cut and capped with the mesh; a bad blade is an error naming
+# the key.
+. "$(dirname "$0")/lib.sh"
+root=$(cd "$data/../.." && pwd)
+scene=$root/data/scenes/bunny_cut.json
+"$bin/pf-slice" "$root/data/models/bunny.obj" --res 6 --quiet >"$tmp/bunny.pfs"
+stat_of() { sed -n "s/.*\"$2\":[[:space:]]*\([0-9.e+-]*\).*/\1/p" "$1" | head -1; }
+
+expect 0 "cuts:" "$bin/pf-sim" "$scene" --frames 30 --stats "$tmp/dg.json" --input "$tmp/bunny.pfs"
+cp "$tmp/out" "$tmp/dg.pfs"
+check "dg: the blade cut elements ($(stat_of "$tmp/dg.json" elements_cut))" \
+  test "$(stat_of "$tmp/dg.json" elements_cut)" -gt 0
+check "dg: the bunny is in two pieces" test "$(stat_of "$tmp/dg.json" bodies)" = 2
+"$bin/pf-info" "$tmp/dg.pfs" >"$tmp/info.txt" 2>&1
+check "pf-info accepts the cut stream" "$bin/pf-info" "$tmp/dg.pfs"
+check "more than one mesh" test "$(sed -n 's/^meshes: //p' "$tmp/info.txt")" -gt 1
+check "the cut faces are the mesh's group" grep -q "GRPS" "$tmp/info.txt"
+
+
+# the same run again, and on one thread: the same bytes (see refine.sh for the thread policy)
+"$bin/pf-sim" "$scene" --frames 30 --quiet --input "$tmp/bunny.pfs" >"$tmp/run0.pfs"
+"$bin/pf-sim" "$scene" --frames 30 --quiet --input "$tmp/bunny.pfs" >"$tmp/run1.pfs"
+OMP_NUM_THREADS=1 "$bin/pf-sim" "$scene" --frames 30 --quiet --input "$tmp/bunny.pfs" >"$tmp/run2.pfs"
+check "deterministic: run twice" cmp -s "$tmp/run0.pfs" "$tmp/run1.pfs"
+check "deterministic: one thread" cmp -s "$tmp/run1.pfs" "$tmp/run2.pfs"
+
+# pf-render draws every frame on its own mesh, a range reproduces the whole run's bytes
+expect 0 "" "$bin/pf-render" --quiet --size 96x72 --out "$tmp/png" "$tmp/dg.pfs"
+check "pf-render: 31 images" test "$(ls "$tmp/png" | wc -l)" = 31
+expect 0 "" "$bin/pf-render" --quiet --size 96x72 --frames 28:30 --out "$tmp/png-range" "$tmp/dg.pfs"
+for png in "$tmp/png-range"/*.png; do
+  check "render --frames 28:30: $(basename "$png") as in the whole run" \
+    cmp -s "$png" "$tmp/png/$(basename "$png")"
+done
+expect 0 "" "$bin/pf-export" --ascii --quiet --vtu "$tmp/vtu" "$tmp/dg.pfs"
+check "VTU at every frame" test "$(ls "$tmp/vtu"/*.vtu | wc -l)" = 31
+
+# a blade that stops half way through the bar: one body, a crack
+"$bin/pf-shape" box --extent 4,1,1 --cells 8,2,4 >"$tmp/bar.pfs"
+cat >"$tmp/half.json" <<'JSON'
+{"ground": false, "time": {"dt": 0.02, "frames": 8, "substeps": 2},
+ "fixed": [{"plane": {"point": [0, 0, 0], "normal": [1, 0, 0]}},
+           {"plane": {"point": [4, 0, 0], "normal": [1, 0, 0]}}],
+ "cuts": [{"blade": [[2.05, -1, 1.5], [2.05, 2, 1.5]],
+           "path": [{"time": 0, "translation": [0, 0, 0]}, {"time": 0.1, "translation": [0, 0, -1]}]}]}
+JSON
+expect 0 "cuts:" "$bin/pf-sim" "$tmp/half.json" --stats "$tmp/half_stats.json" --input "$tmp/bar.pfs"
+check "half way: one body" test "$(stat_of "$tmp/half_stats.json" bodies)" = 1
+expect 0 "cuts:" "$bin/pf-sim" "$tmp/half.json" --method cg --stats "$tmp/half_cg.json" \
+  --input "$tmp/bar.pfs"
+check "half way, cg: one body" test "$(stat_of "$tmp/half_cg.json" bodies)" = 1
+check "half way, cg: elements cut" test "$(stat_of "$tmp/half_cg.json" elements_cut)" -gt 0
+
+# an embedded surface is cut with the mesh: a new SURF with caps, its weights on the new mesh
+"$bin/pf-shape" sphere --segments 12 | "$bin/pf-voxelize" --res 5 --quiet | "$bin/pf-embed" --quiet >"$tmp/ball.pfs"
+cat >"$tmp/ball.json" <<'JSON'
+{"ground": {"point": [0, 0, -1.05]}, "time": {"frames": 10},
+ "cuts": [{"plane": {"point": [0.05, 0, 0], "normal": [1, 0, 0.1]}, "time": 0.05}]}
+JSON
+expect 0 "cuts:" "$bin/pf-sim" "$tmp/ball.json" --input "$tmp/ball.pfs"
+cp "$tmp/out" "$tmp/ball_cut.pfs"
+"$bin/pf-info" "$tmp/ball_cut.pfs" >"$tmp/binfo.txt" 2>&1
+check "embedded: pf-info accepts every surface and its weights" "$bin/pf-info" "$tmp/ball_cut.pfs"
+check "embedded: a second SURF" test "$(grep -c '^SURF' "$tmp/binfo.txt")" -ge 2
+expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/bobj" "$tmp/ball_cut.pfs"
+check "embedded: the caps are a group of the last OBJ" grep -q "cap" "$(ls "$tmp/bobj"/*.obj | tail -1)"
+
+# a blade without a path: exit 1 naming the key
+printf '{"cuts": [{"blade": [[0, 0, 0], [1, 0, 0]]}]}' >"$tmp/bad.json"
+expect 1 'cuts[0]: a blade needs a "path"' "$bin/pf-sim" "$tmp/bad.json" --input "$tmp/bar.pfs"
+finish

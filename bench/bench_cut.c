@@ -29,7 +29,8 @@
  *   bench_cut progressive     CSV per frame: a blade (the scene's "cuts") sweeping down through
  *                             a bar of 13 x 8 x 8 Kuhn cells (4,992 tets) clamped at x = 0 and
  *                             sagging under gravity, DG degree 1, one step per frame, 24 frames
- *                             (with "large": 17 x 11 x 11 cells, 12,342 tets): elements, nodes,
+ *                             (with "large": 17 x 11 x 11 cells, 12,342 tets, about 4 CPU
+ *                             minutes: bench/results/cut_progressive_large.csv): elements, nodes,
  *                             elements split after the frame, its cut's CPU ms (search, cut, new
  *                             set-up, transfer), the frame's CPU ms per step, the factorisations
  *                             in it (a step after a cut factorises anew), their CPU ms, PCG

@@ -169,21 +169,21 @@ static bool element_crossed(const pf_mesh *m, const double *y, int32_t e, const 
            (n > 0 && n < 3 && pt[0][0] >= 0 && pt[0][0] <= 1 && pt[0][1] >= 0 && pt[0][1] <= 1);
 }
 
-/* The rest-shape plane of the world plane n . (y - o) = 0 over the nodes of the elements
- * req[0 .. k): y = F x + t fitted by least squares (centred), then n . (F x + t - o) = 0. */
-static pf_plane rest_plane(const pf_mesh *m, const double *y, const pf_cut_request *req, int32_t k,
-                           const sweep *w)
+/* The affine map y = F x + t that best fits (least squares, centred) the motion of the nodes of
+ * the elements req[0 .. k) from rest (m->x) to now (y). false when they span no volume. */
+static bool fit_affine(const pf_mesh *m, const double *y, const pf_cut_request *req, int32_t k,
+                       pf_mat3 *f, pf_vec3 *t)
 {
     pf_vec3 xs = pf_v3(0, 0, 0), ys = pf_v3(0, 0, 0);
     double count = 0;
+    pf_mat3 c = {{{0}}}, b = {{{0}}}; /* sum dx dx^T, sum dy dx^T */
     for (int pass = 0; pass < 2; ++pass) {
-        double c[3][3] = {{0}}, b[3][3] = {{0}}; /* sum dx dx^T, sum dy dx^T */
         pf_vec3 xm = pf_v3_scale(xs, 1 / fmax(count, 1)), ym = pf_v3_scale(ys, 1 / fmax(count, 1));
         for (int32_t i = 0; i < k; ++i) {
             int32_t e = req[i].elem;
             for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
-                int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
-                for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+                int32_t g = PF_FACE_INDEX(m->elem_faces[q]);
+                for (int64_t j = m->face_offsets[g]; j < m->face_offsets[g + 1]; ++j) {
                     pf_vec3 x = pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]);
                     pf_vec3 yy = pf_v3_load(y + 3 * (size_t)m->face_nodes[j]);
                     if (pass == 0) {
@@ -192,29 +192,36 @@ static pf_plane rest_plane(const pf_mesh *m, const double *y, const pf_cut_reque
                     }
                     double dx[3] = {x.x - xm.x, x.y - xm.y, x.z - xm.z};
                     double dy[3] = {yy.x - ym.x, yy.y - ym.y, yy.z - ym.z};
-                    for (int a = 0; a < 3; ++a)
-                        for (int bb = 0; bb < 3; ++bb)
-                            c[a][bb] += dx[a] * dx[bb], b[a][bb] += dy[a] * dx[bb];
+                    for (int r = 0; r < 3; ++r)
+                        for (int q2 = 0; q2 < 3; ++q2)
+                            c.m[r][q2] += dx[r] * dx[q2], b.m[r][q2] += dy[r] * dx[q2];
                 }
             }
         }
-        if (pass == 0)
-            continue;
-        /* F = B C^-1, and the rest normal F^T n = C^-1 (B^T n) (C symmetric) */
-        pf_mat3 cm, bt;
-        for (int a = 0; a < 3; ++a)
-            for (int bb = 0; bb < 3; ++bb)
-                cm.m[a][bb] = c[a][bb], bt.m[a][bb] = b[bb][a];
-        double det;
-        pf_mat3 ci = pf_m3_inverse(cm, &det);
-        pf_vec3 rn = pf_m3_mulv(ci, pf_m3_mulv(bt, w->n));
-        if (!(det > 0) || !(pf_v3_norm(rn) > 0) || !isfinite(pf_v3_norm(rn)))
-            rn = w->n; /* the nodes span no volume: cannot happen for elements; keep the plane */
-        double d = pf_v3_dot(rn, xm) - pf_v3_dot(w->n, pf_v3_sub(ym, w->o));
-        double len = pf_v3_norm(rn);
-        return (pf_plane){pf_v3_scale(rn, 1 / len), d / len};
+        if (pass == 1) {
+            double det;
+            pf_mat3 ci = pf_m3_inverse(c, &det);
+            *f = pf_m3_mul(b, ci);
+            *t = pf_v3_sub(ym, pf_m3_mulv(*f, xm));
+            double fdet = pf_m3_det(*f);
+            return det > 0 && isfinite(fdet) && fdet > 0;
+        }
     }
-    return (pf_plane){w->n, pf_v3_dot(w->n, w->o)};
+    return false;
+}
+
+/* The world sweep w carried into the rest shape by the inverse of y = F x + t: the parallelogram
+ * maps to a parallelogram, the plane's normal to F^T n. */
+static sweep sweep_to_rest(const sweep *w, pf_mat3 f, pf_vec3 t)
+{
+    double det;
+    pf_mat3 fi = pf_m3_inverse(f, &det);
+    sweep r = *w;
+    r.o = pf_m3_mulv(fi, pf_v3_sub(w->o, t));
+    r.ea = pf_m3_mulv(fi, w->ea);
+    r.eb = pf_m3_mulv(fi, w->eb);
+    r.n = pf_v3_normalize(pf_m3_mulv(pf_m3_transpose(f), w->n));
+    return r;
 }
 
 /* The pieces of earlier cuts (elements with a cut face: the mesh's face group "cut") next to
@@ -256,17 +263,20 @@ static void add_earlier_pieces(const pf_mesh *m, pf_cut_request *req, int32_t *k
     pf_free(in);
 }
 
-/* A blade's plane in the rest shape, fixed at its first cut (the affine fit of the elements it
- * crossed then) for as long as it sweeps the same world plane: a crack made over many frames is
- * then one plane, exactly, and the nodes of neighbouring cuts coincide. Planes fitted anew at
- * each frame, or per element, differ by the body's motion between frames and from affine:
- * where they meet, the faces between them get strips a rounding wide (degenerate faces, which
- * harmonic elements cannot have). The price: a body that turns under a blade moving in a fixed
- * plane is cut along the material plane the blade entered. */
+/* A blade reaches the rest shape through one affine map, fitted to the elements it first passes
+ * through and kept for as long as it sweeps the same world plane: the elements it cuts are found
+ * in the rest shape (its sweep carried there) and split by one plane, so a crack made over many
+ * frames is one plane, exactly, and every element that plane crosses inside the sweep is cut.
+ * Maps fitted anew at each frame, or per element, differ by the body's motion between frames and
+ * from affine: where their planes meet, faces get strips a rounding wide (degenerate faces,
+ * which harmonic elements cannot have), and elements found in the deformed body but cut in the
+ * rest shape by another element's plane bridge the crack. The price: a body that turns or bends
+ * under such a blade is cut along the material plane the blade entered. */
 typedef struct blade_lock {
     bool locked;
-    pf_plane world; /* the sweep's world plane when the rest plane was fitted */
-    pf_plane rest;
+    pf_plane world; /* the sweep's world plane when the map was fitted */
+    pf_mat3 f;      /* rest to world, y = F x + t, fitted then */
+    pf_vec3 t;
 } blade_lock;
 
 static bool same_plane(pf_plane a, pf_plane b, double size)
@@ -274,17 +284,15 @@ static bool same_plane(pf_plane a, pf_plane b, double size)
     return pf_v3_norm(pf_v3_sub(a.n, b.n)) < 1e-9 && fabs(a.d - b.d) < 1e-9 * size;
 }
 
-static pf_plane locked_plane(pf_sim *s, int32_t blade, const sweep *w, const pf_mesh *m,
-                             const double *y, const pf_cut_request *req, int32_t k)
+/* The elements of m (node positions p: rest or deformed) the sweep w crosses, into req. */
+static int32_t crossed_elements(const pf_mesh *m, const double *p, const sweep *w, double tol,
+                                double (*pt)[2], double (*hull)[2], pf_cut_request *req)
 {
-    pf_plane world = {w->n, pf_v3_dot(w->n, w->o)};
-    blade_lock *lk = s->blade_locks ? &s->blade_locks[blade] : NULL;
-    if (lk && lk->locked && same_plane(lk->world, world, s->model_size))
-        return lk->rest;
-    pf_plane rest = rest_plane(m, y, req, k, w);
-    if (lk)
-        *lk = (blade_lock){.locked = true, .world = world, .rest = rest};
-    return rest;
+    int32_t k = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        if (element_crossed(m, p, e, w, tol, pt, hull))
+            req[k++].elem = e;
+    return k;
 }
 
 /* The elements the sweep passes through, each with the sweep's plane in the rest shape. */
@@ -316,13 +324,24 @@ static pf_status blade_requests(pf_sim *s, int32_t blade, const sweep *w, pf_cut
     for (int32_t i = 0; i < 3 * m->n_nodes; ++i)
         y[i] += m->x[i];
     double tol = 1e-12 * s->model_size;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        if (element_crossed(m, y, e, w, tol, pt, hull))
-            (*req)[(*k)++].elem = e;
-    pf_plane pl = locked_plane(s, blade, w, m, y, *req, *k);
-    add_earlier_pieces(m, *req, k);
-    for (int32_t i = 0; i < *k; ++i)
-        (*req)[i].plane = pl;
+    blade_lock *lk = &s->blade_locks[blade];
+    pf_plane world = {w->n, pf_v3_dot(w->n, w->o)};
+    if (!lk->locked || !same_plane(lk->world, world, s->model_size)) {
+        /* a new plane: the map fitted to the elements the blade passes through now */
+        pf_mat3 f;
+        pf_vec3 t;
+        int32_t n = crossed_elements(m, y, w, tol, pt, hull, *req);
+        if (n > 0 && fit_affine(m, y, *req, n, &f, &t))
+            *lk = (blade_lock){.locked = true, .world = world, .f = f, .t = t};
+    }
+    if (lk->locked && same_plane(lk->world, world, s->model_size)) {
+        sweep rest = sweep_to_rest(w, lk->f, lk->t);
+        *k = crossed_elements(m, m->x, &rest, tol, pt, hull, *req);
+        pf_plane pl = {rest.n, pf_v3_dot(rest.n, rest.o)};
+        add_earlier_pieces(m, *req, k);
+        for (int32_t i = 0; i < *k; ++i)
+            (*req)[i].plane = pl;
+    }
     pf_free(y), pf_free(pt), pf_free(hull);
     return PF_OK;
 }

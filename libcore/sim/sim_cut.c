@@ -43,6 +43,7 @@ pf_status pf_sim_cut(pf_sim *s, const pf_cut_request *req, int32_t n_req, pf_cut
     pf_mesh next = {0};
     pf_cut_result r = {0};
     PF_TRY(pf_mesh_cut(s->mesh, req, n_req, NULL, &next, &r, err));
+    double mesh_seconds = pf_cpu_seconds() - t0;
     pf_mesh_change change = {.old_mesh = s->mesh,
                              .parent = r.parent,
                              .split = r.split,
@@ -62,6 +63,7 @@ pf_status pf_sim_cut(pf_sim *s, const pf_cut_request *req, int32_t n_req, pf_cut
         s->stats.dropped_mass += r.dropped_volume * s->scene->density;
         s->stats.cut_seconds += pf_cpu_seconds() - t0;
         s->stats.refine_seconds += pf_cpu_seconds() - t0;
+        s->stats.refine_mesh_seconds += mesh_seconds;
     } else {
         pf_error_prefix(err, "cutting %d elements", (int)n_req);
     }

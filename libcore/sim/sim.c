@@ -247,7 +247,7 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
     pf_sim *s = pf_calloc(1, sizeof *s);
     PF_CHECK(s, err, PF_ERR_NOMEM, "cannot allocate the simulator");
     s->scene = scene;
-    s->surface = surface;
+    s->surface = s->uncut_surface = surface;
     s->weights = weights;
     pf_status st = pf_sim_build(s, mesh, NULL, 0, err);
     if (st < 0) {

@@ -76,6 +76,7 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
 {
     t->scene = s->scene;
     t->surface = s->surface;
+    t->uncut_surface = s->uncut_surface;
     t->owned_mesh = pf_calloc(1, sizeof *t->owned_mesh);
     PF_CHECK(t->owned_mesh, err, PF_ERR_NOMEM, "cannot allocate the new mesh");
     *t->owned_mesh = *mesh;
@@ -89,8 +90,14 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
         t->owned_weights = pf_calloc(1, sizeof *t->owned_weights);
         PF_CHECK(t->owned_surface && t->owned_weights, err, PF_ERR_NOMEM,
                  "cannot allocate the cut surface");
-        PF_TRY(pf_surface_cut(s->surface, t->owned_mesh, change->cut, NULL, t->owned_surface,
+        /* the caller's surface cut by every face opened so far, at once: cutting the cut
+         * surface again along a crack that goes on (a progressive blade) left triangles across
+         * the crack where one cut's faces met the next's */
+        pf_cut_result all = *change->cut;
+        all.opened = change->cut->cut_face;
+        PF_TRY(pf_surface_cut(s->uncut_surface, t->owned_mesh, &all, NULL, t->owned_surface,
                               t->owned_weights, NULL, err));
+        t->owned_surface->id = t->owned_weights->surface_id = s->surface->id + 1;
         t->surface = t->owned_surface;
         t->weights = t->owned_weights;
     } else if (s->surface) {

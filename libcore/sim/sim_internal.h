@@ -17,6 +17,8 @@ struct pf_sim {
     const pf_weights *weights; /* its weights on mesh: the caller's, or owned_weights */
     pf_weights *owned_weights;
     pf_surface *owned_surface; /* the surface after a cut (surface then points to it) */
+    const pf_surface *uncut_surface; /* the caller's surface, from which every cut surface is
+                                        made with all the faces opened so far */
     /* the scene's blades (sim_cut.c): the rest-shape plane each cuts along, fixed at its first
      * cut for as long as it moves in the same world plane; NULL before any cut */
     struct blade_lock *blade_locks;

@@ -32,6 +32,14 @@ static void make_box(pf_mesh *m, pf_vec3 hi, int nx, int ny, int nz)
     assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
 }
 
+/* A cut surface after frame f: closed, manifold, the box's volume 3.8 x 0.8 x 0.8. */
+#define CHECK_SURFACE(ss, f)                                                                       \
+    do {                                                                                           \
+        if (!(ss).closed || !(ss).manifold || fabs((ss).volume - 2.432) > 1e-12 * 2.432)           \
+            fail_msg("frame %d: the cut surface: closed %d, manifold %d, volume %.17g", (f),       \
+                     (ss).closed, (ss).manifold, (ss).volume);                                     \
+    } while (0)
+
 static pf_sim *create(pf_scene *sc, const pf_mesh *m)
 {
     pf_error err = {0};
@@ -400,6 +408,48 @@ static void test_embedded_surface_cut(void **state)
     pf_mesh_release(&m);
 }
 
+/* A blade going through a bar in several frames with an embedded box inside: each cut surface is
+ * closed and manifold, and encloses the box's volume (the rest shape's: a cut moves nothing) to
+ * 1e-12 relative. */
+static void test_embedded_progressive(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh m = {0};
+    make_box(&m, pf_v3(4, 1, 1), 8, 2, 4);
+    pf_surface surf = {0};
+    closed_box(&surf, pf_v3(0.1, 0.1, 0.1), pf_v3(3.9, 0.9, 0.9));
+    pf_weights w = {0};
+    assert_int_equal(pf_embed_compute(&m, &surf, NULL, &w, NULL, &err), PF_OK);
+    pf_scene sc;
+    parse(&sc, "{\"gravity\": [0, 0, -9.81], \"ground\": false,"
+               " \"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}},"
+               "             {\"plane\": {\"point\": [4, 0, 0], \"normal\": [1, 0, 0]}}],"
+               " \"time\": {\"dt\": 0.01, \"substeps\": 2},"
+               " \"cuts\": [{\"blade\": [[2.05, -1, 1.5], [2.05, 2, 1.5]],"
+               "   \"path\": [{\"time\": 0, \"translation\": [0, 0, 0]},"
+               "              {\"time\": 0.1, \"translation\": [0, 0, -2]}]}]}");
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(&m, &lo, &hi);
+    pf_scene_resolve(&sc, lo, hi);
+    pf_sim *sim = NULL;
+    assert_int_equal(pf_sim_create_embedded(&sim, &sc, &m, &surf, &w, &err), PF_OK);
+    for (int f = 0; f < 12; ++f) {
+        run_frames(sim, 1);
+        const pf_surface *cut = pf_sim_surface(sim);
+        pf_surface_stats ss;
+        assert_int_equal(pf_surface_compute_stats(cut, &ss, &err), PF_OK);
+        CHECK_SURFACE(ss, f);
+    }
+    assert_true(pf_sim_get_stats(sim)->cuts >= 2);
+    assert_int_equal(pf_sim_get_stats(sim)->bodies, 2);
+    pf_sim_destroy(&sim);
+    pf_weights_release(&w);
+    pf_surface_release(&surf);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+}
+
 /* The scene's "cuts": errors name the key. */
 static void test_scene_errors(void **state)
 {
@@ -437,6 +487,7 @@ int main(void)
         cmocka_unit_test(test_progressive_blade),
         cmocka_unit_test(test_pencil),
         cmocka_unit_test(test_embedded_surface_cut),
+        cmocka_unit_test(test_embedded_progressive),
         cmocka_unit_test(test_scene_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

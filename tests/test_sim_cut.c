@@ -18,19 +18,7 @@
 #include <pf/embed.h>
 #include <pf/sim.h>
 
-static void parse(pf_scene *sc, const char *json)
-{
-    pf_error err = {0};
-    if (pf_scene_parse(sc, json, strlen(json), "test", &err) < 0)
-        fail_msg("scene: %s", err.msg);
-}
-
-static void make_box(pf_mesh *m, pf_vec3 hi, int nx, int ny, int nz)
-{
-    pf_error err = {0};
-    assert_int_equal(pf_mesh_make_box(m, pf_v3(0, 0, 0), hi, nx, ny, nz, &err), PF_OK);
-    assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
-}
+#include "test_sim_changes.h"
 
 /* A cut surface after frame f: closed, manifold, the box's volume 3.8 x 0.8 x 0.8. */
 #define CHECK_SURFACE(ss, f)                                                                       \
@@ -39,28 +27,6 @@ static void make_box(pf_mesh *m, pf_vec3 hi, int nx, int ny, int nz)
             fail_msg("frame %d: the cut surface: closed %d, manifold %d, volume %.17g", (f),       \
                      (ss).closed, (ss).manifold, (ss).volume);                                     \
     } while (0)
-
-static pf_sim *create(pf_scene *sc, const pf_mesh *m)
-{
-    pf_error err = {0};
-    pf_vec3 lo, hi;
-    pf_mesh_bounds(m, &lo, &hi);
-    pf_scene_resolve(sc, lo, hi);
-    pf_sim *sim = NULL;
-    if (pf_sim_create(&sim, sc, m, &err) < 0)
-        fail_msg("create: %s", err.msg);
-    return sim;
-}
-
-static double rel(double a, double b)
-{
-    return fabs(a - b) / fmax(fabs(b), 1e-300);
-}
-
-static double vec_rel(pf_vec3 a, pf_vec3 b)
-{
-    return pf_v3_norm(pf_v3_sub(a, b)) / fmax(pf_v3_norm(b), 1e-300);
-}
 
 static void run_frames(pf_sim *sim, int n)
 {

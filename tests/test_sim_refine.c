@@ -19,52 +19,10 @@
 #include <pf/fem.h>
 #include <pf/sim.h>
 
+#include "test_sim_changes.h"
+
 #include "basis_meshes.h"
 #include "sim/sim_internal.h"
-
-static void parse(pf_scene *sc, const char *json)
-{
-    pf_error err = {0};
-    if (pf_scene_parse(sc, json, strlen(json), "test", &err) < 0)
-        fail_msg("scene: %s", err.msg);
-}
-
-static void make_box(pf_mesh *m, pf_vec3 hi, int nx, int ny, int nz)
-{
-    pf_error err = {0};
-    assert_int_equal(pf_mesh_make_box(m, pf_v3(0, 0, 0), hi, nx, ny, nz, &err), PF_OK);
-    assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
-}
-
-static pf_sim *create(pf_scene *sc, const pf_mesh *m)
-{
-    pf_error err = {0};
-    pf_vec3 lo, hi;
-    pf_mesh_bounds(m, &lo, &hi);
-    pf_scene_resolve(sc, lo, hi);
-    pf_sim *sim = NULL;
-    if (pf_sim_create(&sim, sc, m, &err) < 0)
-        fail_msg("create: %s", err.msg);
-    return sim;
-}
-
-static double rest_volume(const pf_mesh *m)
-{
-    double v = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        v += pf_mesh_elem_volume(m, e);
-    return v;
-}
-
-static double rel(double a, double b)
-{
-    return fabs(a - b) / fmax(fabs(b), 1e-300);
-}
-
-static double vec_rel(pf_vec3 a, pf_vec3 b)
-{
-    return pf_v3_norm(pf_v3_sub(a, b)) / fmax(pf_v3_norm(b), 1e-300);
-}
 
 /* A free 2 x 1 x 1 box of 4 x 2 x 2 hexes deformed by an affine displacement and moving with an
  * affine velocity (a spin plus a translation). */

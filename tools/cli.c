@@ -125,6 +125,16 @@ double pf_cli_parse_double(const pf_cli *cli, const char *option, const char *te
     return v;
 }
 
+pf_embed_method pf_cli_parse_embed_method(const pf_cli *cli, const char *option, const char *text)
+{
+    const pf_embed_method methods[] = {PF_EMBED_MLS, PF_EMBED_BARY, PF_EMBED_HARMONIC};
+    for (size_t i = 0; i < sizeof methods / sizeof *methods; ++i)
+        if (strcmp(text, pf_embed_method_name(methods[i])) == 0)
+            return methods[i];
+    pf_cli_usage_error(cli, "--%s is mls, bary or harmonic, not '%s'", option, text);
+    return PF_EMBED_MLS;
+}
+
 long pf_cli_parse_long(const pf_cli *cli, const char *option, const char *text, long lo, long hi)
 {
     char *end = NULL;

@@ -9,6 +9,7 @@
 #include <stdio.h>
 
 #include <pf/base.h>
+#include <pf/embed.h>
 #include <pf/io.h>
 
 enum { PF_EXIT_OK = 0, PF_EXIT_INPUT = 1, PF_EXIT_USAGE = 2 };
@@ -58,6 +59,9 @@ void pf_cli_fail(const pf_cli *cli, const pf_error *err)
 /* Parsers for option values; on failure they call pf_cli_usage_error. */
 double pf_cli_parse_double(const pf_cli *cli, const char *option, const char *text);
 long pf_cli_parse_long(const pf_cli *cli, const char *option, const char *text, long lo, long hi);
+/* An embedding method by its name (pf_embed_method_name: mls, bary, harmonic). */
+pf_embed_method pf_cli_parse_embed_method(const pf_cli *cli, const char *option,
+                                          const char *text);
 /* "x,y,z" */
 void pf_cli_parse_vec3(const pf_cli *cli, const char *option, const char *text, double out[3]);
 /* --frames A:B (inclusive), 'A:' from A on, ':B' up to B, 'A' just A; indices 0 .. 2^32 - 1 and

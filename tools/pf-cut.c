@@ -165,14 +165,7 @@ static void parse_arguments(run *r, int argc, char **argv)
                 pf_cli_usage_error(&r->cli, "--merge must be in (0, 1)");
             break;
         case OPT_EMBED:
-            if (strcmp(value, "mls") == 0)
-                r->embed.method = PF_EMBED_MLS;
-            else if (strcmp(value, "bary") == 0)
-                r->embed.method = PF_EMBED_BARY;
-            else if (strcmp(value, "harmonic") == 0)
-                r->embed.method = PF_EMBED_HARMONIC;
-            else
-                pf_cli_usage_error(&r->cli, "--embed is mls, bary or harmonic, not '%s'", value);
+            r->embed.method = pf_cli_parse_embed_method(&r->cli, "embed", value);
             break;
         case OPT_DROP_SURFACE:
             r->drop_surface = true;

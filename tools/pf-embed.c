@@ -60,14 +60,7 @@ static void parse_arguments(run *r, int argc, char **argv)
     for (int id; (id = pf_cli_next(&r->cli, options, &value)) != PF_CLI_END;) {
         switch (id) {
         case OPT_METHOD:
-            if (strcmp(value, "mls") == 0)
-                r->params.method = PF_EMBED_MLS;
-            else if (strcmp(value, "bary") == 0)
-                r->params.method = PF_EMBED_BARY;
-            else if (strcmp(value, "harmonic") == 0)
-                r->params.method = PF_EMBED_HARMONIC;
-            else
-                pf_cli_usage_error(&r->cli, "--method is mls, bary or harmonic, not '%s'", value);
+            r->params.method = pf_cli_parse_embed_method(&r->cli, "method", value);
             break;
         case OPT_SURFACE:
             r->surface_path = value;

@@ -482,6 +482,19 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
     return PF_OK;
 }
 
+/* The frames drawn on a mesh or surface: the end of its JSON object, or the end of its line. */
+static void print_frame_range(bool json, int64_t n, uint32_t first, uint32_t last)
+{
+    if (json && n)
+        printf(",\"first_frame\":%u,\"last_frame\":%u}", (unsigned)first, (unsigned)last);
+    else if (json)
+        printf("}");
+    else if (n)
+        printf("frames %u .. %u (%lld)\n", (unsigned)first, (unsigned)last, (long long)n);
+    else
+        printf("no frames\n");
+}
+
 /* Every mesh and the frames on it (what a refining or cutting run's stream holds). */
 static void print_meshes(const info *in)
 {
@@ -499,19 +512,12 @@ static void print_meshes(const info *in)
                    "\"frames\":%lld",
                    k ? "," : "", (unsigned long long)u->id, (unsigned long long)u->offset,
                    (int)u->n_nodes, (int)u->n_faces, (int)u->n_elems, (long long)u->n_frames);
-            if (u->n_frames)
-                printf(",\"first_frame\":%u,\"last_frame\":%u", (unsigned)u->first_frame,
-                       (unsigned)u->last_frame);
-            printf("}");
+            print_frame_range(true, u->n_frames, u->first_frame, u->last_frame);
         } else {
             printf("      mesh %llu (MESH at byte %llu): %d nodes, %d elements; ",
                    (unsigned long long)u->id, (unsigned long long)u->offset, (int)u->n_nodes,
                    (int)u->n_elems);
-            if (u->n_frames)
-                printf("frames %u .. %u (%lld)\n", (unsigned)u->first_frame,
-                       (unsigned)u->last_frame, (long long)u->n_frames);
-            else
-                printf("no frames\n");
+            print_frame_range(false, u->n_frames, u->first_frame, u->last_frame);
         }
     }
     if (in->json)
@@ -535,19 +541,12 @@ static void print_surfaces(const info *in)
                    "\"caps\":%d,\"frames\":%lld",
                    k ? "," : "", (unsigned long long)u->id, (unsigned long long)u->offset,
                    (int)u->n_verts, (int)u->n_tris, (int)u->n_caps, (long long)u->n_frames);
-            if (u->n_frames)
-                printf(",\"first_frame\":%u,\"last_frame\":%u", (unsigned)u->first_frame,
-                       (unsigned)u->last_frame);
-            printf("}");
+            print_frame_range(true, u->n_frames, u->first_frame, u->last_frame);
         } else {
             printf("      surface %llu (SURF at byte %llu): %d vertices, %d triangles, %d caps; ",
                    (unsigned long long)u->id, (unsigned long long)u->offset, (int)u->n_verts,
                    (int)u->n_tris, (int)u->n_caps);
-            if (u->n_frames)
-                printf("frames %u .. %u (%lld)\n", (unsigned)u->first_frame,
-                       (unsigned)u->last_frame, (long long)u->n_frames);
-            else
-                printf("no frames\n");
+            print_frame_range(false, u->n_frames, u->first_frame, u->last_frame);
         }
     }
     if (in->json)

@@ -20,6 +20,7 @@
 #include "test_random.h"
 #include <pf/cut.h>
 #include <pf/mesh.h>
+#include <pf/refine.h>
 
 static double mesh_volume(const pf_mesh *m)
 {
@@ -267,8 +268,10 @@ static void test_snapped_next_to_untouched(void **state)
     pf_mesh_release(&src);
 }
 
-/* A thin slab cut off a bar (10 %), then cut across: the 3 % corner is alone and below 5 % of the
- * median element: dropped, its volume reported; the 7 % one stays. Earlier cut faces stay cut. */
+/* A thin slab cut off a bar (10 %), then cut across with the sliver fraction at 20 %: the plane
+ * would make two pieces of 0.05, below 20 % of the median element (0.9), so the slab stays whole;
+ * alone in its body and below that floor, it is dropped, its volume reported. The earlier cut's
+ * faces on the kept side stay cut faces. */
 static void test_dropped_body(void **state)
 {
     (void)state;
@@ -286,17 +289,39 @@ static void test_dropped_body(void **state)
         if (fabs(pf_mesh_elem_volume(&mid, e) - 0.1) < 1e-12)
             slab = e;
     assert_true(slab >= 0);
-    req = plane_req(slab, pf_v3(0, 0.3, 0), pf_v3(0, 1, 0));
-    cut_ok(&mid, &req, 1, NULL, &dst, &r);
+    req = plane_req(slab, pf_v3(0, 0.5, 0), pf_v3(0, 1, 0));
+    pf_cut_params p = {.min_fraction = 0.2};
+    cut_ok(&mid, &req, 1, &p, &dst, &r);
+    assert_int_equal(r.n_split, 0);
     assert_int_equal(r.n_dropped, 1);
-    assert_near(r.dropped_volume, 0.03, 1e-14);
-    assert_int_equal(r.n_bodies, 2);
+    assert_near(r.dropped_volume, 0.1, 1e-14);
+    assert_int_equal(r.n_bodies, 1);
     /* the first cut's face pieces on the kept side are still cut faces (from mid's "cut" group) */
     assert_true(count(r.cut_face, dst.n_faces) > count(r.opened, dst.n_faces));
     pf_cut_result_release(&r);
     pf_mesh_release(&dst);
     pf_mesh_release(&mid);
     pf_mesh_release(&src);
+}
+
+/* The sliver rule after a cut of src into dst: every piece of a split element has at least
+ * PF_REFINE_MIN_FRACTION of its element's volume and of src's median element volume. */
+static void check_no_sliver(const pf_mesh *src, const pf_mesh *dst, const pf_cut_result *r)
+{
+    double *vol = calloc((size_t)src->n_elems + 1, sizeof *vol);
+    for (int32_t e = 0; e < src->n_elems; ++e)
+        vol[e] = pf_mesh_elem_volume(src, e);
+    double floor = PF_REFINE_MIN_FRACTION * pf_median(vol, src->n_elems);
+    for (int32_t e = 0; e < dst->n_elems; ++e) {
+        int32_t p = r->parent[e];
+        if (!r->split[p])
+            continue;
+        double v = pf_mesh_elem_volume(dst, e);
+        CHECKF(v >= floor && v >= PF_REFINE_MIN_FRACTION * pf_mesh_elem_volume(src, p),
+               "piece %d of element %d: volume %g, floor %g, parent %g", (int)e, (int)p, v, floor,
+               pf_mesh_elem_volume(src, p));
+    }
+    free(vol);
 }
 
 /* 100 random blades through a sliced sphere, one after the other on the previous cut's mesh:
@@ -337,6 +362,7 @@ static void test_random_blades(void **state)
         pf_mesh next = {0};
         pf_cut_result r;
         cut_ok(&m, req, k, NULL, &next, &r);
+        check_no_sliver(&m, &next, &r);
         dropped += r.dropped_volume;
         for (int32_t i = 0; i < 3 * next.n_nodes; ++i)
             assert_true(isfinite(next.x[i]));

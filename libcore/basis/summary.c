@@ -6,20 +6,6 @@
 
 #include <pf/basis.h>
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int32_t n)
-{
-    if (n == 0)
-        return 0;
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 pf_status pf_basis_summarize(const pf_basis *b, pf_basis_summary *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -49,8 +35,8 @@ pf_status pf_basis_summarize(const pf_basis *b, pf_basis_summary *out, pf_error 
     }
     if (b->n_elems == 0)
         out->min_value = 0;
-    out->median_boundary_error = median(be, nh);
-    out->median_setup_ms = median(ms, nh);
+    out->median_boundary_error = pf_median(be, nh);
+    out->median_setup_ms = pf_median(ms, nh);
     pf_free(be);
     pf_free(ms);
     return PF_OK;

@@ -24,6 +24,7 @@
 typedef struct cutter {
     const pf_mesh *src;
     double min_fraction;
+    double floor; /* smallest piece and new body: min_fraction of src's median element volume */
     double tol;  /* on-plane tolerance: 1e-10 of the mesh's bounding-box diagonal */
     pf_mesh mid; /* the split mesh */
     pf_refine_result rr;
@@ -60,6 +61,19 @@ static void cutter_release(cutter *c)
 
 /* ---- 1. the split ---------------------------------------------------------------------------- */
 
+/* c->floor = min_fraction times src's median element volume. */
+static pf_status find_floor(cutter *c, pf_error *err)
+{
+    int32_t ne = c->src->n_elems;
+    double *vol = pf_alloc_array((size_t)ne + 1, sizeof *vol);
+    PF_CHECK(vol, err, PF_ERR_NOMEM, "cut: cannot allocate %d volumes", (int)ne);
+    for (int32_t e = 0; e < ne; ++e)
+        vol[e] = pf_mesh_elem_volume(c->src, e);
+    c->floor = c->min_fraction * pf_median(vol, ne);
+    pf_free(vol);
+    return PF_OK;
+}
+
 static pf_status split(cutter *c, const pf_cut_request *req, int32_t n_req, pf_error *err)
 {
     pf_refine_request *rq = pf_alloc_array((size_t)n_req + 1, sizeof *rq);
@@ -77,7 +91,8 @@ static pf_status split(cutter *c, const pf_cut_request *req, int32_t n_req, pf_e
                                     .kind = PF_SPLIT_PLANE,
                                     .normal = pl.n,
                                     .point = pf_v3_scale(pl.n, pl.d / (len * len)),
-                                    .min_fraction = c->min_fraction};
+                                    .min_fraction = c->min_fraction,
+                                    .min_volume = c->floor};
     }
     if (st >= 0)
         st = pf_mesh_refine(c->src, rq, n_req, &c->mid, &c->rr, err);
@@ -341,18 +356,12 @@ static pf_status duplicate_nodes(cutter *c, pf_error *err)
 
 /* ---- 4. bodies ------------------------------------------------------------------------------- */
 
-static int compare_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-/* Bodies through interior faces; a body with an element of this cut (a new body) below
- * min_fraction of the median element volume is dropped. */
+/* Bodies through interior faces; a body with an element of this cut (a new body) below the
+ * floor is dropped. */
 static pf_status find_bodies(cutter *c, pf_cut_result *res, pf_error *err)
 {
     int32_t ne = c->mid.n_elems;
-    double *vol = pf_alloc_array(2 * (size_t)ne + 1, sizeof *vol), *sorted = vol + ne;
+    double *vol = pf_alloc_array(2 * (size_t)ne + 1, sizeof *vol), *sum = vol + ne;
     c->body = pf_alloc_array((size_t)ne + 1, sizeof *c->body);
     c->dropped = pf_calloc((size_t)ne + 1, 1);
     uint8_t *is_new = pf_calloc((size_t)ne + 1, 1);
@@ -361,23 +370,21 @@ static pf_status find_bodies(cutter *c, pf_cut_result *res, pf_error *err)
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cut: cannot allocate %d bodies",
                           (int)ne);
     for (int32_t e = 0; e < ne && st >= 0; ++e)
-        c->body[e] = e, sorted[e] = vol[e] = pf_mesh_elem_volume(&c->mid, e);
+        c->body[e] = e, vol[e] = pf_mesh_elem_volume(&c->mid, e);
     for (int32_t f = 0; f < c->n_faces && st >= 0; ++f)
         if (c->fuser[2 * f] >= 0 && c->fuser[2 * f + 1] >= 0)
             pf_uf_union(c->body, c->fuser[2 * f], c->fuser[2 * f + 1]);
     if (st >= 0 && ne > 0) {
-        qsort(sorted, (size_t)ne, sizeof *sorted, compare_double);
-        double smallest = c->min_fraction * sorted[ne / 2];
-        for (int32_t e = 0; e < ne; ++e) { /* body volumes gathered at the roots (in sorted) */
+        for (int32_t e = 0; e < ne; ++e) { /* body volumes gathered at the roots (in sum) */
             int32_t r = pf_uf_find(c->body, e);
-            sorted[e] = 0;
+            sum[e] = 0;
             is_new[r] |= c->side[e] != 0;
         }
         for (int32_t e = 0; e < ne; ++e)
-            sorted[c->body[e]] += vol[e];
+            sum[c->body[e]] += vol[e];
         for (int32_t e = 0; e < ne; ++e) {
             int32_t r = c->body[e];
-            c->dropped[e] = is_new[r] && sorted[r] < smallest;
+            c->dropped[e] = is_new[r] && sum[r] < c->floor;
             if (c->dropped[e])
                 res->n_dropped++, res->dropped_volume += vol[e];
             res->n_bodies += r == e && !c->dropped[e];
@@ -588,6 +595,8 @@ pf_status pf_mesh_cut(const pf_mesh *src, const pf_cut_request *req, int32_t n_r
     uint8_t *old_cut = NULL;
     numbering nb = {0};
     pf_status st = check_requests(src, req, n_req, err);
+    if (st >= 0)
+        st = find_floor(&c, err);
     if (st >= 0)
         st = split(&c, req, n_req, err);
     if (st >= 0)

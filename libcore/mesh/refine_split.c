@@ -288,6 +288,7 @@ pf_status pf_refine_split_local(refine_local *L, const pf_refine_request *req, d
     *planes_skipped = 0;
     int n_planes = req->kind == PF_SPLIT_OCTS ? 3 : 1;
     double min_fraction = req->min_fraction > 0 ? req->min_fraction : PF_REFINE_MIN_FRACTION;
+    double min_piece = fmax(min_fraction * vol, req->min_volume);
     for (int i = 0; i < n_planes; ++i) {
         pf_vec3 n = req->kind == PF_SPLIT_OCTS ? axes[i] : req->normal;
         pf_vec3 at = req->kind == PF_SPLIT_PLANE ? req->point : centroid;
@@ -296,7 +297,7 @@ pf_status pf_refine_split_local(refine_local *L, const pf_refine_request *req, d
         bool cut;
         double smallest;
         PF_TRY(split_all(L, &pl, *planes_applied > 0, &cut, &smallest, err));
-        if (!cut || smallest < min_fraction * vol) {
+        if (!cut || smallest < min_piece) {
             L->n = n_before; /* the trial's nodes are dropped with it */
             if (cut)
                 ++*planes_skipped;

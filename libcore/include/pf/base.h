@@ -138,6 +138,9 @@ double pf_time_seconds(void);
  * the wall time). */
 double pf_cpu_seconds(void);
 
+/* The median of v[0..n) (the mean of the middle two for even n; 0 for n <= 0); sorts v. */
+double pf_median(double *v, int64_t n);
+
 /* Progress of a long computation: done out of total (any unit, 0 <= done <= total, total > 0),
  * reported now and then from the thread that called the computation; ctx is the caller's. */
 typedef void (*pf_progress_fn)(void *ctx, double done, double total);

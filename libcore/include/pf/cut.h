@@ -15,11 +15,14 @@
  * inside it is not tracked further (as in Wicke et al. 2007 and the harmonic paper).
  *
  * Slivers are never made (the sliver rules of DG paper sec. 9.4 and 9.6): a plane that would cut
- * off a piece smaller than min_fraction of its element is not applied to that element (the
- * element is "snapped": it stays whole, on the side of its centroid, and the crack follows its
- * faces toward the pieces on the other side). A piece that ends up alone in a body (a connected
- * group of elements) of less than min_fraction of the median element volume is dropped, its
- * volume reported.
+ * off a piece smaller than min_fraction of its element, or than min_fraction of the median
+ * element volume of the mesh being cut (the floor), is not applied to that element (the element
+ * is "snapped": it stays whole, on the side of its centroid, and the crack follows its faces
+ * toward the pieces on the other side). The floor keeps repeated cuts from making pieces of
+ * pieces ever smaller: a cut makes no element below min_fraction of the median, so the ratio of
+ * the largest to the smallest element, which drives the condition number of the system (DG paper
+ * sec. 9.6, fig. 11), grows only as the mesh's median shrinks. A piece that ends up alone in a
+ * body (a connected group of elements) below the floor is dropped, its volume reported.
  */
 #ifndef PF_CUT_H
 #define PF_CUT_H
@@ -43,9 +46,9 @@ typedef struct pf_cut_request {
 
 /* Zero values mean "default". */
 typedef struct pf_cut_params {
-    /* Smallest piece a plane may make, as a fraction of its element's volume; <= 0:
-     * PF_REFINE_MIN_FRACTION (5 %, the slicer's and refinement's sliver rule). Also the
-     * smallest body kept, as a fraction of the median element volume. */
+    /* Smallest piece a plane may make, as a fraction of its element's volume and of src's median
+     * element volume (the floor); <= 0: PF_REFINE_MIN_FRACTION (5 %, the slicer's and
+     * refinement's sliver rule). Also the smallest new body kept. */
     double min_fraction;
     /* [src->n_faces] the faces earlier cuts opened (pf_cut_result.cut_face of the cut that made
      * src), or NULL: none. Carried into res->cut_face. */

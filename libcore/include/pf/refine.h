@@ -71,6 +71,8 @@ typedef struct pf_refine_request {
     pf_vec3 point;  /* plane: a point of the plane (halves use the centroid) */
     double min_fraction; /* the sliver rule's smallest piece, a fraction of the element's volume;
                             <= 0: PF_REFINE_MIN_FRACTION */
+    double min_volume;   /* and its smallest piece in model units cubed, whatever the element's
+                            size (cutting, pf/cut.h: a floor relative to the whole mesh); 0: none */
 } pf_refine_request;
 
 typedef struct pf_refine_result {

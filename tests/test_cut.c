@@ -1,5 +1,6 @@
 /* cut: pf_mesh_cut on hex bars and plates (through, partial, along a face, snapped slivers,
- * dropped bodies), on a sliced sphere with random blades, and bad requests.
+ * dropped bodies, blades through nodes, along edges and grazing), on a sliced sphere with random
+ * blades, and bad requests.
  *
  * Invariants checked after every cut: the mesh is valid (pf_mesh_validate: closed, conforming,
  * planar faces), the volume is the source's minus what was reported dropped to 1e-12 relative (a
@@ -324,6 +325,78 @@ static void check_no_sliver(const pf_mesh *src, const pf_mesh *dst, const pf_cut
     free(vol);
 }
 
+/* The smallest and largest signed distance of element e's nodes to the plane. */
+static void plane_range(const pf_mesh *m, int32_t e, pf_plane pl, double *lo, double *hi)
+{
+    *lo = INFINITY, *hi = -INFINITY;
+    for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+            double d = pf_plane_signed_distance(pl, pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]));
+            *lo = fmin(*lo, d), *hi = fmax(*hi, d);
+        }
+    }
+}
+
+/* Requests pl on every element of m whose nodes lie on both sides of it by more than -tol (tol
+ * > 0: also the elements it touches); returns their count. */
+static int32_t requests_meeting(const pf_mesh *m, pf_plane pl, double tol, pf_cut_request *req)
+{
+    int32_t k = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e) {
+        double lo, hi;
+        plane_range(m, e, pl, &lo, &hi);
+        if (lo < tol && hi > -tol)
+            req[k++] = (pf_cut_request){.elem = e, .plane = pl};
+    }
+    return k;
+}
+
+/* Degenerate blades through a 2 x 2 x 2 box of unit hexes, each requested on every element it
+ * crosses or touches: through nodes (x + y + z = 3 meets the centre node and cuts corner tets off
+ * some hexes, touching others at one node), along edges (x = y holds three lines of edges and
+ * halves the diagonal hexes into prisms), grazing a corner or an edge of the box (nothing to
+ * split). Each leaves a valid mesh of the box's volume in which every element lies on one side of
+ * the plane, with the expected bodies. */
+static void test_degenerate_blades(void **state)
+{
+    (void)state;
+    struct {
+        pf_vec3 point, normal;
+        int32_t bodies, split;
+    } blades[] = {
+        {{1, 1, 1}, {1, 1, 1}, 2, 6},  /* through nodes: 6 hexes have 3 corners on the plane */
+        {{0, 0, 0}, {1, -1, 0}, 2, 4}, /* along edges: the 4 hexes of the diagonal columns */
+        {{0, 0, 0}, {1, 1, 1}, 1, 0},  /* grazing the corner node at the origin */
+        {{0, 0, 0}, {1, 1, 0}, 1, 0},  /* grazing the edge along z at the origin */
+    };
+    for (size_t b = 0; b < sizeof blades / sizeof *blades; ++b) {
+        pf_error err = {0};
+        pf_mesh src = {0}, dst = {0};
+        assert_int_equal(pf_mesh_make_box(&src, pf_v3(0, 0, 0), pf_v3(2, 2, 2), 2, 2, 2, &err),
+                         PF_OK);
+        pf_plane pl = pf_plane_from_point_normal(blades[b].point, blades[b].normal);
+        pf_cut_request req[8];
+        /* 1e-12: the box's coordinates are exact in binary; the plane's offset rounds */
+        int32_t k = requests_meeting(&src, pl, 1e-12, req);
+        pf_cut_result r;
+        cut_ok(&src, req, k, NULL, &dst, &r);
+        CHECKF(r.n_bodies == blades[b].bodies && r.n_split == blades[b].split,
+               "blade %d: %d bodies, %d split; expected %d, %d", (int)b, (int)r.n_bodies,
+               (int)r.n_split, (int)blades[b].bodies, (int)blades[b].split);
+        check_no_sliver(&src, &dst, &r);
+        for (int32_t e = 0; e < dst.n_elems; ++e) {
+            double lo, hi;
+            plane_range(&dst, e, pl, &lo, &hi);
+            CHECKF(lo > -1e-12 || hi < 1e-12, "blade %d: element %d spans [%g, %g]", (int)b,
+                   (int)e, lo, hi);
+        }
+        pf_cut_result_release(&r);
+        pf_mesh_release(&dst);
+        pf_mesh_release(&src);
+    }
+}
+
 /* 100 random blades through a sliced sphere, one after the other on the previous cut's mesh:
  * each a random plane through a random point, requested on every element it crosses. */
 static void test_random_blades(void **state)
@@ -345,20 +418,7 @@ static void test_random_blades(void **state)
             continue;
         pf_plane pl = pf_plane_from_point_normal(p, n);
         pf_cut_request *req = calloc((size_t)m.n_elems + 1, sizeof *req);
-        int32_t k = 0;
-        for (int32_t e = 0; e < m.n_elems; ++e) {
-            bool below = false, above = false;
-            for (int64_t q = m.elem_offsets[e]; q < m.elem_offsets[e + 1]; ++q) {
-                int32_t f = PF_FACE_INDEX(m.elem_faces[q]);
-                for (int64_t j = m.face_offsets[f]; j < m.face_offsets[f + 1]; ++j) {
-                    double d =
-                        pf_plane_signed_distance(pl, pf_v3_load(m.x + 3 * (size_t)m.face_nodes[j]));
-                    below |= d<0, above |= d> 0;
-                }
-            }
-            if (below && above)
-                req[k++] = (pf_cut_request){.elem = e, .plane = pl};
-        }
+        int32_t k = requests_meeting(&m, pl, 0, req);
         pf_mesh next = {0};
         pf_cut_result r;
         cut_ok(&m, req, k, NULL, &next, &r);
@@ -407,6 +467,7 @@ int main(void)
         cmocka_unit_test(test_snapped_sliver),
         cmocka_unit_test(test_snapped_next_to_untouched),
         cmocka_unit_test(test_dropped_body),
+        cmocka_unit_test(test_degenerate_blades),
         cmocka_unit_test(test_random_blades),
         cmocka_unit_test(test_bad_requests),
     };

@@ -332,7 +332,8 @@ static void plane_range(const pf_mesh *m, int32_t e, pf_plane pl, double *lo, do
     for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
         int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
         for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
-            double d = pf_plane_signed_distance(pl, pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]));
+            double d =
+                pf_plane_signed_distance(pl, pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]));
             *lo = fmin(*lo, d), *hi = fmax(*hi, d);
         }
     }
@@ -388,8 +389,8 @@ static void test_degenerate_blades(void **state)
         for (int32_t e = 0; e < dst.n_elems; ++e) {
             double lo, hi;
             plane_range(&dst, e, pl, &lo, &hi);
-            CHECKF(lo > -1e-12 || hi < 1e-12, "blade %d: element %d spans [%g, %g]", (int)b,
-                   (int)e, lo, hi);
+            CHECKF(lo > -1e-12 || hi < 1e-12, "blade %d: element %d spans [%g, %g]", (int)b, (int)e,
+                   lo, hi);
         }
         pf_cut_result_release(&r);
         pf_mesh_release(&dst);

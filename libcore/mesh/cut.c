@@ -25,8 +25,8 @@ typedef struct cutter {
     const pf_mesh *src;
     double min_fraction;
     double floor; /* smallest piece and new body: min_fraction of src's median element volume */
-    double tol;  /* on-plane tolerance: 1e-10 of the mesh's bounding-box diagonal */
-    pf_mesh mid; /* the split mesh */
+    double tol;   /* on-plane tolerance: 1e-10 of the mesh's bounding-box diagonal */
+    pf_mesh mid;  /* the split mesh */
     pf_refine_result rr;
     int8_t *side;     /* [mid elems] 0: not in the cut; -1, +1 */
     int32_t *snapped; /* [mid elems] the request of an element its plane left whole, else -1 */

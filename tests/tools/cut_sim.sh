@@ -2,8 +2,8 @@
 # two by a moving blade (data/scenes/bunny_cut.json); a blade that stops half way leaves one body
 # (both methods); pf-sim writes a MESH (with the "cut" face group) before the first frame on each
 # cut mesh; pf-info, pf-export and pf-render read the stream; the stream is the same twice and on
-# one thread; an embedded surface is cut and capped with the mesh; a bad blade is an error naming
-# the key.
+# one thread; an embedded surface is cut and capped with the mesh; an imported tetrahedral mesh and
+# an octree are cut with both methods; a bad blade is an error naming the key.
 . "$(dirname "$0")/lib.sh"
 root=$(cd "$data/../.." && pwd)
 scene=$root/data/scenes/bunny_cut.json
@@ -68,6 +68,30 @@ check "embedded: pf-info accepts every surface and its weights" "$bin/pf-info" "
 check "embedded: a second SURF" test "$(grep -c '^SURF' "$tmp/binfo.txt")" -ge 2
 expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/bobj" "$tmp/ball_cut.pfs"
 check "embedded: the caps are a group of the last OBJ" grep -q "cap" "$(ls "$tmp/bobj"/*.obj | tail -1)"
+
+# an imported tetrahedral mesh (Gmsh, tests/data/bar_tets.geo) clamped by its physical group and
+# an octree bunny, each cut through by a plane, both methods: the same bodies
+"$bin/pf-import" "$data/bar_tets.msh" >"$tmp/tets.pfs" 2>/dev/null
+cat >"$tmp/tets.json" <<'JSON'
+{"ground": false, "time": {"dt": 0.02, "frames": 6, "substeps": 2}, "fixed": [{"group": "clamp"}],
+ "cuts": [{"plane": {"point": [2.05, 0, 0], "normal": [1, 0, 0.2]}, "time": 0.05}]}
+JSON
+"$bin/pf-octree" "$root/data/models/bunny.obj" --depth 3 --quiet >"$tmp/octree.pfs"
+cat >"$tmp/octree.json" <<'JSON'
+{"ground": false, "time": {"dt": 0.02, "frames": 4},
+ "cuts": [{"plane": {"point": [0, 0, 0.4], "normal": [0, 0.1, 1]}, "time": 0.03}]}
+JSON
+for mesh in tets octree; do
+  for method in dg cg; do
+    expect 0 "cuts:" "$bin/pf-sim" "$tmp/$mesh.json" --method $method \
+      --stats "$tmp/${mesh}_$method.json" --input "$tmp/$mesh.pfs"
+    check "$mesh, $method: elements cut" test "$(stat_of "$tmp/${mesh}_$method.json" elements_cut)" -gt 0
+  done
+  check "$mesh: the same bodies with both methods" test \
+    "$(stat_of "$tmp/${mesh}_dg.json" bodies)" = "$(stat_of "$tmp/${mesh}_cg.json" bodies)"
+done
+check "tets: the bar in two" test "$(stat_of "$tmp/tets_dg.json" bodies)" = 2
+check "octree: the bunny's ears and body apart" test "$(stat_of "$tmp/octree_dg.json" bodies)" -ge 3
 
 # a blade without a path: exit 1 naming the key
 printf '{"cuts": [{"blade": [[0, 0, 0], [1, 0, 0]]}]}' >"$tmp/bad.json"

@@ -1,5 +1,5 @@
 /* Command-line plumbing shared by the pf tools. */
-#define _POSIX_C_SOURCE 200809L /* isatty, fileno */
+#define _POSIX_C_SOURCE 200809L /* isatty, fileno, mkdir */
 #include "cli.h"
 
 #include <pf/io.h>
@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h> /* strcasecmp */
+#include <sys/stat.h>
 #include <unistd.h>
 
 void pf_cli_init(pf_cli *cli, const char *tool, const char *usage, int argc, char **argv)
@@ -211,6 +212,31 @@ void pf_cli_close_input(FILE *f)
 {
     if (f && f != stdin)
         fclose(f);
+}
+
+pf_status pf_cli_make_dirs(const char *dir, pf_error *err)
+{
+    size_t n = strlen(dir);
+    char *p = pf_alloc(n + 1);
+    PF_CHECK(p, err, PF_ERR_NOMEM, "out of memory");
+    memcpy(p, dir, n + 1);
+    pf_status s = PF_OK;
+    for (size_t i = 1; i <= n && s == PF_OK; ++i) {
+        if (p[i] != '/' && p[i] != '\0')
+            continue;
+        char saved = p[i];
+        p[i] = '\0';
+        if (mkdir(p, 0777) != 0 && errno != EEXIST)
+            s = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot create directory: %s",
+                             p, strerror(errno));
+        p[i] = saved;
+    }
+    pf_free(p);
+    PF_TRY(s);
+    struct stat st;
+    PF_CHECK(stat(dir, &st) == 0 && S_ISDIR(st.st_mode), err, PF_ERR_IO, "%s: not a directory",
+             dir);
+    return PF_OK;
 }
 
 bool pf_cli_file_is_stream(const char *path)

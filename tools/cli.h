@@ -72,6 +72,10 @@ void pf_cli_parse_frames(const pf_cli *cli, const char *text, int64_t *first, in
 pf_status pf_cli_open_input(const char *path, FILE **f, const char **name, pf_error *err);
 void pf_cli_close_input(FILE *f);
 
+/* mkdir -p: creates every missing directory along dir; PF_ERR_IO naming the directory that
+ * cannot be made, or dir when it is not a directory. */
+pf_status pf_cli_make_dirs(const char *dir, pf_error *err);
+
 /* True when the file at path opens and starts with the pf stream signature. */
 bool pf_cli_file_is_stream(const char *path);
 

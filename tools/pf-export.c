@@ -1,9 +1,7 @@
 /* pf-export: a pf stream -> ParaView (.vtu series + .pvd) or Blender/Houdini (OBJ/PLY sequences). */
-#define _POSIX_C_SOURCE 200809L /* mkdir, isatty, fileno */
-#include <errno.h>
+#define _POSIX_C_SOURCE 200809L /* isatty, fileno */
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <sys/types.h>
 #include <unistd.h>
 
@@ -464,32 +462,6 @@ static pf_status export_stream(exporter *x, FILE *f, pf_error *err)
 
 /* ---- main ------------------------------------------------------------------------------------ */
 
-/* mkdir -p: every missing directory along dir. */
-static pf_status make_dirs(const char *dir, pf_error *err)
-{
-    size_t n = strlen(dir);
-    char *p = pf_alloc(n + 1);
-    PF_CHECK(p, err, PF_ERR_NOMEM, "out of memory");
-    memcpy(p, dir, n + 1);
-    pf_status s = PF_OK;
-    for (size_t i = 1; i <= n && s == PF_OK; ++i) {
-        if (p[i] != '/' && p[i] != '\0')
-            continue;
-        char saved = p[i];
-        p[i] = '\0';
-        if (mkdir(p, 0777) != 0 && errno != EEXIST)
-            s = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot create directory: %s",
-                             p, strerror(errno));
-        p[i] = saved;
-    }
-    pf_free(p);
-    PF_TRY(s);
-    struct stat st;
-    PF_CHECK(stat(dir, &st) == 0 && S_ISDIR(st.st_mode), err, PF_ERR_IO, "%s: not a directory",
-             dir);
-    return PF_OK;
-}
-
 static void summary(const exporter *x)
 {
     static const char *const WHAT[] = {"", "VTU", "OBJ", "PLY", "USD"};
@@ -516,7 +488,7 @@ int main(int argc, char **argv)
         pf_cli_fail(&cli, &err);
     exporter x = {.o = &o, .cli = &cli, .name = name, .progress = pf_cli_show_progress(o.quiet)};
     pf_status s = o.format == FORMAT_USD ? pf_usd_writer_create(&x.usd, o.dir, &err)
-                                         : make_dirs(o.dir, &err);
+                                         : pf_cli_make_dirs(o.dir, &err);
     if (s == PF_OK) {
         x.path = pf_alloc(strlen(o.dir) + 32);
         s = x.path ? export_stream(&x, in, &err)

@@ -1,7 +1,7 @@
 /* pf-render: frames of a pf stream -> PNG images (and optionally an MP4 through ffmpeg). The
  * drawing is libcore/render's pf_render_stream; this tool parses options and the simulation's
  * scene (its ground and obstacles), which render does not read. */
-#define _POSIX_C_SOURCE 200809L /* mkdir, fstat, signal */
+#define _POSIX_C_SOURCE 200809L /* fstat, signal */
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
@@ -309,18 +309,6 @@ static void warn(void *ctx, const char *msg)
 
 /* ---- main ------------------------------------------------------------------------------------ */
 
-static pf_status make_out_dir(const char *dir, pf_error *err)
-{
-    if (mkdir(dir, 0777) == 0 || errno == EEXIST) {
-        struct stat st;
-        PF_CHECK(stat(dir, &st) == 0 && S_ISDIR(st.st_mode), err, PF_ERR_IO, "%s: not a directory",
-                 dir);
-        return PF_OK;
-    }
-    return pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: cannot create directory: %s", dir,
-                        strerror(errno));
-}
-
 /* A stored stream is read twice (the survey frames the whole animation), a pipe once. */
 static pf_status render_input(pf_render_stream *rs, FILE *in, const char *name, pf_error *err)
 {
@@ -347,7 +335,7 @@ static pf_status render_input(pf_render_stream *rs, FILE *in, const char *name, 
 
 static pf_status run(options *o, stage *g, FILE *in, const char *name, pf_error *err)
 {
-    PF_TRY(make_out_dir(o->p.out_dir, err));
+    PF_TRY(pf_cli_make_dirs(o->p.out_dir, err));
     o->p.hooks = (pf_render_stream_hooks){
         .ctx = g, .ground_height = ground_height, .on_scene = on_scene,
         .add_obstacles = add_obstacles, .on_image = on_image, .warn = warn};

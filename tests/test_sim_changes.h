@@ -34,6 +34,22 @@ static inline pf_sim *create(pf_scene *sc, const pf_mesh *m)
     return sim;
 }
 
+/* One pass of the scene's criterion (pf_sim_refine) at this threshold, one level deep at most;
+ * returns the number of elements split. */
+static inline int32_t refine_once(pf_sim *sim, pf_scene *sc, double threshold, pf_split_kind kind)
+{
+    sc->refine = (pf_refine_params){.enabled = true,
+                                    .threshold = threshold,
+                                    .split = kind,
+                                    .max_level = 1,
+                                    .max_elements = 100000};
+    int32_t split = 0;
+    pf_error err = {0};
+    if (pf_sim_refine(sim, &split, &err) < 0)
+        fail_msg("refine: %s", err.msg);
+    return split;
+}
+
 static inline double rest_volume(const pf_mesh *m)
 {
     double v = 0;

@@ -187,15 +187,7 @@ static int32_t bending_bar(pf_split_kind kind, double *max_x_split)
     for (int32_t e = 0; e < ne; ++e)
         largest = fmax(largest, stress[e]);
     free(stress);
-    sc.refine = (pf_refine_params){.enabled = true,
-                                   .threshold = 0.6 * largest,
-                                   .split = kind,
-                                   .max_level = 1,
-                                   .max_elements = 100000};
-    int32_t split = 0;
-    if (pf_sim_refine(sim, &split, &err) < 0)
-        fail_msg("refine: %s", err.msg);
-    assert_true(split > 0);
+    assert_true(refine_once(sim, &sc, 0.6 * largest, kind) > 0);
     const pf_mesh *now = pf_sim_mesh(sim);
     /* every split element is near a clamp: the children are the elements smaller than a cell */
     *max_x_split = 0;

@@ -85,14 +85,7 @@ static void twisted_bar(pf_method method, pf_split_kind kind, const char *name)
     if (pf_sim_solve_static(sim, &err) < 0)
         fail_msg("solve: %s", err.msg);
     double exact = TORQUE / (E / (2 * (1 + NU)) * K1), coarse = twist_rate(sim);
-    sc.refine = (pf_refine_params){.enabled = true,
-                                   .threshold = 0.5 * TORQUE / K2,
-                                   .split = kind,
-                                   .max_level = 1,
-                                   .max_elements = 100000};
-    int32_t split = 0;
-    if (pf_sim_refine(sim, &split, &err) < 0)
-        fail_msg("refine: %s", err.msg);
+    int32_t split = refine_once(sim, &sc, 0.5 * TORQUE / K2, kind);
     const pf_mesh *now = pf_sim_mesh(sim);
     /* every element of [0, 4] split (32 of them), none of [4.5, 5] */
     int32_t children = kind == PF_SPLIT_OCTS ? 8 : 2, whole_end = 0, small_twisted = 0;

@@ -11,7 +11,7 @@
 #include <pf/sim.h>
 
 #include "cli.h"
-#include "obstacle_shape.h"
+#include "scene_files.h"
 #include "sim_resume.h"
 
 static const char USAGE[] =
@@ -36,7 +36,8 @@ static const char USAGE[] =
     "  --penalty ETA      DG penalty factor (default: ip doubled from 1 until K is definite;\n"
     "                     bz 3/16 for degree 1, 1/2 for degree 2, growing under refinement)\n"
     "  --E VALUE --nu VALUE --density VALUE   material\n"
-    "  --frames N --dt SECONDS --substeps N     time (dt is the time between frames)\n"
+    "  --frames N         frames after the rest frame 0; A:B simulates to B, writes A..B\n"
+    "  --dt SECONDS --substeps N   time between frames, time steps per frame\n"
     "  --static[=BOOL]    solve K u = f once and write one frame (true, false; a static scene\n"
     "                     needs a 'fixed' region that holds boundary faces)\n"
     "  --corotation[=BOOL]  stiffness warping, on by default; --corotation=false (or\n"
@@ -124,6 +125,8 @@ typedef struct run {
     int32_t checkpoints;   /* CKPT chunks written (or copied, when resuming) */
     pf_buffer checkpoint;  /* scratch for CKPT payloads */
     const char *resume_path;
+    int64_t first_written; /* --frames A:B: frames before A are simulated, not written */
+    char frames_last[24];  /* --frames A:B: B, the frames override */
     /* the scene file's overrides, applied in build_scene */
     int n_overrides;
     int override_ids[64];
@@ -171,6 +174,21 @@ static const char *override_key(int id)
     default:
         return NULL;
     }
+}
+
+/* --frames A:B: B (when given) overrides the scene's frames, frames before A are not written. */
+static void parse_frame_range(run *r, const char *value)
+{
+    int64_t first = 0, last = 0;
+    pf_cli_parse_frames(&r->cli, value, &first, &last);
+    r->first_written = first;
+    if (value[strlen(value) - 1] == ':')
+        return; /* 'A:': up to the scene's last frame */
+    if (r->n_overrides >= 64)
+        pf_cli_usage_error(&r->cli, "too many options");
+    snprintf(r->frames_last, sizeof r->frames_last, "%lld", (long long)last);
+    r->override_ids[r->n_overrides] = OPT_FRAMES;
+    r->override_values[r->n_overrides++] = r->frames_last;
 }
 
 static void parse_arguments(run *r, int argc, char **argv)
@@ -223,6 +241,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->checkpoint_given = true;
         } else if (id == OPT_RESUME) {
             r->resume_path = value;
+        } else if (id == OPT_FRAMES && strchr(value, ':')) {
+            parse_frame_range(r, value);
         } else if (r->n_overrides < 64) {
             r->override_ids[r->n_overrides] = id;
             /* --static and --corotation alone mean true (the empty value, docs/scene.md) */
@@ -240,7 +260,8 @@ static void parse_arguments(run *r, int argc, char **argv)
                            r->resume_path);
 }
 
-/* The scene: the file (or the defaults) with the overrides applied. Usage errors exit 2. */
+/* The scene: the file (or the defaults) with the overrides applied. Usage errors exit 2, also
+ * for a --frames A:B whose A is past the frames the scene makes. */
 static void build_scene(run *r, pf_scene *scene)
 {
     pf_error err = {0};
@@ -254,6 +275,9 @@ static void build_scene(run *r, pf_scene *scene)
         if (pf_scene_override(scene, override_key(r->override_ids[k]), r->override_values[k],
                               &err) < 0)
             pf_cli_usage_error(&r->cli, "%s", err.msg);
+    if (r->first_written > (scene->is_static ? 0 : scene->frames))
+        pf_cli_usage_error(&r->cli, "--frames %lld: the scene makes frames 0 to %d only",
+                           (long long)r->first_written, scene->is_static ? 0 : (int)scene->frames);
 }
 
 /* Passes every input chunk on except the ones this run replaces (scene, frames, stress,
@@ -397,9 +421,11 @@ static void print_summary(const run *r, const pf_sim *sim)
                 (int)st->elements, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
                 (long long)st->steps);
     fprintf(stderr,
-            "setup %.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at "
-            "%d %s%s: %lld contacts, search %.3f s, positions %.3f s\n",
-            st->setup_seconds, st->assemble_seconds, st->factor_seconds,
+            "setup %.3f s wall / %.3f s cpu, assembly %.3f s wall / %.3f s cpu, factorisation "
+            "%.3f s (%lld), solves %.3f s; contact at %d %s%s: %lld contacts, search %.3f s, "
+            "positions %.3f s\n",
+            st->setup_seconds, st->setup_cpu_seconds, st->assemble_seconds,
+            st->assemble_cpu_seconds, st->factor_seconds,
             (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
             r->embedded ? "surface vertices" : "nodes", samples, (long long)st->contacts,
             st->contact_seconds, st->embed_seconds);
@@ -432,25 +458,6 @@ static pf_status write_stats(const run *r, const pf_sim *sim, pf_error *err)
     return st;
 }
 
-/* The triangles of the scene's mesh obstacles, read here and handed to the scene (libcore/sim
- * reads no files). */
-static pf_status load_obstacles(pf_scene *sc, pf_error *err)
-{
-    for (int32_t i = 0; i < sc->n_obstacles; ++i) {
-        if (sc->obstacles[i].kind != PF_OBSTACLE_MESH)
-            continue;
-        pf_surface s = {0};
-        pf_status st = pf_obstacle_read_file(&sc->obstacles[i], &s, err);
-        if (st < 0)
-            pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
-        else
-            st = pf_scene_set_obstacle_surface(sc, i, &s, err);
-        pf_surface_release(&s);
-        PF_TRY(st);
-    }
-    return PF_OK;
-}
-
 /* A CKPT after frames 0, N, 2N, ... and the last one (the stream format's CKPT); none in a
  * scene that refines or cuts: its mesh changes between frames, which a checkpoint does not
  * hold. */
@@ -470,10 +477,11 @@ static pf_status write_checkpoint(run *r, pf_sim *sim, int32_t index, bool last,
     return PF_OK;
 }
 
-/* A frame made and written, with its checkpoint. */
+/* A frame made and written (unless --frames A:B leaves it out), with its checkpoint. */
 static pf_status emit_frame(run *r, pf_sim *sim, int32_t index, pf_error *err)
 {
-    PF_TRY(write_frame(r, sim, index, err));
+    if (index >= r->first_written)
+        PF_TRY(write_frame(r, sim, index, err));
     bool last = r->scene.is_static || index == r->scene.frames;
     return write_checkpoint(r, sim, index, last, err);
 }
@@ -536,7 +544,7 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     bool embedded = r->embedded = r->input.have_weights;
     r->written_mesh = r->mesh.id;
     r->written_surface = embedded ? r->input.surface.id : 0;
-    PF_TRY(load_obstacles(&r->scene, err));
+    PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
                                   embedded ? w : NULL, err));

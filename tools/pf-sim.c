@@ -52,16 +52,16 @@ static const char USAGE[] =
     "                     2N, ... and the last (default 10; 0: none); under pcg the last bits\n"
     "                     of later frames depend on N (a checkpoint restarts the solver). A\n"
     "                     scene that refines writes none (its mesh changes between frames)\n"
-    "  --resume PARTIAL   continue the run that wrote PARTIAL (cut anywhere: killed, full disk)\n"
-    "                     from its last checkpoint with the scene stored in it, to the bytes of\n"
-    "                     the uninterrupted run (same pf build and thread counts); reads no\n"
-    "                     input; a scene file or overrides, if given, must make the same scene\n"
+    "  --resume PARTIAL   continue the run that wrote PARTIAL (killed, full disk) from its last\n"
+    "                     checkpoint, to the bytes of the uninterrupted run (same build and\n"
+    "                     threads); reads no input; a scene or overrides must match its own\n"
     "Other options:\n"
     "  --input FILE       read the stream from FILE instead of stdin\n"
     "  --output FILE      write the stream to FILE instead of stdout, through FILE.part renamed\n"
     "                     when complete (a killed run leaves FILE.part, which --resume\n"
     "                     continues); needed under mpirun\n"
-    "  --quiet            no progress or summary on stderr\n"
+    "  --quiet, -q        no progress or summary on stderr\n"
+    "  --progress[=S]     a plain progress line every S seconds (default 5; in a log always)\n"
     "  --stats FILE       write the run's statistics to FILE as JSON (docs/scene.md, \"Run\n"
     "                     statistics\"), also after a diverged run\n"
     "  --help, --version\n"
@@ -98,7 +98,8 @@ enum {
     OPT_QUIET,
     OPT_STATS,
     OPT_CHECKPOINT_EVERY,
-    OPT_RESUME
+    OPT_RESUME,
+    OPT_PROGRESS
 };
 
 /* Frames between checkpoints by default (docs/stream-format.md, CKPT: what they cost). */
@@ -111,6 +112,7 @@ typedef struct run {
     const char *input_path;
     const char *output_path;
     bool quiet;
+    double progress;        /* --progress=S: S; -1 without (pf_cli_progress_start) */
     const char *stats_path; /* --stats FILE, or NULL */
     double wall0, cpu0;     /* the clocks at the start */
     pf_mesh mesh;           /* the input's latest MESH, moved out of input */
@@ -216,9 +218,11 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"stats", true, OPT_STATS},
                                             {"checkpoint-every", true, OPT_CHECKPOINT_EVERY},
                                             {"resume", true, OPT_RESUME},
+                                            {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROGRESS},
                                             {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
     r->checkpoint_every = -1; /* DEFAULT_CHECKPOINT_EVERY, or the resumed run's */
+    r->progress = -1;
     /* Overrides apply after the scene file, wherever they stand: collect them first. */
     const char *value;
     for (int id; (id = pf_cli_next(&r->cli, options, &value)) != PF_CLI_END;) {
@@ -233,6 +237,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->output_path = value;
         } else if (id == OPT_QUIET) {
             r->quiet = true;
+        } else if (id == OPT_PROGRESS) {
+            r->progress = pf_cli_parse_progress(&r->cli, value);
         } else if (id == OPT_STATS) {
             r->stats_path = value;
         } else if (id == OPT_CHECKPOINT_EVERY) {
@@ -505,7 +511,8 @@ static pf_status restore_checkpoint(run *r, pf_sim *sim, const pf_chunk *restore
  * energy against the largest (of the frames this run made). */
 static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
 {
-    bool progress = pf_cli_show_progress(r->quiet);
+    pf_cli_progress progress;
+    pf_cli_progress_start(&progress, "pf-sim", r->quiet, r->progress);
     pf_status st = PF_OK;
     double kinetic = 0, peak = 0;
     int32_t peak_frame = 0;
@@ -513,15 +520,15 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
         st = pf_sim_frame(sim, err);
         if (st >= 0)
             st = emit_frame(r, sim, k, err);
-        if (progress)
-            fprintf(stderr, "\rpf-sim: frame %d / %d", (int)k, (int)r->scene.frames);
+        char what[48];
+        snprintf(what, sizeof what, "frame %d of %d", (int)k, (int)r->scene.frames);
+        pf_cli_progress_report(&progress, what, k - first, r->scene.frames - first);
         pf_vec3 linear, angular;
         pf_sim_momentum(sim, &kinetic, &linear, &angular);
         if (kinetic > peak)
             peak = kinetic, peak_frame = k;
     }
-    if (progress && first < r->scene.frames)
-        fputc('\n', stderr);
+    pf_cli_progress_done(&progress);
     if (st >= 0 && !r->quiet && first < r->scene.frames)
         fprintf(
             stderr,
@@ -635,8 +642,10 @@ static int without_petsc_options(int argc, char **argv, char **kept)
     int n = 0;
     for (int k = 0; k < argc; ++k) {
         const char *a = argv[k];
+        /* -h and -q are pf-sim's own (-q: --quiet; as PETSc's, it took the next word, a scene
+         * file, as its value) */
         bool petsc = k > 0 && a[0] == '-' && ((a[1] >= 'a' && a[1] <= 'z') || a[1] == '_') &&
-                     strcmp(a, "-h") != 0;
+                     strcmp(a, "-h") != 0 && strcmp(a, "-q") != 0;
         if (!petsc) {
             kept[n++] = argv[k];
             continue;

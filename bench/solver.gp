@@ -20,6 +20,8 @@ set ylabel 'step / factorisation'
 set style data histograms
 set style fill solid 0.6
 set yrange [0:*]
+set xtics rotate by -30 left   # "39x7x7 dg pcg": the labels overlap when level
+set bmargin 6
 plot beam using 10:xtic(sprintf("%s %s %s", stringcolumn(1), stringcolumn(2), stringcolumn(3))) \
      every ::1 notitle
 
@@ -28,6 +30,7 @@ set title 'free body spinning: PCG iterations per step'
 set xlabel 'rad/s'
 set ylabel 'iterations'
 set style data linespoints
+set xtics norotate
 set logscale x
 plot spin using 1:3 title 'mean', spin using 1:4 title 'largest', \
      spin using 1:($2 / 10) title 'factorisations per 1000 steps / 100'

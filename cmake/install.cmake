@@ -1,5 +1,5 @@
 # cmake --install: the tools (tools/CMakeLists.txt), libpf static and shared, the headers under
-# include/pf/, pkg-config's pf.pc and the CMake package (find_package(pf) gives pf::pf).
+# include/pf/, pkg-config's pf.pc, the CMake package (find_package(pf) gives pf::pf) and the docs.
 include(CMakePackageConfigHelpers)
 
 install(TARGETS pf EXPORT pfTargets
@@ -28,3 +28,9 @@ install(FILES ${PROJECT_BINARY_DIR}/pfConfig.cmake ${PROJECT_BINARY_DIR}/pfConfi
 file(RELATIVE_PATH PF_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig ${CMAKE_INSTALL_PREFIX})
 configure_file(${PROJECT_SOURCE_DIR}/cmake/pf.pc.in ${PROJECT_BINARY_DIR}/pf.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/pf.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+
+# The documentation: the README, docs/*.md (the scene keys, the stream format, the library) and
+# the example program, under share/doc/pf.
+file(GLOB PF_DOCS ${PROJECT_SOURCE_DIR}/docs/*.md)
+install(FILES ${PROJECT_SOURCE_DIR}/README.md ${PF_DOCS} ${PROJECT_SOURCE_DIR}/docs/example.c
+        DESTINATION ${CMAKE_INSTALL_DOCDIR})

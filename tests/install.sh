@@ -19,6 +19,10 @@ so=$(readlink "$p/lib/libpf.so") || fail "lib/libpf.so is not a symlink"
 soname=$(objdump -p "$p/lib/libpf.so" | awk '$1 == "SONAME" {print $2}')
 [ -n "$soname" ] && [ -e "$p/lib/$soname" ] || fail "soname '$soname' of $so not installed"
 
+for doc in README.md library.md scene.md stream-format.md example.c; do
+  [ -s "$p/share/doc/pf/$doc" ] || fail "share/doc/pf/$doc not installed"
+done
+
 "$p/bin/pf-shape" torus --segments 12 | "$p/bin/pf-slice" --res 6 --quiet > "$tmp/box.pfs"
 expect=$("$build/bin/pf-info" "$tmp/box.pfs" --json | python3 -c \
   'import json,sys; m=[json.loads(l) for l in sys.stdin if "\"MESH\"" in l][0]; print(m["elements"], repr(m["volume"]))')

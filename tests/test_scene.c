@@ -332,15 +332,18 @@ static const bad_case bad_cases[] = {
     {"{\"loads\": [{\"box\": [[0,0,0],[1,1,1]]}]}", PF_ERR_INVALID,
      "scene.json: loads[0]: missing key \"traction\""},
     {"{\"fixed\": [{\"displacement\": [0,0,1]}]}", PF_ERR_INVALID,
-     "scene.json: fixed[0]: missing region: give \"box\", \"plane\" or \"group\""},
+     "scene.json: fixed[0]: missing region: give \"box\", \"plane\", \"group\", "
+     "\"nodes_file\" or \"elements_file\""},
     {"{\"fixed\": [{\"box\": [[0,0,0],[1,1,1]], \"plane\": {\"point\": [0,0,0], "
      "\"normal\": [1,0,0]}}]}",
      PF_ERR_INVALID,
-     "scene.json: fixed[0]: give one region, \"box\", \"plane\" or \"group\", not several"},
+     "scene.json: fixed[0]: give one region, \"box\", \"plane\", \"group\", \"nodes_file\" or "
+     "\"elements_file\", not several"},
     {"{\"loads\": [{\"box\": [[0,0,0],[1,1,1]], \"traction\": [1,0,0], "
      "\"displacement\": [0,0,0]}]}",
      PF_ERR_INVALID,
-     "scene.json: loads[0].displacement: unknown key (expected one of: box, plane, group, traction)"},
+     "scene.json: loads[0].displacement: unknown key (expected one of: box, plane, group, nodes_file, elements_file, "
+     "traction)"},
     /* syntax: line:col where the parser stopped (columns count characters) */
     {"{\n  \"material\": {\"E\": 1}\n  \"static\": true\n}", PF_ERR_FORMAT,
      "scene.json:3:3: JSON syntax error near '\"static\": true'"},

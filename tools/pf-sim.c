@@ -11,7 +11,7 @@
 #include <pf/sim.h>
 
 #include "cli.h"
-#include "obstacle_shape.h"
+#include "scene_files.h"
 #include "sim_resume.h"
 
 static const char USAGE[] =
@@ -36,7 +36,8 @@ static const char USAGE[] =
     "  --penalty ETA      DG penalty factor (default: ip doubled from 1 until K is definite;\n"
     "                     bz 3/16 for degree 1, 1/2 for degree 2, growing under refinement)\n"
     "  --E VALUE --nu VALUE --density VALUE   material\n"
-    "  --frames N --dt SECONDS --substeps N     time (dt is the time between frames)\n"
+    "  --frames N         frames after the rest frame 0; A:B simulates to B, writes A..B\n"
+    "  --dt SECONDS --substeps N   time between frames, time steps per frame\n"
     "  --static[=BOOL]    solve K u = f once and write one frame (true, false; a static scene\n"
     "                     needs a 'fixed' region that holds boundary faces)\n"
     "  --corotation[=BOOL]  stiffness warping, on by default; --corotation=false (or\n"
@@ -51,16 +52,16 @@ static const char USAGE[] =
     "                     2N, ... and the last (default 10; 0: none); under pcg the last bits\n"
     "                     of later frames depend on N (a checkpoint restarts the solver). A\n"
     "                     scene that refines writes none (its mesh changes between frames)\n"
-    "  --resume PARTIAL   continue the run that wrote PARTIAL (cut anywhere: killed, full disk)\n"
-    "                     from its last checkpoint with the scene stored in it, to the bytes of\n"
-    "                     the uninterrupted run (same pf build and thread counts); reads no\n"
-    "                     input; a scene file or overrides, if given, must make the same scene\n"
+    "  --resume PARTIAL   continue the run that wrote PARTIAL (killed, full disk) from its last\n"
+    "                     checkpoint, to the bytes of the uninterrupted run (same build and\n"
+    "                     threads); reads no input; a scene or overrides must match its own\n"
     "Other options:\n"
     "  --input FILE       read the stream from FILE instead of stdin\n"
     "  --output FILE      write the stream to FILE instead of stdout, through FILE.part renamed\n"
     "                     when complete (a killed run leaves FILE.part, which --resume\n"
     "                     continues); needed under mpirun\n"
-    "  --quiet            no progress or summary on stderr\n"
+    "  --quiet, -q        no progress or summary on stderr\n"
+    "  --progress[=S]     a plain progress line every S seconds (default 5; in a log always)\n"
     "  --stats FILE       write the run's statistics to FILE as JSON (docs/scene.md, \"Run\n"
     "                     statistics\"), also after a diverged run\n"
     "  --help, --version\n"
@@ -97,7 +98,8 @@ enum {
     OPT_QUIET,
     OPT_STATS,
     OPT_CHECKPOINT_EVERY,
-    OPT_RESUME
+    OPT_RESUME,
+    OPT_PROGRESS
 };
 
 /* Frames between checkpoints by default (docs/stream-format.md, CKPT: what they cost). */
@@ -110,6 +112,7 @@ typedef struct run {
     const char *input_path;
     const char *output_path;
     bool quiet;
+    double progress;        /* --progress=S: S; -1 without (pf_cli_progress_start) */
     const char *stats_path; /* --stats FILE, or NULL */
     double wall0, cpu0;     /* the clocks at the start */
     pf_mesh mesh;           /* the input's latest MESH, moved out of input */
@@ -124,6 +127,8 @@ typedef struct run {
     int32_t checkpoints;   /* CKPT chunks written (or copied, when resuming) */
     pf_buffer checkpoint;  /* scratch for CKPT payloads */
     const char *resume_path;
+    int64_t first_written; /* --frames A:B: frames before A are simulated, not written */
+    char frames_last[24];  /* --frames A:B: B, the frames override */
     /* the scene file's overrides, applied in build_scene */
     int n_overrides;
     int override_ids[64];
@@ -173,6 +178,21 @@ static const char *override_key(int id)
     }
 }
 
+/* --frames A:B: B (when given) overrides the scene's frames, frames before A are not written. */
+static void parse_frame_range(run *r, const char *value)
+{
+    int64_t first = 0, last = 0;
+    pf_cli_parse_frames(&r->cli, value, &first, &last);
+    r->first_written = first;
+    if (value[strlen(value) - 1] == ':')
+        return; /* 'A:': up to the scene's last frame */
+    if (r->n_overrides >= 64)
+        pf_cli_usage_error(&r->cli, "too many options");
+    snprintf(r->frames_last, sizeof r->frames_last, "%lld", (long long)last);
+    r->override_ids[r->n_overrides] = OPT_FRAMES;
+    r->override_values[r->n_overrides++] = r->frames_last;
+}
+
 static void parse_arguments(run *r, int argc, char **argv)
 {
     static const pf_cli_option options[] = {{"method", true, OPT_METHOD},
@@ -198,9 +218,11 @@ static void parse_arguments(run *r, int argc, char **argv)
                                             {"stats", true, OPT_STATS},
                                             {"checkpoint-every", true, OPT_CHECKPOINT_EVERY},
                                             {"resume", true, OPT_RESUME},
+                                            {"progress", PF_CLI_OPTIONAL_VALUE, OPT_PROGRESS},
                                             {NULL, false, 0}};
     pf_cli_init(&r->cli, "pf-sim", USAGE, argc, argv);
     r->checkpoint_every = -1; /* DEFAULT_CHECKPOINT_EVERY, or the resumed run's */
+    r->progress = -1;
     /* Overrides apply after the scene file, wherever they stand: collect them first. */
     const char *value;
     for (int id; (id = pf_cli_next(&r->cli, options, &value)) != PF_CLI_END;) {
@@ -215,6 +237,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->output_path = value;
         } else if (id == OPT_QUIET) {
             r->quiet = true;
+        } else if (id == OPT_PROGRESS) {
+            r->progress = pf_cli_parse_progress(&r->cli, value);
         } else if (id == OPT_STATS) {
             r->stats_path = value;
         } else if (id == OPT_CHECKPOINT_EVERY) {
@@ -223,6 +247,8 @@ static void parse_arguments(run *r, int argc, char **argv)
             r->checkpoint_given = true;
         } else if (id == OPT_RESUME) {
             r->resume_path = value;
+        } else if (id == OPT_FRAMES && strchr(value, ':')) {
+            parse_frame_range(r, value);
         } else if (r->n_overrides < 64) {
             r->override_ids[r->n_overrides] = id;
             /* --static and --corotation alone mean true (the empty value, docs/scene.md) */
@@ -240,7 +266,8 @@ static void parse_arguments(run *r, int argc, char **argv)
                            r->resume_path);
 }
 
-/* The scene: the file (or the defaults) with the overrides applied. Usage errors exit 2. */
+/* The scene: the file (or the defaults) with the overrides applied. Usage errors exit 2, also
+ * for a --frames A:B whose A is past the frames the scene makes. */
 static void build_scene(run *r, pf_scene *scene)
 {
     pf_error err = {0};
@@ -254,6 +281,9 @@ static void build_scene(run *r, pf_scene *scene)
         if (pf_scene_override(scene, override_key(r->override_ids[k]), r->override_values[k],
                               &err) < 0)
             pf_cli_usage_error(&r->cli, "%s", err.msg);
+    if (r->first_written > (scene->is_static ? 0 : scene->frames))
+        pf_cli_usage_error(&r->cli, "--frames %lld: the scene makes frames 0 to %d only",
+                           (long long)r->first_written, scene->is_static ? 0 : (int)scene->frames);
 }
 
 /* Passes every input chunk on except the ones this run replaces (scene, frames, stress,
@@ -397,9 +427,11 @@ static void print_summary(const run *r, const pf_sim *sim)
                 (int)st->elements, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
                 (long long)st->steps);
     fprintf(stderr,
-            "setup %.3f s, assembly %.3f s, factorisation %.3f s (%lld), solves %.3f s; contact at "
-            "%d %s%s: %lld contacts, search %.3f s, positions %.3f s\n",
-            st->setup_seconds, st->assemble_seconds, st->factor_seconds,
+            "setup %.3f s wall / %.3f s cpu, assembly %.3f s wall / %.3f s cpu, factorisation "
+            "%.3f s (%lld), solves %.3f s; contact at %d %s%s: %lld contacts, search %.3f s, "
+            "positions %.3f s\n",
+            st->setup_seconds, st->setup_cpu_seconds, st->assemble_seconds,
+            st->assemble_cpu_seconds, st->factor_seconds,
             (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
             r->embedded ? "surface vertices" : "nodes", samples, (long long)st->contacts,
             st->contact_seconds, st->embed_seconds);
@@ -432,25 +464,6 @@ static pf_status write_stats(const run *r, const pf_sim *sim, pf_error *err)
     return st;
 }
 
-/* The triangles of the scene's mesh obstacles, read here and handed to the scene (libcore/sim
- * reads no files). */
-static pf_status load_obstacles(pf_scene *sc, pf_error *err)
-{
-    for (int32_t i = 0; i < sc->n_obstacles; ++i) {
-        if (sc->obstacles[i].kind != PF_OBSTACLE_MESH)
-            continue;
-        pf_surface s = {0};
-        pf_status st = pf_obstacle_read_file(&sc->obstacles[i], &s, err);
-        if (st < 0)
-            pf_error_prefix(err, "obstacles[%d].mesh", (int)i);
-        else
-            st = pf_scene_set_obstacle_surface(sc, i, &s, err);
-        pf_surface_release(&s);
-        PF_TRY(st);
-    }
-    return PF_OK;
-}
-
 /* A CKPT after frames 0, N, 2N, ... and the last one (the stream format's CKPT); none in a
  * scene that refines or cuts: its mesh changes between frames, which a checkpoint does not
  * hold. */
@@ -470,10 +483,11 @@ static pf_status write_checkpoint(run *r, pf_sim *sim, int32_t index, bool last,
     return PF_OK;
 }
 
-/* A frame made and written, with its checkpoint. */
+/* A frame made and written (unless --frames A:B leaves it out), with its checkpoint. */
 static pf_status emit_frame(run *r, pf_sim *sim, int32_t index, pf_error *err)
 {
-    PF_TRY(write_frame(r, sim, index, err));
+    if (index >= r->first_written)
+        PF_TRY(write_frame(r, sim, index, err));
     bool last = r->scene.is_static || index == r->scene.frames;
     return write_checkpoint(r, sim, index, last, err);
 }
@@ -497,7 +511,8 @@ static pf_status restore_checkpoint(run *r, pf_sim *sim, const pf_chunk *restore
  * energy against the largest (of the frames this run made). */
 static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
 {
-    bool progress = pf_cli_show_progress(r->quiet);
+    pf_cli_progress progress;
+    pf_cli_progress_start(&progress, "pf-sim", r->quiet, r->progress);
     pf_status st = PF_OK;
     double kinetic = 0, peak = 0;
     int32_t peak_frame = 0;
@@ -505,15 +520,15 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
         st = pf_sim_frame(sim, err);
         if (st >= 0)
             st = emit_frame(r, sim, k, err);
-        if (progress)
-            fprintf(stderr, "\rpf-sim: frame %d / %d", (int)k, (int)r->scene.frames);
+        char what[48];
+        snprintf(what, sizeof what, "frame %d of %d", (int)k, (int)r->scene.frames);
+        pf_cli_progress_report(&progress, what, k - first, r->scene.frames - first);
         pf_vec3 linear, angular;
         pf_sim_momentum(sim, &kinetic, &linear, &angular);
         if (kinetic > peak)
             peak = kinetic, peak_frame = k;
     }
-    if (progress && first < r->scene.frames)
-        fputc('\n', stderr);
+    pf_cli_progress_done(&progress);
     if (st >= 0 && !r->quiet && first < r->scene.frames)
         fprintf(
             stderr,
@@ -536,7 +551,7 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     bool embedded = r->embedded = r->input.have_weights;
     r->written_mesh = r->mesh.id;
     r->written_surface = embedded ? r->input.surface.id : 0;
-    PF_TRY(load_obstacles(&r->scene, err));
+    PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
                                   embedded ? w : NULL, err));
@@ -627,8 +642,10 @@ static int without_petsc_options(int argc, char **argv, char **kept)
     int n = 0;
     for (int k = 0; k < argc; ++k) {
         const char *a = argv[k];
+        /* -h and -q are pf-sim's own (-q: --quiet; as PETSc's, it took the next word, a scene
+         * file, as its value) */
         bool petsc = k > 0 && a[0] == '-' && ((a[1] >= 'a' && a[1] <= 'z') || a[1] == '_') &&
-                     strcmp(a, "-h") != 0;
+                     strcmp(a, "-h") != 0 && strcmp(a, "-q") != 0;
         if (!petsc) {
             kept[n++] = argv[k];
             continue;

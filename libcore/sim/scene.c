@@ -21,11 +21,26 @@
 #include "scene_values.h"
 
 static void release_obstacles(pf_scene *s);
+static pf_status resolve_file(reader *r, const char *file, char **out);
+
+static void release_region(pf_region *r)
+{
+    pf_free(r->file);
+    pf_free(r->listed);
+    r->file = NULL;
+    r->listed = NULL;
+}
 
 void pf_scene_release(pf_scene *s)
 {
     if (!s)
         return;
+    for (int32_t k = 0; k < s->n_fixed && s->fixed; ++k)
+        release_region(&s->fixed[k].region);
+    for (int32_t k = 0; k < s->n_loads && s->loads; ++k)
+        release_region(&s->loads[k].region);
+    for (int32_t k = 0; k < s->n_materials && s->materials; ++k)
+        release_region(&s->materials[k].region);
     pf_free(s->fixed);
     pf_free(s->loads);
     pf_free(s->materials);
@@ -273,24 +288,58 @@ static pf_status read_group(reader *r, const cJSON *v, pf_region *out)
     return PF_OK;
 }
 
-/* One entry of "fixed" or "loads": exactly one of box / plane / group, plus the entry's vector
- * key (displacement, optional; traction, required). */
+/* "nodes_file" or "elements_file": a non-empty file name, resolved as an obstacle's mesh file;
+ * the caller reads the indices (pf_region_set_list). */
+static pf_status read_list_file(reader *r, const cJSON *v, pf_region_kind kind, pf_region *out)
+{
+    if (!cJSON_IsString(v) || !v->valuestring[0])
+        return pf_scene_fail_type(r, v, "a non-empty file name");
+    pf_free(out->file);
+    out->file = NULL;
+    out->kind = kind;
+    return resolve_file(r, v->valuestring, &out->file);
+}
+
+/* A region key of an entry of "fixed", "loads" or "materials" (box, plane where allowed, group,
+ * nodes_file, elements_file) into region; false for another key. */
+static bool read_region_key(reader *r, const cJSON *it, bool plane, pf_region *region,
+                            pf_status *st)
+{
+    const char *k = it->string;
+    size_t mark = pf_scene_push_key(r, k);
+    if (!strcmp(k, "box"))
+        *st = read_box(r, it, region);
+    else if (plane && !strcmp(k, "plane"))
+        *st = read_plane(r, it, region);
+    else if (!strcmp(k, "group"))
+        *st = read_group(r, it, region);
+    else if (!strcmp(k, "nodes_file"))
+        *st = read_list_file(r, it, PF_REGION_NODES, region);
+    else if (!strcmp(k, "elements_file"))
+        *st = read_list_file(r, it, PF_REGION_ELEMENTS, region);
+    else {
+        pf_scene_pop(r, mark);
+        return false;
+    }
+    if (*st >= 0)
+        pf_scene_pop(r, mark);
+    return true;
+}
+
+/* One entry of "fixed" or "loads": exactly one of box / plane / group / nodes_file /
+ * elements_file, plus the entry's vector key (displacement, optional; traction, required). */
 static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector_key,
                                    bool vector_required, pf_region *region, pf_vec3 *vector)
 {
-    const char *const keys[] = {"box", "plane", "group", vector_key, NULL};
+    const char *const keys[] = {"box",           "plane",    "group", "nodes_file",
+                                "elements_file", vector_key, NULL};
     PF_TRY(pf_scene_begin_object(r, v, keys));
     int n_regions = 0;
     bool has_vector = false;
     for (const cJSON *it = v->child; it; it = it->next) {
-        if (!strcmp(it->string, "box")) {
-            READ_KEY(r, it, read_box(r, it, region));
-            ++n_regions;
-        } else if (!strcmp(it->string, "plane")) {
-            READ_KEY(r, it, read_plane(r, it, region));
-            ++n_regions;
-        } else if (!strcmp(it->string, "group")) {
-            READ_KEY(r, it, read_group(r, it, region));
+        pf_status st = PF_OK;
+        if (read_region_key(r, it, true, region, &st)) {
+            PF_TRY(st);
             ++n_regions;
         } else {
             READ_KEY(r, it, pf_scene_read_vec3(r, it, vector));
@@ -298,9 +347,10 @@ static pf_status read_region_entry(reader *r, const cJSON *v, const char *vector
         }
     }
     if (n_regions != 1)
-        return pf_scene_fail(
-            r, n_regions ? "give one region, \"box\", \"plane\" or \"group\", not several"
-                         : "missing region: give \"box\", \"plane\" or \"group\"");
+        return pf_scene_fail(r, n_regions ? "give one region, \"box\", \"plane\", \"group\", "
+                                            "\"nodes_file\" or \"elements_file\", not several"
+                                          : "missing region: give \"box\", \"plane\", \"group\", "
+                                            "\"nodes_file\" or \"elements_file\"");
     if (vector_required && !has_vector)
         return pf_scene_fail(r, "missing key \"%s\"", vector_key);
     return PF_OK;
@@ -350,16 +400,15 @@ static pf_status read_loads(reader *r, const cJSON *v, pf_scene *s)
  * read_scene fills in the scene's material). */
 static pf_status read_material_entry(reader *r, const cJSON *v, pf_material_region *m)
 {
-    static const char *const keys[] = {"box", "group", "E", "nu", "density", NULL};
+    static const char *const keys[] = {"box", "group", "nodes_file", "elements_file",
+                                       "E",   "nu",    "density",    NULL};
     PF_TRY(pf_scene_begin_object(r, v, keys));
     m->E = m->nu = m->density = NAN;
     int n_regions = 0;
     for (const cJSON *it = v->child; it; it = it->next) {
-        if (!strcmp(it->string, "box")) {
-            READ_KEY(r, it, read_box(r, it, &m->region));
-            ++n_regions;
-        } else if (!strcmp(it->string, "group")) {
-            READ_KEY(r, it, read_group(r, it, &m->region));
+        pf_status st = PF_OK;
+        if (read_region_key(r, it, false, &m->region, &st)) {
+            PF_TRY(st);
             ++n_regions;
         } else if (!strcmp(it->string, "E")) {
             READ_KEY(r, it, pf_scene_read_number(r, it, RANGE_POSITIVE, &m->E));
@@ -370,8 +419,10 @@ static pf_status read_material_entry(reader *r, const cJSON *v, pf_material_regi
         }
     }
     if (n_regions != 1)
-        return pf_scene_fail(r, n_regions ? "give one region, \"box\" or \"group\", not both"
-                                          : "missing region: give \"box\" or \"group\"");
+        return pf_scene_fail(r, n_regions ? "give one region, \"box\", \"group\", \"nodes_file\" "
+                                            "or \"elements_file\", not several"
+                                          : "missing region: give \"box\", \"group\", "
+                                            "\"nodes_file\" or \"elements_file\"");
     return PF_OK;
 }
 

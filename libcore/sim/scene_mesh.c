@@ -71,7 +71,7 @@ void pf_scene_resolve(pf_scene *s, pf_vec3 lo, pf_vec3 hi)
 
 bool pf_region_contains(const pf_region *r, pf_vec3 p)
 {
-    if (r->kind == PF_REGION_GROUP)
+    if (r->kind != PF_REGION_BOX && r->kind != PF_REGION_PLANE)
         return false;
     if (r->kind == PF_REGION_BOX)
         return p.x >= r->lo.x && p.x <= r->hi.x && p.y >= r->lo.y && p.y <= r->hi.y &&
@@ -86,8 +86,95 @@ static const pf_mesh_group *find_group(const pf_region *r, const pf_mesh *m, int
                             : pf_mesh_find_group(m, dim, NULL, r->group);
 }
 
+/* ---- lists of nodes and elements ------------------------------------------------------------ */
+
+static bool is_list(const pf_region *r)
+{
+    return r->kind == PF_REGION_NODES || r->kind == PF_REGION_ELEMENTS;
+}
+
+pf_status pf_region_set_list(pf_region *r, const pf_mesh *m, const int32_t *indices, int32_t n,
+                             pf_error *err)
+{
+    PF_CHECK(is_list(r), err, PF_ERR_INVALID, "not a region of nodes_file or elements_file");
+    bool nodes = r->kind == PF_REGION_NODES;
+    int32_t count = nodes ? m->n_nodes : m->n_elems;
+    for (int32_t k = 0; k < n; ++k)
+        PF_CHECK(indices[k] >= 0 && indices[k] < count, err, PF_ERR_INVALID,
+                 "%s: %s %d out of range: the mesh has %d", r->file ? r->file : "list",
+                 nodes ? "node" : "element", (int)indices[k], (int)count);
+    uint8_t *listed = pf_calloc((size_t)count + 1, 1);
+    PF_CHECK(listed, err, PF_ERR_NOMEM, "cannot allocate %d list flags", (int)count);
+    for (int32_t k = 0; k < n; ++k)
+        listed[indices[k]] = 1;
+    pf_free(r->listed);
+    r->listed = listed;
+    r->n_listed = count;
+    r->list_mesh = m->id;
+    return PF_OK;
+}
+
+/* Whether the node list of r names node i. */
+static bool node_listed(const pf_region *r, uint32_t i)
+{
+    return i < (uint32_t)r->n_listed && r->listed[i];
+}
+
+/* Whether the element list of r names element e (-1: none). */
+static bool elem_listed(const pf_region *r, int32_t e)
+{
+    return e >= 0 && e < r->n_listed && r->listed[e];
+}
+
+/* Whether the node list of r names every node of face f. */
+static bool face_nodes_listed(const pf_region *r, const pf_mesh *m, int32_t f)
+{
+    for (int64_t q = m->face_offsets[f]; q < m->face_offsets[f + 1]; ++q)
+        if (!node_listed(r, m->face_nodes[q]))
+            return false;
+    return true;
+}
+
+/* Whether list region r selects element e of m: named, or all its nodes named. */
+static bool list_selects_elem(const pf_region *r, const pf_mesh *m, int32_t e)
+{
+    if (r->kind == PF_REGION_ELEMENTS)
+        return elem_listed(r, e);
+    for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k)
+        if (!face_nodes_listed(r, m, PF_FACE_INDEX(m->elem_faces[k])))
+            return false;
+    return true;
+}
+
+/* A list region must have been handed over for this very mesh: its indices mean nothing on
+ * another one (a refined or cut mesh renumbers elements and adds nodes). */
+static pf_status check_list(const pf_scene *s, const pf_region *r, const pf_mesh *m,
+                            const char *what, int32_t k, pf_error *err)
+{
+    if (!is_list(r))
+        return PF_OK;
+    const char *key = r->kind == PF_REGION_NODES ? "nodes_file" : "elements_file";
+    PF_CHECK(!pf_scene_changes_mesh(s), err, PF_ERR_INVALID,
+             "%s[%d].%s: a list numbers the nodes and elements of the starting mesh, which "
+             "refine and cuts change: select by group, box or plane in such a scene",
+             what, (int)k, key);
+    PF_CHECK(r->listed, err, PF_ERR_INVALID,
+             "%s[%d].%s: %s: the list was not handed over (pf_region_set_list)", what, (int)k,
+             key, r->file ? r->file : "");
+    PF_CHECK(r->list_mesh == m->id && r->n_listed == (r->kind == PF_REGION_NODES ? m->n_nodes
+                                                                                  : m->n_elems),
+             err, PF_ERR_INVALID, "%s[%d].%s: %s: the list numbers mesh %llu, not mesh %llu",
+             what, (int)k, key, r->file ? r->file : "", (unsigned long long)r->list_mesh,
+             (unsigned long long)m->id);
+    return PF_OK;
+}
+
 bool pf_region_selects_face(const pf_region *r, const pf_mesh *m, int32_t f, pf_vec3 c)
 {
+    if (r->kind == PF_REGION_NODES)
+        return face_nodes_listed(r, m, f);
+    if (r->kind == PF_REGION_ELEMENTS)
+        return elem_listed(r, m->face_elems[2 * f]) || elem_listed(r, m->face_elems[2 * f + 1]);
     if (r->kind != PF_REGION_GROUP)
         return pf_region_contains(r, c);
     const pf_mesh_group *g = m->face_group ? find_group(r, m, 2) : NULL;
@@ -137,12 +224,18 @@ pf_status pf_scene_materials(const pf_scene *s, const pf_mesh *m, pf_material **
     *table = NULL;
     *elem = NULL;
     *n = 0;
-    for (int32_t k = 0; k < s->n_fixed; ++k)
+    for (int32_t k = 0; k < s->n_fixed; ++k) {
         PF_TRY(check_group(&s->fixed[k].region, m, 2, "fixed", k, err));
-    for (int32_t k = 0; k < s->n_loads; ++k)
+        PF_TRY(check_list(s, &s->fixed[k].region, m, "fixed", k, err));
+    }
+    for (int32_t k = 0; k < s->n_loads; ++k) {
         PF_TRY(check_group(&s->loads[k].region, m, 2, "loads", k, err));
-    for (int32_t k = 0; k < s->n_materials; ++k)
+        PF_TRY(check_list(s, &s->loads[k].region, m, "loads", k, err));
+    }
+    for (int32_t k = 0; k < s->n_materials; ++k) {
         PF_TRY(check_group(&s->materials[k].region, m, 3, "materials", k, err));
+        PF_TRY(check_list(s, &s->materials[k].region, m, "materials", k, err));
+    }
     *table = pf_alloc_array((size_t)s->n_materials + 1, sizeof **table);
     *elem = pf_calloc((size_t)m->n_elems + 1, sizeof **elem);
     if (!*table || !*elem) {
@@ -164,7 +257,10 @@ pf_status pf_scene_materials(const pf_scene *s, const pf_mesh *m, pf_material **
         for (int32_t k = 0; k < s->n_materials; ++k) {
             const pf_region *r = &s->materials[k].region;
             const pf_mesh_group *g = r->kind == PF_REGION_GROUP ? find_group(r, m, 3) : NULL;
-            if (g ? m->elem_group[e] == g->number : pf_region_contains(r, c)) {
+            bool in = is_list(r) ? list_selects_elem(r, m, e)
+                      : g        ? m->elem_group[e] == g->number
+                                 : pf_region_contains(r, c);
+            if (in) {
                 (*elem)[e] = k + 1;
                 break;
             }

@@ -52,6 +52,10 @@ static cJSON *region(const pf_region *r)
             cJSON_AddStringToObject(o, "group", r->group_name);
         else
             add_number(o, "group", r->group);
+    } else if (r->kind == PF_REGION_NODES || r->kind == PF_REGION_ELEMENTS) {
+        /* the file as resolved, as an obstacle's mesh file */
+        cJSON_AddStringToObject(o, r->kind == PF_REGION_NODES ? "nodes_file" : "elements_file",
+                                r->file ? r->file : "");
     } else if (r->kind == PF_REGION_BOX) {
         cJSON *box = cJSON_AddArrayToObject(o, "box");
         cJSON_AddItemToArray(box, vector(r->lo));

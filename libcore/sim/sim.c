@@ -243,7 +243,7 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
     *out = NULL;
     PF_CHECK(!surface == !weights, err, PF_ERR_INVALID,
              "an embedded surface needs both the surface and its weights");
-    double t0 = pf_time_seconds();
+    double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
     pf_sim *s = pf_calloc(1, sizeof *s);
     PF_CHECK(s, err, PF_ERR_NOMEM, "cannot allocate the simulator");
     s->scene = scene;
@@ -255,6 +255,7 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
         return st;
     }
     s->stats.setup_seconds = pf_time_seconds() - t0;
+    s->stats.setup_cpu_seconds = pf_cpu_seconds() - cpu0;
     *out = s;
     return PF_OK;
 }
@@ -340,10 +341,11 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     double embed0 = cs ? cs->embed_seconds : 0, search0 = cs ? cs->search_seconds : 0;
     if (s->contact)
         contacts = pf_contact_detect(s->contact, s->time + h, s->u, s->v, h);
-    double t0 = pf_time_seconds();
+    double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
+    s->stats.assemble_cpu_seconds += pf_cpu_seconds() - cpu0;
     if (contacts > 0) {
         pf_contact_forces(s->contact, s->u, s->f);
         s->stats.contacts += contacts;
@@ -353,6 +355,7 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
         s->stats.contact_seconds += cs->search_seconds - search0;
     }
     t0 = pf_time_seconds();
+    cpu0 = pf_cpu_seconds();
     /* rhs = M v + h (f - K u), f with the contact forces at u; then
      * k := (h beta + h^2) (K + C) + (1 + h alpha) M, C the contact stiffness */
     double kscale = h * sc->damping_beta + h * h;
@@ -366,6 +369,7 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     if (contacts > 0)
         pf_contact_add_stiffness(s->contact, kscale, &s->k);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
+    s->stats.assemble_cpu_seconds += pf_cpu_seconds() - cpu0;
     /* the matrix changed: new terms when contacts came or went, a drift of its values with
      * corotation or contacts that stay (their normals may turn) */
     pf_matrix_change change = PF_MATRIX_SAME;
@@ -528,9 +532,10 @@ pf_status pf_sim_solve_static(pf_sim *s, pf_error *err)
 {
     size_t n = (size_t)s->n;
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
-    double t0 = pf_time_seconds();
+    double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
     s->ops->stiffness(s->method, s->u, false, &s->k, s->f);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
+    s->stats.assemble_cpu_seconds += pf_cpu_seconds() - cpu0;
     int64_t failed = -1;
     pf_status st = pf_solver_solve(s->solver, &s->k, PF_MATRIX_NEW, s->f, s->u, &failed, err);
     pf_sim_sync_solver_stats(s);

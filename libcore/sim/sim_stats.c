@@ -66,9 +66,9 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
         add_int(root, "integrals_computed", st->integrals_computed);
         cJSON *sec = cJSON_AddObjectToObject(root, "seconds");
         wall_cpu(sec, "run", wall_seconds, cpu_seconds);
-        cJSON_AddNumberToObject(sec, "setup", st->setup_seconds);
+        wall_cpu(sec, "setup", st->setup_seconds, st->setup_cpu_seconds);
         cJSON_AddNumberToObject(sec, "basis", st->basis_seconds);
-        cJSON_AddNumberToObject(sec, "assembly", st->assemble_seconds);
+        wall_cpu(sec, "assembly", st->assemble_seconds, st->assemble_cpu_seconds);
         cJSON_AddNumberToObject(sec, "contact_search", st->contact_seconds);
         cJSON_AddNumberToObject(sec, "contact_positions", st->embed_seconds);
         wall_cpu(sec, "factorisation", st->solver.factor_seconds, st->solver.factor_cpu_seconds);

@@ -31,4 +31,20 @@ expect 0 "" "$bin/pf-render" --size 64x48 --out "$tmp/c" -q "$tmp/sim.pfs"
 # (OSMesa's leaks that LeakSanitizer reports as suppressed in sanitizer builds are not ours)
 check "pf-render -q: nothing of pf-render's on stderr" bash -c "! grep -q pf-render '$tmp/err'"
 expect 2 "--progress expects seconds >= 0" "$bin/pf-slice" --progress=-1 "$tmp/torus.pfs"
+
+# pf-sim: a line per frame with --progress=0, frame, share and ETA; nothing with -q (which is
+# pf-sim's own, not a PETSc option that would take the scene file after it as its value)
+"$bin/pf-shape" box --cells 2,1,1 >"$tmp/box.pfs"
+expect 0 "" "$bin/pf-sim" --frames 4 --progress=0 --input "$tmp/box.pfs"
+check "pf-sim: frame, share, times and ETA" \
+  grep -Eq "^pf-sim: frame 2 of 4, 50%, [0-9.e+-]+ s \(CPU [0-9.e+-]+ s\), ETA [0-9]+ s$" "$tmp/err"
+check "pf-sim: the last at 100 %" grep -Eq "^pf-sim: frame 4 of 4, 100%, " "$tmp/err"
+check "pf-sim: the summary gives CPU beside wall seconds for set-up and assembly" \
+  grep -Eq "setup [0-9.]+ s wall / [0-9.]+ s cpu, assembly [0-9.]+ s wall / [0-9.]+ s cpu" "$tmp/err"
+printf '{"time": {"frames": 2}}' >"$tmp/two.json"
+expect 0 "" "$bin/pf-sim" -q "$tmp/two.json" --input "$tmp/box.pfs"
+check "pf-sim -q: nothing on stderr" test ! -s "$tmp/err"
+check "pf-sim -q SCENE: the scene is read (frames 0, 1, 2)" \
+  bash -c "'$bin/pf-sim' -q '$tmp/two.json' <'$tmp/box.pfs' | '$bin/pf-info' | grep -q '^FRAM .*: 3 frames'"
+expect 2 "--progress expects seconds >= 0" "$bin/pf-sim" --progress=-2 --input "$tmp/box.pfs"
 finish

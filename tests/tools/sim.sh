@@ -107,8 +107,10 @@ ok = (s['frames'] == 3 and s['steps'] == 30 and v['method'] == 'pcg' and v['solv
       and sum(v['factorisations_by_reason'].values()) == v['factorisations'] >= 1
       and v['pcg_iterations_max'] >= v['pcg_iterations_mean'] >= 0 and s['dofs'] > 0
       and all(s['seconds'][k]['wall'] >= 0 and s['seconds'][k]['cpu'] >= 0
-              for k in ('run', 'factorisation', 'solves'))
-      and s['seconds']['run']['wall'] >= s['seconds']['setup'])
+              for k in ('run', 'setup', 'assembly', 'factorisation', 'solves'))
+      and s['seconds']['run']['wall'] >= s['seconds']['setup']['wall']
+      and s['seconds']['run']['cpu'] >= s['seconds']['setup']['cpu']
+      and s['seconds']['run']['cpu'] >= s['seconds']['assembly']['cpu'] > 0)
 sys.exit(0 if ok else 1)"
 expect 1 "cannot" "$bin/pf-sim" --quiet --frames 0 --stats "$tmp/no/such/dir/stats.json" --input "$tmp/cube.pfs"
 finish

@@ -379,6 +379,16 @@ pf_status pf_import_tetgen(const char *path, pf_mesh *m, pf_error *err);
  * PF_ERR_UNSUPPORTED for any other path; otherwise the statuses of the reader it calls. */
 pf_status pf_import_volume(const char *path, pf_mesh *m, pf_error *err);
 
+/* An index list file (a scene region's "nodes_file" or "elements_file", docs/scene.md): one
+ * decimal index per line, numbered from 0 as in the stream's MESH, blank lines and '#' comments
+ * ignored, repeats allowed. *indices [*n] in file order (pf_alloc'd, pf_free it). what ("node",
+ * "element") names the indices in messages. PF_ERR_IO naming the file when it cannot be read;
+ * PF_ERR_FORMAT "path:LINE: expected node, found 'x'" for a token that is not an integer or a
+ * second token on a line, and for a file without indices; PF_ERR_INVALID "path:LINE: node 12
+ * out of range: the mesh has 8 nodes, numbered from 0" for an index outside [0, count). */
+pf_status pf_import_index_list(const char *path, int64_t count, const char *what,
+                               int32_t **indices, int32_t *n, pf_error *err);
+
 /* A triangle surface from a file: OBJ, OFF, PLY (ASCII and binary) and STL (ASCII and binary),
  * chosen by extension (case-insensitive), through pf's own readers in double precision; any other
  * format assimp reads (glTF, DAE, FBX, ...) through assimp, whose coordinates are single precision

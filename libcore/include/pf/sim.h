@@ -31,12 +31,15 @@ typedef enum pf_mass { PF_MASS_CONSISTENT = 0, PF_MASS_LUMPED = 1 } pf_mass;
 
 /* A selection of boundary faces: those whose centroid lies in the box (bounds inclusive), or
  * within tol of the plane, or the faces of a mesh group of dimension 2 (a Gmsh physical surface,
- * pf_mesh.face_group). For materials, a selection of elements: centroid in the box, or in a
- * group of dimension 3. */
+ * pf_mesh.face_group), or all of whose nodes a node list names, or those of the elements an
+ * element list names. For materials, a selection of elements: centroid in the box, in a group of
+ * dimension 3, all nodes in the node list, or in the element list. */
 typedef enum pf_region_kind {
     PF_REGION_BOX = 0,
     PF_REGION_PLANE = 1,
-    PF_REGION_GROUP = 2
+    PF_REGION_GROUP = 2,
+    PF_REGION_NODES = 3,   /* "nodes_file" */
+    PF_REGION_ELEMENTS = 4 /* "elements_file" */
 } pf_region_kind;
 enum { PF_GROUP_NAME_MAX = 128 }; /* bytes of a group name, its NUL included */
 typedef struct pf_region {
@@ -49,6 +52,12 @@ typedef struct pf_region {
                       writes back so that the plane reads back into the same bits */
     double tol;    /* plane: distance tolerance, model units, >= 0; -1 when the scene did not
                       give one: pf_scene_resolve then sets 1e-6 x the bounding-box diagonal */
+    char *file;    /* nodes, elements: the list file, relative to the scene file's directory when
+                      the scene names a relative path (pf_alloc; pf_scene_release frees it) */
+    uint8_t *listed;    /* nodes, elements: [n_listed] 1 where the list names the node (element),
+                           handed over with pf_region_set_list (NULL until then) */
+    int32_t n_listed;   /* the nodes (elements) of the mesh the list numbers */
+    uint64_t list_mesh; /* that mesh's id */
 } pf_region;
 
 /* A fixed region: weak Dirichlet on its faces (DG) or every node of its faces fixed (CG), to
@@ -274,24 +283,34 @@ pf_status pf_scene_set_obstacle_surface(pf_scene *s, int32_t i, pf_surface *surf
  * automatic), NUL-terminated, freed with pf_free. Parsing it gives the same scene. */
 pf_status pf_scene_to_json(const pf_scene *s, char **json, pf_error *err);
 
-/* Frees fixed, loads, obstacles (their keys, files and surfaces) and json and zeroes s (NULL
- * allowed). */
+/* Frees fixed, loads, materials (their regions' list files and lists), obstacles (their keys,
+ * files and surfaces), cuts and json and zeroes s (NULL allowed). */
 void pf_scene_release(pf_scene *s);
 
 /* True when point p (a face centroid) is selected by region r: a box with inclusive bounds, a
  * plane when |signed distance| <= tol (never, while tol is still -1: resolve first); never for a
- * group (pf_region_selects_face). */
+ * group or a list (pf_region_selects_face). */
 bool pf_region_contains(const pf_region *r, pf_vec3 p);
 
 /* True when region r selects face f of mesh m, whose centroid is c: a group when m lists it with
- * dimension 2 and f is in it; pf_region_contains(r, c) otherwise. */
+ * dimension 2 and f is in it; a node list when it names every node of f; an element list when it
+ * names an element of f; pf_region_contains(r, c) otherwise. */
 bool pf_region_selects_face(const pf_region *r, const pf_mesh *m, int32_t f, pf_vec3 c);
+
+/* Hands over the indices the list file of region r (kind nodes or elements) names, which the
+ * caller read from r->file (pf_import_index_list: libcore/sim reads no files), for mesh m: r
+ * then selects by them on m only (an earlier list of r is released). PF_ERR_INVALID for another
+ * kind of region or an index outside m's nodes (elements); PF_ERR_NOMEM. */
+pf_status pf_region_set_list(pf_region *r, const pf_mesh *m, const int32_t *indices, int32_t n,
+                             pf_error *err);
 
 /* The per-element materials of the scene on mesh m: *table [*n] (entry 0 the scene's material,
  * k + 1 materials[k]) and *elem [m->n_elems] (pf_alloc'd, pf_free them), the first materials
  * entry that selects an element, else 0. Also checks that every group the scene names (fixed,
  * loads: dimension 2; materials: dimension 3) is one of the mesh's: PF_ERR_INVALID "fixed[1].group:
- * the mesh has no group 'name' of faces (its groups: ...)". PF_ERR_NOMEM. */
+ * the mesh has no group 'name' of faces (its groups: ...)"; and that every list region was handed
+ * over for m (PF_ERR_INVALID otherwise, and for lists in a scene that changes its mesh: a list
+ * numbers the starting mesh's nodes and elements). PF_ERR_NOMEM. */
 pf_status pf_scene_materials(const pf_scene *s, const pf_mesh *m, pf_material **table, int32_t *n,
                              int32_t **elem, pf_error *err);
 
@@ -312,6 +331,9 @@ typedef struct pf_sim_stats {
     int32_t penalty_doublings;
     double setup_seconds;    /* basis, integrals, pattern, analysis, penalty search */
     double assemble_seconds; /* stiffness assembly, rotations */
+    double setup_cpu_seconds, assemble_cpu_seconds; /* the same in CPU seconds of the process
+                                                       (all threads): on a loaded machine the
+                                                       ones to compare */
     double contact_seconds;  /* contact search (broad and narrow phase) and penalty assembly */
     double embed_seconds;    /* predicted positions of the contact points (embedding mat-vec) */
     int32_t contact_points;  /* boundary nodes or embedded-surface vertices (0: no contact) */

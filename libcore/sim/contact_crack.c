@@ -7,14 +7,16 @@
  * their rest shape: opened faces of the other side (not holding the node itself: a node the
  * crack front left shared moves with both sides), in the plane of the node, facing a face at the
  * node (outward normals opposite), whose polygon holds the node. Both sides of an opened face
- * start coincident, so this is exact after any sequence of cuts (the twins are found anew on each
- * mesh); after a refinement that split one side's face and not the other's, a node on the split
- * face still lies in its twin's polygon, and the twin's nodes in the halves. The narrow phase is
- * then a lookup over a node's few twins, no search.
+ * start coincident, so this holds after any sequence of cuts (the twins are found anew on each
+ * mesh, tests/test_crack_contact.c checks every copied node finds one); a refinement that splits
+ * one side's face and not the other's leaves each node inside its twin's polygon, so the rule
+ * needs no twin to be the same polygon (not tested on a refined crack). The narrow phase is then
+ * a lookup over a node's few twins, no search.
  *
  * Why the majorant (contact_crack.h): the exact stiffness k (a - b)(a - b)^T couples an element of
- * each side, which the method's pattern no longer has across the crack; adding the pair would
- * grow the pattern per contact set (and the factor with it). Since (a - b)(a - b)^T <=
+ * each side, which the method's pattern no longer has across the crack; adding the pairs (once
+ * per mesh, from the twins) would give the factor back the fill the cut removed, and contact
+ * keeps the method's pattern (as contact.c does). Since (a - b)(a - b)^T <=
  * 2 (a a^T + b b^T) (the difference is (a + b)(a + b)^T >= 0), the step's matrix is at least as
  * stiff as the exact linearisation (as contact.c's surface vertices), and stays in the pattern.
  * The forces are exact, so a resting state is the exact penalty's. The price is in the motion:

@@ -1,8 +1,11 @@
 /* Shared by the tests that run the simulator on changing meshes (test_sim_refine.c,
- * test_sim_cut.c): scenes from JSON text, box meshes, a simulator on them, relative errors.
+ * test_sim_cut.c, test_crack_contact.c): scenes from JSON text, box meshes, frames, a simulator
+ * on them, relative errors.
  * Include after <cmocka.h>, <math.h> and <string.h>. */
 #ifndef PF_TEST_SIM_CHANGES_H
 #define PF_TEST_SIM_CHANGES_H
+
+#include <stdbool.h>
 
 #include <pf/sim.h>
 
@@ -19,6 +22,26 @@ static inline void make_box(pf_mesh *m, pf_vec3 hi, int nx, int ny, int nz)
     pf_error err = {0};
     assert_int_equal(pf_mesh_make_box(m, pf_v3(0, 0, 0), hi, nx, ny, nz, &err), PF_OK);
     assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
+}
+
+/* [0, hi] in nx x ny x nz hexes, or cells of 6 Kuhn tetrahedra (tets), derived. */
+static inline void make_box_mesh(pf_mesh *m, pf_vec3 hi, int nx, int ny, int nz, bool tets)
+{
+    pf_error err = {0};
+    if (!tets) {
+        make_box(m, hi, nx, ny, nz);
+        return;
+    }
+    assert_int_equal(pf_mesh_make_box_tets(m, pf_v3(0, 0, 0), hi, nx, ny, nz, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
+}
+
+static inline void run_frames(pf_sim *sim, int n)
+{
+    pf_error err = {0};
+    for (int f = 0; f < n; ++f)
+        if (pf_sim_frame(sim, &err) < 0)
+            fail_msg("frame %d: %s", f, err.msg);
 }
 
 /* The scene resolved against the mesh's box, and a simulator on them. */

@@ -28,14 +28,6 @@
                      (ss).closed, (ss).manifold, (ss).volume);                                     \
     } while (0)
 
-static void run_frames(pf_sim *sim, int n)
-{
-    pf_error err = {0};
-    for (int f = 0; f < n; ++f)
-        if (pf_sim_frame(sim, &err) < 0)
-            fail_msg("frame %d: %s", f, err.msg);
-}
-
 /* Requests for every element of m that the plane crosses. */
 static int32_t crossing(const pf_mesh *m, pf_plane pl, pf_cut_request *req)
 {
@@ -207,13 +199,7 @@ static void blade_through_bar(double stop, int bodies, bool tets, const char *me
     pf_mesh m = {0};
     pf_scene sc;
     pf_error err = {0};
-    if (tets) {
-        assert_int_equal(pf_mesh_make_box_tets(&m, pf_v3(0, 0, 0), pf_v3(4, 1, 1), 8, 2, 4, &err),
-                         PF_OK);
-        assert_int_equal(pf_mesh_derive(&m, &err), PF_OK);
-    } else {
-        make_box(&m, pf_v3(4, 1, 1), 8, 2, 4);
-    }
+    make_box_mesh(&m, pf_v3(4, 1, 1), 8, 2, 4, tets);
     parse(&sc, json);
     pf_sim *sim = create(&sc, &m);
     run_frames(sim, 12);

@@ -752,27 +752,34 @@ void pf_contact_forces(pf_contact *c, const double *u, double *f)
     }
 }
 
-/* k += a (b b^T) (x) n n^T over point p's compact row, scaled by scale. */
-static void add_compact(const pf_contact *c, int32_t p, pf_vec3 n, double a, pf_block_matrix *k)
+void pf_contact_add_row(pf_block_matrix *k, const int32_t *triple_block, const int64_t *triple,
+                        const double *w, int64_t n, pf_vec3 normal, double a)
 {
-    const double nn[3] = {n.x, n.y, n.z};
-    int64_t begin = c->crow_offsets[p], end = c->crow_offsets[p + 1];
-    for (int64_t q1 = begin; q1 < end; ++q1) {
-        int64_t t1 = c->crow_triple[q1];
-        int32_t b1 = c->triple_block[t1];
-        for (int64_t q2 = q1; q2 < end; ++q2) {
-            int64_t t2 = c->crow_triple[q2];
-            int32_t b2 = c->triple_block[t2];
+    const double nn[3] = {normal.x, normal.y, normal.z};
+    for (int64_t q1 = 0; q1 < n; ++q1) {
+        int64_t t1 = triple[q1];
+        int32_t b1 = triple_block[t1];
+        for (int64_t q2 = q1; q2 < n; ++q2) {
+            int64_t t2 = triple[q2];
+            int32_t b2 = triple_block[t2];
             int64_t slot = b1 == b2 ? k->adj_offsets[b2 + 1] - 1 : pf_block_matrix_slot(k, b1, b2);
             if (slot < 0) /* one element's unknowns are always coupled */
                 continue;
-            double m[9], w = a * c->crow_w[q1] * c->crow_w[q2];
+            double m[9], s = a * w[q1] * w[q2];
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j)
-                    m[3 * i + j] = w * nn[i] * nn[j];
+                    m[3 * i + j] = s * nn[i] * nn[j];
             pf_block_matrix_add_3x3(k, slot, b1, 3 * t1, 3 * t2, m);
         }
     }
+}
+
+/* k += a (b b^T) (x) n n^T over point p's compact row. */
+static void add_compact(const pf_contact *c, int32_t p, pf_vec3 n, double a, pf_block_matrix *k)
+{
+    int64_t begin = c->crow_offsets[p];
+    pf_contact_add_row(k, c->triple_block, c->crow_triple + begin, c->crow_w + begin,
+                       c->crow_offsets[p + 1] - begin, n, a);
 }
 
 /* For a surface vertex, r = beta - b over the triples (beta = W S, b its compact row) in the

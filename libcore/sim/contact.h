@@ -65,6 +65,12 @@ void pf_contact_forces(pf_contact *c, const double *u, double *f);
  * has. */
 void pf_contact_add_stiffness(pf_contact *c, double alpha, pf_block_matrix *k);
 
+/* k += a (w w^T) (x) n n^T for one point's row: triple [n] ascending, its weights w [n], within
+ * one element's couplings (pairs the pattern lacks are skipped); triple_block [n_triples] the
+ * matrix block of each triple. Shared with the crack faces' contact (contact_crack.c). */
+void pf_contact_add_row(pf_block_matrix *k, const int32_t *triple_block, const int64_t *triple,
+                        const double *w, int64_t n, pf_vec3 normal, double a);
+
 /* The power the moving obstacles deliver through the last pf_contact_forces: the sum over the
  * contacts of the penalty force times the obstacle's velocity (0 for fixed obstacles). */
 double pf_contact_obstacle_power(const pf_contact *c);

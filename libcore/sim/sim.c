@@ -4,7 +4,8 @@
  * D = alpha M + beta K. With h = dt / substeps and K, f evaluated at the start of the step
  * (corotation warps K with the current element rotations and moves their constant part into f;
  * contact with the ground and the obstacles adds its linearised penalty, DG paper sec. 8, at the
- * positions predicted by u + h v, against the obstacles where they are at the end of the step):
+ * positions predicted by u + h v, against the obstacles where they are at the end of the step;
+ * the two sides of a crack, contact_crack.c, likewise against each other):
  *     ((1 + h alpha) M + (h beta + h^2) K) v' = M v + h (f - K u),     u' = u + h v'.
  * Contact's stiffness couples one element's unknowns per contact point (contact.c), so the pattern
  * is the method's, analysed once: embedded contact costs no fill. The solver (pf/solve.h) decides
@@ -138,6 +139,7 @@ static pf_status setup_contact(pf_sim *s, pf_error *err)
                            .n_blocks = s->k.n_blocks,
                            .block_start = s->k.block_start};
     PF_TRY(pf_contact_create(&s->contact, &cs, err));
+    PF_TRY(pf_crack_create(&s->crack, &cs, err));
     if (!s->contact)
         return PF_OK;
     s->stats.contact_points = pf_contact_get_stats(s->contact)->points;
@@ -220,7 +222,7 @@ pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *re
     if (st >= 0)
         st = setup_contact(s, err);
     if (st >= 0) {
-        bool changes = !scene->is_static && (scene->corotation || s->contact);
+        bool changes = !scene->is_static && (scene->corotation || s->contact || s->crack);
         st = pf_solver_create(&s->solver, &s->k, &scene->solver, changes, err);
     }
     if (st >= 0)
@@ -275,6 +277,7 @@ void pf_sim_release(pf_sim *s)
     pf_block_matrix_release(&s->k);
     pf_solver_destroy(&s->solver);
     pf_contact_destroy(&s->contact);
+    pf_crack_destroy(&s->crack);
     pf_free(s->level);
     pf_free(s->family);
     pf_free(s->calm);
@@ -341,6 +344,7 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     double embed0 = cs ? cs->embed_seconds : 0, search0 = cs ? cs->search_seconds : 0;
     if (s->contact)
         contacts = pf_contact_detect(s->contact, s->time + h, s->u, s->v, h);
+    int64_t cracks = s->crack ? pf_crack_detect(s->crack, s->u, s->v, h) : 0;
     double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
@@ -349,6 +353,10 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     if (contacts > 0) {
         pf_contact_forces(s->contact, s->u, s->f);
         s->stats.contacts += contacts;
+    }
+    if (cracks > 0) {
+        pf_crack_forces(s->crack, s->u, s->f);
+        s->stats.contacts += cracks;
     }
     if (cs) {
         s->stats.embed_seconds += cs->embed_seconds - embed0;
@@ -368,14 +376,17 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     s->ops->add_mass(s->method, 1 + h * sc->damping_alpha, &s->k);
     if (contacts > 0)
         pf_contact_add_stiffness(s->contact, kscale, &s->k);
+    if (cracks > 0)
+        pf_crack_add_stiffness(s->crack, kscale, &s->k);
     s->stats.assemble_seconds += pf_time_seconds() - t0;
     s->stats.assemble_cpu_seconds += pf_cpu_seconds() - cpu0;
     /* the matrix changed: new terms when contacts came or went, a drift of its values with
      * corotation or contacts that stay (their normals may turn) */
     pf_matrix_change change = PF_MATRIX_SAME;
-    if (!s->assembled || (s->contact && pf_contact_set_changed(s->contact)))
+    if (!s->assembled || (s->contact && pf_contact_set_changed(s->contact)) ||
+        (s->crack && pf_crack_set_changed(s->crack)))
         change = PF_MATRIX_NEW;
-    else if (sc->corotation || contacts > 0)
+    else if (sc->corotation || contacts > 0 || cracks > 0)
         change = PF_MATRIX_DRIFTED;
     s->assembled = true;
     int64_t failed = -1;

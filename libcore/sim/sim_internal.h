@@ -6,6 +6,7 @@
 #include <pf/sim.h>
 
 #include "contact.h"
+#include "contact_crack.h"
 #include "method.h"
 
 struct pf_sim {
@@ -40,6 +41,7 @@ struct pf_sim {
     bool assembled;      /* the system matrix has been assembled once (it changes afterwards only
                             with corotation) */
     pf_contact *contact; /* NULL without ground and obstacles, and in static scenes */
+    pf_crack *crack;     /* the crack faces' contact: NULL until a cut opened faces */
     double model_size;
     /* the energy check (energy_is_bounded): the kinetic energy when the first frame began, the
      * work of the loads, body forces and moving obstacles since, the elastic energy the start

@@ -78,8 +78,7 @@ static pf_status label_bodies(visibility *v, const pf_mesh *m, pf_error *err)
     int32_t *first = NULL, *parent = NULL;
     if (!PF_ALLOC_N(v->elem_body, (size_t)m->n_elems + 1) ||
         !PF_ALLOC_N(v->node_body, (size_t)m->n_nodes + 1) ||
-        !PF_ALLOC_N(first, (size_t)m->n_faces + 1) ||
-        !PF_ALLOC_N(parent, (size_t)m->n_elems + 1)) {
+        !PF_ALLOC_N(first, (size_t)m->n_faces + 1) || !PF_ALLOC_N(parent, (size_t)m->n_elems + 1)) {
         pf_free(first);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "out of memory for the bodies of %d elements", (int)m->n_elems);

@@ -303,6 +303,32 @@ static void closed_box(pf_surface *s, pf_vec3 lo, pf_vec3 hi)
     assert_true(st.closed && st.manifold && st.volume > 0);
 }
 
+/* A bar clamped at x = 0 under gravity, undamped, cut through by the plane x = 2.1 at cut_time
+ * (resolved against m into *sc), and a simulator on m with s embedded by MLS weights (*w
+ * computed here). */
+static pf_sim *clamped_cut_sim(pf_scene *sc, double cut_time, const pf_mesh *m, const pf_surface *s,
+                               pf_weights *w)
+{
+    pf_error err = {0};
+    assert_int_equal(pf_embed_compute(m, s, NULL, w, NULL, &err), PF_OK);
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"gravity\": [0, 0, -9.81], \"ground\": false, \"damping\": {\"alpha\": 0},"
+             " \"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}}],"
+             " \"time\": {\"dt\": 0.02, \"substeps\": 2},"
+             " \"cuts\": [{\"plane\": {\"point\": [2.1, 0, 0], \"normal\": [1, 0, 0]},"
+             " \"time\": %.17g}]}",
+             cut_time);
+    parse(sc, json);
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(m, &lo, &hi);
+    pf_scene_resolve(sc, lo, hi);
+    pf_sim *sim = NULL;
+    if (pf_sim_create_embedded(&sim, sc, m, s, w, &err) < 0)
+        fail_msg("create: %s", err.msg);
+    return sim;
+}
+
 /* An embedded box surface inside a bar clamped at one end, cut through: the surface is cut with
  * the mesh (caps added, still closed), its weights are on the new mesh, and after the free piece
  * has fallen no vertex of the clamped side moved with it. */
@@ -315,17 +341,8 @@ static void test_embedded_surface_cut(void **state)
     pf_surface surf = {0};
     closed_box(&surf, pf_v3(0.1, 0.1, 0.1), pf_v3(3.9, 0.9, 0.9));
     pf_weights w = {0};
-    assert_int_equal(pf_embed_compute(&m, &surf, NULL, &w, NULL, &err), PF_OK);
     pf_scene sc;
-    parse(&sc, "{\"gravity\": [0, 0, -9.81], \"ground\": false, \"damping\": {\"alpha\": 0},"
-               " \"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}}],"
-               " \"time\": {\"dt\": 0.02, \"substeps\": 2},"
-               " \"cuts\": [{\"plane\": {\"point\": [2.1, 0, 0], \"normal\": [1, 0, 0]}}]}");
-    pf_vec3 lo, hi;
-    pf_mesh_bounds(&m, &lo, &hi);
-    pf_scene_resolve(&sc, lo, hi);
-    pf_sim *sim = NULL;
-    assert_int_equal(pf_sim_create_embedded(&sim, &sc, &m, &surf, &w, &err), PF_OK);
+    pf_sim *sim = clamped_cut_sim(&sc, 0, &m, &surf, &w);
     run_frames(sim, 10);
     const pf_surface *cut = pf_sim_surface(sim);
     const pf_weights *nw = pf_sim_weights(sim);
@@ -419,40 +436,36 @@ static void test_embedded_progressive(void **state)
 /* ---- the render surface follows its own piece ------------------------------------------------
  */
 
+/* The bounding box of element e's nodes. */
+static void elem_box(const pf_mesh *m, int32_t e, pf_vec3 *lo, pf_vec3 *hi)
+{
+    *lo = pf_v3(INFINITY, INFINITY, INFINITY), *hi = pf_v3_scale(*lo, -1);
+    for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+        for (int64_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; ++k) {
+            pf_vec3 x = pf_v3_load(m->x + 3 * (size_t)m->face_nodes[k]);
+            *lo = pf_v3_min(*lo, x), *hi = pf_v3_max(*hi, x);
+        }
+    }
+}
+
 /* A channel bar [0, 4] x [0, 1.5] x [0, 1] of 0.5 hexes with a groove y 0.5 .. 1, z 0.5 .. 1
- * along it (a U cross-section), derived. */
+ * along it (a U cross-section; every node of the box is still a corner of a kept hex), derived. */
 static void make_channel(pf_mesh *m)
 {
-    enum { NX = 8, NY = 3, NZ = 2 };
-    double x[3 * (NX + 1) * (NY + 1) * (NZ + 1)];
-    uint32_t hex[8 * NX * NY * NZ];
-    int n = 0;
-    for (int k = 0; k <= NZ; ++k)
-        for (int j = 0; j <= NY; ++j)
-            for (int i = 0; i <= NX; ++i, ++n) {
-                x[3 * n] = 0.5 * i, x[3 * n + 1] = 0.5 * j, x[3 * n + 2] = 0.5 * k;
-            }
-#define NODE(i, j, k) (uint32_t)(((k) * (NY + 1) + (j)) * (NX + 1) + (i))
-    int c = 0;
-    for (int k = 0; k < NZ; ++k)
-        for (int j = 0; j < NY; ++j)
-            for (int i = 0; i < NX; ++i) {
-                if (j == 1 && k == 1)
-                    continue; /* the groove */
-                const uint32_t h[8] = {NODE(i, j, k),
-                                       NODE(i + 1, j, k),
-                                       NODE(i + 1, j + 1, k),
-                                       NODE(i, j + 1, k),
-                                       NODE(i, j, k + 1),
-                                       NODE(i + 1, j, k + 1),
-                                       NODE(i + 1, j + 1, k + 1),
-                                       NODE(i, j + 1, k + 1)};
-                memcpy(hex + 8 * c++, h, sizeof h);
-            }
-#undef NODE
     pf_error err = {0};
-    assert_int_equal(pf_mesh_from_hexes(m, x, n, hex, c, &err), PF_OK);
+    pf_mesh box = {0};
+    make_box(&box, pf_v3(4, 1.5, 1), 8, 3, 2);
+    uint8_t keep[48];
+    assert_int_equal(box.n_elems, 48);
+    for (int32_t e = 0; e < box.n_elems; ++e) { /* the groove: hexes whose box is inside it */
+        pf_vec3 lo, hi;
+        elem_box(&box, e, &lo, &hi);
+        keep[e] = !(lo.y >= 0.5 - 1e-12 && hi.y <= 1 + 1e-12 && lo.z >= 0.5 - 1e-12);
+    }
+    assert_int_equal(pf_mesh_select_elements(m, &box, keep, NULL, &err), PF_OK);
     assert_int_equal(pf_mesh_derive(m, &err), PF_OK);
+    pf_mesh_release(&box);
 }
 
 /* The mesh's boundary as a closed surface on its nodes (a sliced mesh's surface is its
@@ -515,14 +528,8 @@ static void vertex_pieces(const pf_mesh *m, const int32_t *body, const pf_surfac
         const double *p = s->x + 3 * far[root_of(part, v)];
         piece[v] = -1;
         for (int32_t e = 0; e < m->n_elems && piece[v] < 0; ++e) {
-            pf_vec3 lo = pf_v3(INFINITY, INFINITY, INFINITY), hi = pf_v3_scale(lo, -1);
-            for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
-                int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
-                for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
-                    pf_vec3 x = pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]);
-                    lo = pf_v3_min(lo, x), hi = pf_v3_max(hi, x);
-                }
-            }
+            pf_vec3 lo, hi;
+            elem_box(m, e, &lo, &hi);
             if (p[0] >= lo.x - 1e-9 && p[0] <= hi.x + 1e-9 && p[1] >= lo.y - 1e-9 &&
                 p[1] <= hi.y + 1e-9 && p[2] >= lo.z - 1e-9 && p[2] <= hi.z + 1e-9)
                 piece[v] = body[e];
@@ -605,24 +612,13 @@ static double farthest_from_piece(const pf_sim *sim, double cut_x, double reach,
 static void test_surface_follows_its_piece(void **state)
 {
     (void)state;
-    pf_error err = {0};
     pf_mesh m = {0};
     make_channel(&m);
     pf_surface surf = {0};
     boundary_surface(&m, &surf);
     pf_weights w = {0};
-    assert_int_equal(pf_embed_compute(&m, &surf, NULL, &w, NULL, &err), PF_OK);
     pf_scene sc;
-    parse(&sc, "{\"gravity\": [0, 0, -9.81], \"ground\": false, \"damping\": {\"alpha\": 0},"
-               " \"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}}],"
-               " \"time\": {\"dt\": 0.02, \"substeps\": 2},"
-               " \"cuts\": [{\"plane\": {\"point\": [2.1, 0, 0], \"normal\": [1, 0, 0]},"
-               " \"time\": 0.1}]}");
-    pf_vec3 lo, hi;
-    pf_mesh_bounds(&m, &lo, &hi);
-    pf_scene_resolve(&sc, lo, hi);
-    pf_sim *sim = NULL;
-    assert_int_equal(pf_sim_create_embedded(&sim, &sc, &m, &surf, &w, &err), PF_OK);
+    pf_sim *sim = clamped_cut_sim(&sc, 0.1, &m, &surf, &w);
     run_frames(sim, 16);
     assert_int_equal(pf_sim_get_stats(sim)->bodies, 2);
     double cross, away, near = farthest_from_piece(sim, 2.1, 1.0, &away, &cross);

@@ -402,6 +402,42 @@ static int harmonic_weights(const harmonic_set *h, const locator *L, int32_t e, 
     return 1;
 }
 
+/* The closed forms of a tet or a hex, or the mean value coordinates of a general polyhedron;
+ * 0 when they cannot be evaluated (col then holds the element's distinct nodes, *n of them). */
+static int shape_weights(const pf_mesh *m, const locator *L, int32_t e, pf_vec3 p, uint32_t *col,
+                         double *val, int32_t *n)
+{
+    const uint32_t *nodes = L->geo.nodes + L->geo.node_offsets[e];
+    *n = (int32_t)(L->geo.node_offsets[e + 1] - L->geo.node_offsets[e]);
+    elem_form form = form_of(m, L, e, col);
+    if (form == FORM_TET) {
+        memcpy(col, nodes, 4 * sizeof *col);
+        return tet_weights(m->x, nodes, p, val);
+    }
+    if (form == FORM_HEX) {
+        *n = 8;
+        if (hex_weights(m->x, col, p, val))
+            return 1;
+        memcpy(col, nodes, 8 * sizeof *col);
+        return 0;
+    }
+    memcpy(col, nodes, (size_t)*n * sizeof *col);
+    int64_t t0 = L->geo.tri_offsets[e];
+    pf_error ignored = {0};
+    return pf_embed_mean_value(m->x, L->geo.tri + 3 * t0, (int32_t)(L->geo.tri_offsets[e + 1] - t0),
+                               nodes, *n, p, val, &ignored) >= 0;
+}
+
+int pf_embed_elem_weights(const pf_mesh *m, const locator *L, int32_t e, pf_vec3 p, uint32_t *col,
+                          double *val, double *scratch, int32_t *n, bool *fallback)
+{
+    *fallback = false;
+    if (shape_weights(m, L, e, p, col, val, n))
+        return 1;
+    *fallback = true;
+    return affine_fallback(m->x, col, *n, p, scratch, scratch + 3 * (size_t)*n, val);
+}
+
 /* A vertex with a side (on a cut, where the elements of both sides hold it) is located nudged
  * into its side by 1e-6 of its first element's size. */
 static void locate_all(locator *L, const pf_surface *s, const double *side, int32_t *elem_of,
@@ -432,7 +468,7 @@ pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, const double *ver
     harmonic_set h = {0};
     pf_status st = PF_OK;
     if (!PF_ALLOC_N(col, (size_t)cap) || !PF_ALLOC_N(val, (size_t)cap) ||
-        !PF_ALLOC_N(d, 3 * (size_t)cap) || !PF_ALLOC_N(ones, (size_t)cap) ||
+        !PF_ALLOC_N(d, 4 * (size_t)cap) || !PF_ALLOC_N(ones, (size_t)cap) ||
         !PF_ALLOC_N(elem_of, s->n_verts) || !PF_ALLOC_N(dist, s->n_verts))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for weights");
     if (st >= 0)
@@ -450,33 +486,19 @@ pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, const double *ver
         int32_t n = (int32_t)(L->geo.node_offsets[e + 1] - L->geo.node_offsets[e]);
         stats->n_by_kind[L->geo.kind[e]]++;
         int ok = 0;
-        elem_form form = form_of(m, L, e, col);
-        if (form == FORM_TET) {
-            memcpy(col, nodes, 4 * sizeof *col);
-            ok = tet_weights(m->x, nodes, p, val);
-        } else if (form == FORM_HEX) {
-            n = 8;
-            ok = hex_weights(m->x, col, p, val);
-            if (!ok)
-                memcpy(col, nodes, (size_t)n * sizeof *col);
-        } else if (harmonic) {
+        bool fallback = false;
+        if (harmonic && form_of(m, L, e, col) == FORM_GENERAL) {
             ok = harmonic_weights(&h, L, e, p, dist[v], col, val, &n);
             if (!ok) {
                 n = (int32_t)(L->geo.node_offsets[e + 1] - L->geo.node_offsets[e]);
                 memcpy(col, nodes, (size_t)n * sizeof *col);
+                fallback = true;
+                ok = affine_fallback(m->x, col, n, p, d, ones, val);
             }
         } else {
-            memcpy(col, nodes, (size_t)n * sizeof *col);
-            int64_t t0 = L->geo.tri_offsets[e];
-            pf_error ignored = {0};
-            ok = pf_embed_mean_value(m->x, L->geo.tri + 3 * t0,
-                                     (int32_t)(L->geo.tri_offsets[e + 1] - t0), nodes, n, p, val,
-                                     &ignored) >= 0;
+            ok = pf_embed_elem_weights(m, L, e, p, col, val, d, &n, &fallback);
         }
-        if (!ok) {
-            stats->n_fallback++;
-            ok = affine_fallback(m->x, col, n, p, d, ones, val);
-        }
+        stats->n_fallback += fallback;
         if (!ok)
             st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
                               "surface vertex %d: no usable weights in element %d", (int)v, (int)e);

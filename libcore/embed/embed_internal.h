@@ -73,6 +73,13 @@ double pf_point_triangle_distance(pf_vec3 p, pf_vec3 a, pf_vec3 b, pf_vec3 c);
 int pf_affine_fit_weights(const double *d, const double *theta, int32_t n, double min_spread,
                        double *out);
 
+/* The weights of p by element e's own functions (bary.c): barycentric on a tet, trilinear on a
+ * hex, mean value coordinates on a general polyhedron; where those cannot be evaluated (*fallback
+ * set), the affine least-squares fit of the element's nodes. col and val hold at least
+ * max(8, L->geo.max_nodes) entries, scratch 4 times that. Returns 0 when no fit exists. */
+int pf_embed_elem_weights(const pf_mesh *m, const locator *L, int32_t e, pf_vec3 p, uint32_t *col,
+                          double *val, double *scratch, int32_t *n, bool *fallback);
+
 /* The visibility rule (visibility.c): blocking faces of a mesh, each a plane and a polygon
  * projected on the coordinate plane most nearly parallel to it, in a bucket grid. */
 typedef struct visibility {
@@ -94,12 +101,23 @@ typedef struct visibility {
     uint32_t now;
     int32_t *cand;        /* [n_faces] the faces of the last gather, increasing */
     int32_t n_cand;
+    int32_t *elem_body;   /* [n_elems] the body of each element: the connected groups of
+                             elements through shared faces (the pieces a cut separated) */
+    int32_t *node_body;   /* [n_nodes] the body of the elements using a node; -1: none uses it,
+                             -2: elements of several bodies do (a mesh touching itself at a node) */
 } visibility;
 
 /* blocking[m->n_faces]: nonzero for blocking faces (may be none). PF_ERR_NOMEM. */
 pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *blocking,
                               pf_error *err);
 void pf_visibility_release(visibility *v);
+/* Whether a vertex of body `body` may take node: the node is of that body (or shared by
+ * several). */
+static inline bool pf_visibility_same_body(const visibility *v, int32_t body, int32_t node)
+{
+    int32_t b = v->node_body[node];
+    return b == body || b == -2;
+}
 /* Gathers the blocking faces whose boxes meet the cube of half side reach around x (the
  * candidates of the next queries); returns their count. */
 int32_t pf_visibility_gather(visibility *v, pf_vec3 x, double reach);

@@ -93,7 +93,22 @@ typedef struct mls_context {
     visibility *vis; /* NULL: no blocking faces */
     locator *L;
     pf_vec3 seen_from; /* the vertex, nudged into its side of a cut */
+    int32_t host;      /* with blocking faces: the element holding seen_from */
+    int32_t hidden;    /* nodes of the last gather within reach but hidden (a cut, a body) */
+    uint32_t *elem_col; /* [max(8, max_nodes)] the host element's own weights */
+    double *elem_val;   /* [same] */
+    double *elem_tmp;   /* [4 times that] */
 } mls_context;
+
+/* Near a cut, the visible support of a vertex may be truncated to a few nodes on one side of
+ * it; the affine fit then still reproduces affine fields but extrapolates: sum |W_i| grows, and
+ * with it the error on any non-affine motion (a bent or separating body) and on the DG
+ * displacement's jumps. Element shape functions have sum |W_i| = 1 inside a convex element;
+ * uncut MLS rows (support 2) stay well below 2: the sliced bunny's surface (pf-slice --res 8,
+ * vertices on the mesh's boundary) has median 1.08 and largest 1.45, a sphere inside a hex grid
+ * 1.00. A truncated fit with more than twice the amplification of an interpolation is not
+ * used: the vertex takes its host element's own weights. */
+#define MLS_MAX_AMPLIFICATION 2.0
 
 static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale, double rho,
                           pf_error *err)
@@ -104,8 +119,11 @@ static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale,
     double q2 = pf_v3_dot(d, d) / (r * r);
     if (q2 >= 1)
         return PF_OK;
-    if (c->vis && pf_visibility_blocked(c->vis, c->seen_from, node, xi))
+    if (c->vis && (!pf_visibility_same_body(c->vis, c->vis->elem_body[c->host], node) ||
+                   pf_visibility_blocked(c->vis, c->seen_from, node, xi))) {
+        c->hidden++;
         return PF_OK;
+    }
     return support_push(&c->s, (uint32_t)node, pf_v3_scale(d, 1.0 / rho),
                         kernel(q2, c->p->sharpness), err);
 }
@@ -115,6 +133,7 @@ static pf_status consider(mls_context *c, int32_t node, pf_vec3 x, double scale,
 static pf_status gather(mls_context *c, pf_vec3 x, double scale, pf_error *err)
 {
     c->s.n = 0;
+    c->hidden = 0;
     double rho = scale * c->r_max;
     int32_t cell[3];
     if (scale == 1) {
@@ -166,30 +185,32 @@ static pf_status build_grids(mls_context *c, pf_error *err)
     return st;
 }
 
-/* After the last growth step with blocking faces: the support's fit with any non-singular
- * covariance, else the affine least-squares fit of the nodes of the element holding the vertex
- * (seen from its side); c->s.n = 0 when neither works. */
-static pf_status visible_fallback(mls_context *c, pf_vec3 x, pf_error *err)
+static double amplification(const double *w, int32_t n)
 {
-    if (pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, 1e-12, c->s.val))
-        return PF_OK;
-    double dist;
-    int32_t e = pf_locator_find(c->L, c->seen_from, &dist);
-    const uint32_t *nodes = c->L->geo.nodes + c->L->geo.node_offsets[e];
-    int32_t n = (int32_t)(c->L->geo.node_offsets[e + 1] - c->L->geo.node_offsets[e]);
-    const double *box = c->L->geo.box + 6 * (size_t)e;
-    double size = fmax(box[3] - box[0], fmax(box[4] - box[1], box[5] - box[2]));
-    c->s.n = 0;
-    for (int32_t k = 0; k < n; ++k) {
-        pf_vec3 d = pf_v3_sub(pf_v3_load(c->m->x + 3 * (size_t)nodes[k]), x);
-        PF_TRY(support_push(&c->s, nodes[k], pf_v3_scale(d, 1.0 / size), 1.0, err));
-    }
-    if (!pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, 1e-12, c->s.val))
-        c->s.n = 0;
-    return PF_OK;
+    double sum = 0;
+    for (int32_t i = 0; i < n; ++i)
+        sum += fabs(w[i]);
+    return sum;
 }
 
-/* One vertex: grow the supports until the fit is well conditioned. */
+/* The host element's own weights (its nodes are of the vertex's body and side). */
+static pf_status host_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b,
+                          pf_embed_stats *stats, pf_error *err)
+{
+    int32_t n;
+    bool fallback;
+    PF_CHECK(pf_embed_elem_weights(c->m, c->L, c->host, x, c->elem_col, c->elem_val, c->elem_tmp,
+                                   &n, &fallback),
+             err, PF_ERR_NUMERIC, "surface vertex %d: no usable weights in its element %d", (int)v,
+             (int)c->host);
+    stats->n_fallback++;
+    return pf_row_builder_add(b, v, c->elem_col, c->elem_val, n, err);
+}
+
+/* One vertex: grow the supports until the fit is well conditioned. With blocking faces, a
+ * vertex whose support lost nodes to them (or to another body) and is then too flat, too small
+ * or extrapolates (MLS_MAX_AMPLIFICATION) takes its host element's weights instead: growing
+ * the support would reach around the cut's front or rim to nodes that do not move with it. */
 static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b,
                             pf_embed_stats *stats, pf_error *err)
 {
@@ -201,19 +222,16 @@ static pf_status vertex_row(mls_context *c, int32_t v, pf_vec3 x, row_builder *b
                 c->p->vertex_side
                     ? pf_visibility_nudge(c->vis, x, pf_v3_load(c->p->vertex_side + 3 * (size_t)v))
                     : x;
+            double dist;
+            if (step == 0)
+                c->host = pf_locator_find(c->L, c->seen_from, &dist);
         }
         PF_TRY(gather(c, x, scale, err));
-        if (pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, c->p->min_spread, c->s.val))
+        bool fit = pf_affine_fit_weights(c->s.d, c->s.theta, c->s.n, c->p->min_spread, c->s.val);
+        if (fit && (c->hidden == 0 || amplification(c->s.val, c->s.n) <= MLS_MAX_AMPLIFICATION))
             break;
-        if (c->vis && step == c->p->max_growth) {
-            /* the nodes it sees (a thin piece cut off) stay too flat: any non-singular fit, or
-             * the affine fit of its host element's nodes (located on its side) */
-            PF_TRY(visible_fallback(c, x, err));
-            if (c->s.n > 0) {
-                stats->n_fallback++;
-                break;
-            }
-        }
+        if (c->hidden > 0)
+            return host_row(c, v, x, b, stats, err);
         PF_CHECK(step < c->p->max_growth, err, PF_ERR_NUMERIC,
                  "surface vertex %d: the MLS support holds %d nodes, too few or too flat for an "
                  "affine fit even at %g times the radius",
@@ -245,6 +263,11 @@ pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_par
     if (st >= 0 && p->blocking_faces) {
         st = pf_visibility_build(&vis, m, p->blocking_faces, err);
         c.vis = &vis;
+        size_t cap = (size_t)(L->geo.max_nodes > 8 ? L->geo.max_nodes : 8);
+        if (st >= 0 && (!PF_ALLOC_N(c.elem_col, cap) || !PF_ALLOC_N(c.elem_val, cap) ||
+                        !PF_ALLOC_N(c.elem_tmp, 4 * cap)))
+            st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                              "out of memory for element weights of %d nodes", (int)cap);
     }
     for (int32_t v = 0; v < s->n_verts && st >= 0; ++v) {
         pf_vec3 x = pf_v3_load(s->x + 3 * (size_t)v);
@@ -258,6 +281,9 @@ pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_par
         st = vertex_row(&c, v, x, b, stats, err);
     }
     support_release(&c.s);
+    pf_free(c.elem_col);
+    pf_free(c.elem_val);
+    pf_free(c.elem_tmp);
     pf_visibility_release(&vis);
     pf_bucket_grid_release(&c.supports);
     pf_bucket_grid_release(&c.points);

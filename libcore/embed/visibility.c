@@ -16,7 +16,12 @@
  * inward normals of the blocking faces it is a corner of (so also from a vertex whose segment
  * runs along the cut's outer edge, just outside the faces). At the crack front a node is a
  * corner of both copies of a face, the normals cancel and the node, shared by both sides, is
- * seen from both. */
+ * seen from both.
+ *
+ * Line of sight alone does not keep a vertex to its piece: a segment from a vertex near the rim
+ * of a cut may leave the material and reach a node of the piece across the cut through the air
+ * around the cut's outer edge, without crossing a cut face. So a vertex also sees only the nodes
+ * of its own body, the connected group of elements (through shared faces) holding it. */
 #include "embed_internal.h"
 
 #include <string.h>
@@ -40,6 +45,8 @@ void pf_visibility_release(visibility *v)
     pf_free(v->node_tol);
     pf_free(v->stamp);
     pf_free(v->cand);
+    pf_free(v->elem_body);
+    pf_free(v->node_body);
     pf_bucket_grid_release(&v->grid);
     memset(v, 0, sizeof *v);
 }
@@ -62,6 +69,58 @@ static void axes_of(pf_vec3 n, uint8_t ax[2])
     int k = an[0] >= an[1] && an[0] >= an[2] ? 0 : an[1] >= an[2] ? 1 : 2;
     ax[0] = (uint8_t)((k + 1) % 3);
     ax[1] = (uint8_t)((k + 2) % 3);
+}
+
+/* The connected groups of elements through shared faces (union-find over the faces' first
+ * users), numbered in order of their first element, and each node's group. */
+static pf_status label_bodies(visibility *v, const pf_mesh *m, pf_error *err)
+{
+    int32_t *first = NULL, *parent = NULL;
+    if (!PF_ALLOC_N(v->elem_body, (size_t)m->n_elems + 1) ||
+        !PF_ALLOC_N(v->node_body, (size_t)m->n_nodes + 1) ||
+        !PF_ALLOC_N(first, (size_t)m->n_faces + 1) || !PF_ALLOC_N(parent, (size_t)m->n_elems + 1)) {
+        pf_free(first);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for the bodies of %d elements", (int)m->n_elems);
+    }
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        first[f] = -1;
+    for (int32_t e = 0; e < m->n_elems; ++e) {
+        parent[e] = e;
+        for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+            if (first[f] < 0) {
+                first[f] = e;
+                continue;
+            }
+            int32_t a = first[f], b = e;
+            while (parent[a] != a)
+                a = parent[a] = parent[parent[a]];
+            while (parent[b] != b)
+                b = parent[b] = parent[parent[b]];
+            parent[a > b ? a : b] = a < b ? a : b;
+        }
+    }
+    int32_t n = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e) { /* roots are the lowest element of their group */
+        int32_t r = e;
+        while (parent[r] != r)
+            r = parent[r];
+        v->elem_body[e] = r == e ? n++ : v->elem_body[r];
+    }
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        v->node_body[i] = -1;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+            for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
+                int32_t *b = &v->node_body[m->face_nodes[j]];
+                *b = *b == -1 || *b == v->elem_body[e] ? v->elem_body[e] : -2;
+            }
+        }
+    pf_free(first);
+    pf_free(parent);
+    return PF_OK;
 }
 
 pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *blocking,
@@ -92,6 +151,12 @@ pf_status pf_visibility_build(visibility *v, const pf_mesh *m, const uint8_t *bl
         pf_visibility_release(v);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "out of memory for %d blocking faces", (int)nb);
+    }
+    pf_status sb = label_bodies(v, m, err);
+    if (sb < 0) {
+        pf_free(orient);
+        pf_visibility_release(v);
+        return sb;
     }
     memset(orient, 0, (size_t)m->n_faces);
     face_orientation(m, blocking, orient);

@@ -78,7 +78,11 @@ typedef struct pf_embed_params {
      * on the face). The copies of a node on a cut, a corner of blocking faces where segments only
      * touch them, are hidden from every point behind them (against the sum of the inward normals
      * of their blocking faces, beyond the tolerance), so each side sees its own copy; a node of
-     * the crack front is a corner of both sides' faces and is seen from both. */
+     * the crack front is a corner of both sides' faces and is seen from both. A vertex sees only
+     * the nodes of its own body (the connected group of elements, through shared faces, holding
+     * it seen from its side): a segment around the rim of a cut, through the air, crosses no
+     * face. A vertex whose support lost nodes this way and is then too flat, or whose fit
+     * extrapolates (sum |W_i| > 2), takes its element's own weights (as PF_EMBED_BARY). */
     const uint8_t *blocking_faces;
     /* [3 s->n_verts], or NULL: for a vertex on a cut, a direction (any length) into the side it
      * belongs to; the zero vector for the others. MLS sees the nodes from the vertex nudged
@@ -99,10 +103,9 @@ typedef struct pf_embed_stats {
     int32_t n_fallback;      /* bary, harmonic: outside vertices weighted by the affine
                                 least-squares fit of their element's nodes (Newton or mean value
                                 coordinates failed; harmonic: farther outside than half the MFS
-                                kernel offset); MLS with blocking faces: vertices whose visible
-                                nodes stayed too flat after max_growth steps (a thin piece cut
-                                off), weighted by any non-singular fit of them, else by the
-                                affine fit of their element's nodes */
+                                kernel offset); MLS with blocking faces: vertices near a cut
+                                whose visible support was too flat or extrapolated, weighted by
+                                their element's own functions */
     int32_t n_harmonic;      /* harmonic: elements whose harmonic functions were built */
     double basis_seconds;    /* harmonic: wall clock of building them */
     int64_t nnz;

@@ -27,7 +27,10 @@
  * measures both). Cancelling the excess at the velocity before the step (its term on the
  * right-hand side) turns the dashpot into a mass of (beta h + h^2) 2 k per point instead: the
  * same bar then overshot its rest three times over. Only the exact term, which couples the two
- * sides in the pattern, is free of both. */
+ * sides in the pattern, is free of both: tried on DG (the pattern rebuilt once per mesh with every
+ * point's element paired with its twins' elements, k (a - b)(a - b)^T added), the pattern grew by
+ * 9 % (hexes) and 22 % (Kuhn tetrahedra) of its entries, the free body's momentum held to 5e-13
+ * and the compressed bars came to rest within 0.2 % of the uncut tip instead of creeping. */
 #include "contact_crack.h"
 
 #include <math.h>

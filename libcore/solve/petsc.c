@@ -249,6 +249,9 @@ static pf_status solve_body(engine *e, const PetscScalar *values, const double *
 static pf_status block_graph(const pf_block_matrix *a, PetscInt **ia, PetscInt **ja, pf_error *err)
 {
     PetscInt nb = a->n_blocks;
+    PF_CHECK(2 * (a->adj_offsets[nb] - nb) < PETSC_MAX_INT, err, PF_ERR_TOO_LARGE,
+             "%lld block couplings exceed PETSc's %d-bit indices",
+             (long long)(a->adj_offsets[nb] - nb), (int)(8 * sizeof(PetscInt)));
     PetscInt edges = (PetscInt)(2 * (a->adj_offsets[nb] - nb)), *fill;
     PETSC_TRY(PetscCalloc1(nb + 1, ia));
     PETSC_TRY(PetscMalloc1(edges + 1, ja));

@@ -39,6 +39,14 @@ for k in 1 2; do
 done
 check "two runs of DG on 4 ranks write the same stream" cmp -s "$tmp/run1/out.pfs" "$tmp/run2/out.pfs"
 
+# More ranks than elements: the partition leaves ranks without rows, which still take part.
+"$bin/pf-shape" box --extent 4,1,1 --cells 2,1,1 >"$tmp/two.pfs"
+"$bin/pf-sim" "$scenes/cantilever.json" --solver direct --quiet <"$tmp/two.pfs" >"$tmp/two_direct.pfs"
+expect 0 "on 4 ranks" mpi 4 "$bin/pf-sim" "$scenes/cantilever.json" --solver petsc \
+  --input "$tmp/two.pfs" --output "$tmp/two_petsc.pfs"
+got=$(tip "$tmp/two_petsc.pfs" 4,0.5,0.5)
+check "2 elements on 4 ranks: tip $got equals direct's to 1e-8" close "$got" "$(tip "$tmp/two_direct.pfs" 4,0.5,0.5)" 1e-8
+
 # PETSc's options pass through: MUMPS's distributed LU as CG's preconditioner solves in one
 # iteration; the tip is the same.
 expect 0 "1.0 iterations mean" mpi 2 "$bin/pf-sim" "$tmp/cg.json" --solver petsc \

@@ -8,9 +8,13 @@
  * which solver, sizes), then both sides run the same collective body: rank 0 supplies all the
  * data (matrix entries in COO form, whose off-process entries PETSc's MatSetValuesCOO moves to
  * their owners; vectors scattered from rank 0's whole copy with the scatter of
- * VecScatterCreateToZero run in reverse), the others none. Rows are split in contiguous blocks of
- * whole unknown triples (a triple is one node's, or one DG monomial's, three components), which
- * for both methods keeps an element's unknowns together on one rank.
+ * VecScatterCreateToZero run in reverse), the others none.
+ *
+ * Rows are distributed by a graph partition of the matrix's blocks (pf_block_matrix: a DG
+ * element's unknowns, or a CG node's three), made by PETSc's MatPartitioning with PT-Scotch on
+ * rank 0: rank r owns the blocks of part r, numbered in PETSc in pf's order within each part, so
+ * its rows are one contiguous range as PETSc requires; rank 0 keeps the map between pf's and
+ * PETSc's row numbers and applies it to the COO indices and the vectors it scatters and gathers.
  *
  * The pattern is set once (MatSetPreallocationCOO, both triangles of pf's upper-triangle storage
  * expanded); a solve whose matrix changed sends the values again (MatSetValuesCOO), which makes
@@ -25,6 +29,10 @@
 #ifdef PF_HAVE_PETSC
 
 #include <petscksp.h>
+
+/* PT-Scotch's (scotch.h), which PETSc's MatPartitioning runs: restarts its random generator from
+ * its fixed seed. Declared here: scotch.h wants its own integer types and MPI set up first. */
+void SCOTCH_randomReset(void);
 
 #define PETSC_TRY(call)                                                                            \
     do {                                                                                           \
@@ -48,6 +56,7 @@ typedef struct message {
 typedef struct engine {
     int64_t id;
     PetscInt n;
+    const int64_t *row; /* rank 0: [n] PETSc's row of each of pf's rows; NULL elsewhere */
     Mat a;
     KSP ksp;
     Vec x, b;           /* distributed */
@@ -58,6 +67,8 @@ typedef struct engine {
 
 struct pf_petsc_solver {
     engine e;
+    int64_t *row;   /* [n] PETSc's row of pf's row (pf_petsc_partition_rows) */
+    int64_t *count; /* [ranks] rows per rank */
     PetscCount n_coo;
     PetscScalar *coo_values; /* [n_coo] */
     bool values_pending;     /* changed values not yet sent (a solve with b = 0 skipped them) */
@@ -86,17 +97,24 @@ static void announce(message m)
 
 /* ---- the collective bodies --------------------------------------------------------------- */
 
-/* This rank's rows: whole triples (block size 3) when n is a multiple of 3. */
-static PetscInt local_rows(PetscInt n, PetscInt bs)
+/* This rank's row count from rank 0's count [ranks] (unread elsewhere). */
+static pf_status local_rows(const int64_t *count, PetscInt *local, pf_error *err)
 {
-    PetscInt blocks = n / bs, size = comm_size(), rank = comm_rank();
-    return bs * (blocks / size + (rank < blocks % size ? 1 : 0));
+    int64_t mine = count ? count[0] : 0;
+    if (comm_size() > 1 && MPI_Scatter(count, 1, MPI_INT64_T, &mine, 1, MPI_INT64_T, 0,
+                                       PETSC_COMM_WORLD) != MPI_SUCCESS)
+        return pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "MPI_Scatter of the row counts");
+    *local = (PetscInt)mine;
+    return PF_OK;
 }
 
-static pf_status create_body(engine *e, PetscInt n, double tolerance, PetscCount n_coo,
-                             PetscInt *coo_i, PetscInt *coo_j, pf_error *err)
+/* count: rank 0's rows per rank (NULL elsewhere); every count is a multiple of the block size
+ * when n is (whole blocks of triples). */
+static pf_status create_body(engine *e, PetscInt n, const int64_t *count, double tolerance,
+                             PetscCount n_coo, PetscInt *coo_i, PetscInt *coo_j, pf_error *err)
 {
-    PetscInt bs = n % 3 == 0 ? 3 : 1, local = local_rows(n, bs);
+    PetscInt bs = n % 3 == 0 ? 3 : 1, local = 0;
+    PF_TRY(local_rows(count, &local, err));
     e->n = n;
     PETSC_TRY(MatCreate(PETSC_COMM_WORLD, &e->a));
     PETSC_TRY(MatSetSizes(e->a, local, local, n, n));
@@ -136,7 +154,8 @@ static pf_status scatter_in(engine *e, const double *src, Vec dst, pf_error *err
     if (comm_rank() == 0) {
         PetscScalar *w;
         PETSC_TRY(VecGetArray(e->whole, &w));
-        memcpy(w, src, (size_t)e->n * sizeof *w);
+        for (PetscInt i = 0; i < e->n; ++i)
+            w[e->row[i]] = src[i];
         PETSC_TRY(VecRestoreArray(e->whole, &w));
     }
     PETSC_TRY(VecScatterBegin(e->to_zero, e->whole, dst, INSERT_VALUES, SCATTER_REVERSE));
@@ -152,7 +171,8 @@ static pf_status gather(engine *e, Vec src, double *dst, pf_error *err)
     if (comm_rank() == 0) {
         const PetscScalar *w;
         PETSC_TRY(VecGetArrayRead(e->whole, &w));
-        memcpy(dst, w, (size_t)e->n * sizeof *dst);
+        for (PetscInt i = 0; i < e->n; ++i)
+            dst[i] = w[e->row[i]];
         PETSC_TRY(VecRestoreArrayRead(e->whole, &w));
     }
     return PF_OK;
@@ -221,6 +241,103 @@ static pf_status solve_body(engine *e, const PetscScalar *values, const double *
     return gather(e, e->x, x, err);
 }
 
+/* ---- the partition of the rows ------------------------------------------------------------ */
+
+/* a's block graph, both directions and no self loops, in compressed rows allocated with
+ * PetscMalloc (MatCreateMPIAdj takes them over). Rows come out sorted: block i receives its lower
+ * neighbours from its own block column, then its higher ones in ascending column order. */
+static pf_status block_graph(const pf_block_matrix *a, PetscInt **ia, PetscInt **ja, pf_error *err)
+{
+    PetscInt nb = a->n_blocks;
+    PF_CHECK(2 * (a->adj_offsets[nb] - nb) < PETSC_MAX_INT, err, PF_ERR_TOO_LARGE,
+             "%lld block couplings exceed PETSc's %d-bit indices",
+             (long long)(a->adj_offsets[nb] - nb), (int)(8 * sizeof(PetscInt)));
+    PetscInt edges = (PetscInt)(2 * (a->adj_offsets[nb] - nb)), *fill;
+    PETSC_TRY(PetscCalloc1(nb + 1, ia));
+    PETSC_TRY(PetscMalloc1(edges + 1, ja));
+    PETSC_TRY(PetscMalloc1(nb + 1, &fill));
+    for (PetscInt j = 0; j < nb; ++j)
+        for (int64_t k = a->adj_offsets[j]; k < a->adj_offsets[j + 1] - 1; ++k) {
+            (*ia)[a->adj[k] + 1]++;
+            (*ia)[j + 1]++;
+        }
+    for (PetscInt b = 0; b < nb; ++b)
+        (*ia)[b + 1] += (*ia)[b];
+    memcpy(fill, *ia, (size_t)nb * sizeof *fill);
+    for (PetscInt j = 0; j < nb; ++j)
+        for (int64_t k = a->adj_offsets[j]; k < a->adj_offsets[j + 1] - 1; ++k) {
+            PetscInt i = a->adj[k];
+            (*ja)[fill[j]++] = i;
+            (*ja)[fill[i]++] = j;
+        }
+    PETSC_TRY(PetscFree(fill));
+    return PF_OK;
+}
+
+/* part[b] in [0, parts) for every block: MatPartitioning on this process alone, PT-Scotch unless
+ * PETSc's options (-mat_partitioning_type) say otherwise. Scotch's random generator is reset
+ * first, so the same matrix and part count give the same partition, whatever ran before. */
+static pf_status block_parts(const pf_block_matrix *a, PetscInt parts, int64_t *part, pf_error *err)
+{
+    PetscInt *ia = NULL, *ja = NULL;
+    PF_TRY(block_graph(a, &ia, &ja, err));
+    Mat adj;
+    MatPartitioning mp;
+    IS is;
+    const PetscInt *p;
+    PETSC_TRY(MatCreateMPIAdj(PETSC_COMM_SELF, a->n_blocks, a->n_blocks, ia, ja, NULL, &adj));
+    PETSC_TRY(MatPartitioningCreate(PETSC_COMM_SELF, &mp));
+    PETSC_TRY(MatPartitioningSetAdjacency(mp, adj));
+    PETSC_TRY(MatPartitioningSetNParts(mp, parts));
+    PETSC_TRY(MatPartitioningSetType(mp, MATPARTITIONINGPTSCOTCH));
+    PETSC_TRY(MatPartitioningSetFromOptions(mp));
+    SCOTCH_randomReset();
+    PETSC_TRY(MatPartitioningApply(mp, &is));
+    PETSC_TRY(ISGetIndices(is, &p));
+    pf_status st = PF_OK;
+    for (int32_t b = 0; b < a->n_blocks && st >= 0; ++b) {
+        part[b] = p[b];
+        if (p[b] < 0 || p[b] >= parts)
+            st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
+                              "the partitioner put block %d in part %d of %d", (int)b, (int)p[b],
+                              (int)parts);
+    }
+    PETSC_TRY(ISRestoreIndices(is, &p));
+    PETSC_TRY(ISDestroy(&is));
+    PETSC_TRY(MatPartitioningDestroy(&mp));
+    PETSC_TRY(MatDestroy(&adj)); /* frees ia and ja */
+    return st;
+}
+
+pf_status pf_petsc_partition_rows(const pf_block_matrix *a, int32_t parts, int64_t *row,
+                                  int64_t *count, pf_error *err)
+{
+    PF_CHECK(parts >= 1, err, PF_ERR_INVALID, "%d parts", (int)parts);
+    int64_t *part = pf_alloc_array((size_t)a->n_blocks + 1, sizeof *part);
+    int64_t *next = pf_alloc_array((size_t)parts, sizeof *next);
+    pf_status st = part && next ? PF_OK
+                                : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                               "cannot partition %d blocks", (int)a->n_blocks);
+    if (st >= 0 && parts > 1)
+        st = block_parts(a, parts, part, err);
+    else if (st >= 0)
+        memset(part, 0, (size_t)a->n_blocks * sizeof *part);
+    if (st >= 0) {
+        memset(count, 0, (size_t)parts * sizeof *count);
+        for (int32_t b = 0; b < a->n_blocks; ++b)
+            count[part[b]] += a->block_start[b + 1] - a->block_start[b];
+        int64_t at = 0;
+        for (int32_t r = 0; r < parts; at += count[r++])
+            next[r] = at;
+        for (int32_t b = 0; b < a->n_blocks; ++b)
+            for (int64_t i = a->block_start[b]; i < a->block_start[b + 1]; ++i)
+                row[i] = next[part[b]]++;
+    }
+    pf_free(part);
+    pf_free(next);
+    return st;
+}
+
 /* ---- rank 0's side ----------------------------------------------------------------------- */
 
 /* The COO list of a's full symmetric matrix: each stored upper entry (r, c) as (r, c) and, off
@@ -263,27 +380,37 @@ pf_status pf_petsc_solver_create(pf_petsc_solver **out, const pf_block_matrix *a
     size_t m = (size_t)p->n_coo + 1;
     PetscInt *ci = pf_alloc_array(m, sizeof *ci), *cj = pf_alloc_array(m, sizeof *cj);
     p->coo_values = pf_alloc_array(m, sizeof *p->coo_values);
-    if (!ci || !cj || !p->coo_values) {
+    p->row = pf_alloc_array((size_t)a->n + 1, sizeof *p->row);
+    p->count = pf_alloc_array((size_t)comm_size(), sizeof *p->count);
+    if (!ci || !cj || !p->coo_values || !p->row || !p->count) {
         pf_free(ci);
         pf_free(cj);
         pf_petsc_solver_destroy(&p);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "cannot allocate %lld matrix entries for PETSc", (long long)m);
     }
+    pf_status st = pf_petsc_partition_rows(a, comm_size(), p->row, p->count, err);
+    if (st < 0) {
+        pf_free(ci);
+        pf_free(cj);
+        pf_petsc_solver_destroy(&p);
+        return st;
+    }
     PetscCount q = 0;
     for (int64_t c = 0; c < a->n; ++c)
         for (int64_t k = a->col_ptr[c]; k < a->col_ptr[c + 1]; ++k) {
-            PetscInt r = (PetscInt)a->row_idx[k];
+            PetscInt r = (PetscInt)p->row[a->row_idx[k]], pc = (PetscInt)p->row[c];
             ci[q] = r;
-            cj[q++] = (PetscInt)c;
-            if (r != c) {
-                ci[q] = (PetscInt)c;
+            cj[q++] = pc;
+            if (r != pc) {
+                ci[q] = pc;
                 cj[q++] = r;
             }
         }
     p->e.id = (int64_t)(uintptr_t)p;
+    p->e.row = p->row;
     announce((message){.command = CMD_CREATE, .id = p->e.id, .n = a->n, .tolerance = tolerance});
-    pf_status st = create_body(&p->e, (PetscInt)a->n, tolerance, p->n_coo, ci, cj, err);
+    st = create_body(&p->e, (PetscInt)a->n, p->count, tolerance, p->n_coo, ci, cj, err);
     pf_free(ci);
     pf_free(cj);
     if (st < 0)
@@ -297,9 +424,13 @@ void pf_petsc_solver_destroy(pf_petsc_solver **pp)
     pf_petsc_solver *p = *pp;
     if (!p)
         return;
-    announce((message){.command = CMD_DESTROY, .id = p->e.id});
-    destroy_body(&p->e);
+    if (p->e.id) { /* announced: the serving ranks hold its engine */
+        announce((message){.command = CMD_DESTROY, .id = p->e.id});
+        destroy_body(&p->e);
+    }
     pf_free(p->coo_values);
+    pf_free(p->row);
+    pf_free(p->count);
     pf_free(p);
     *pp = NULL;
 }
@@ -429,7 +560,7 @@ pf_status pf_petsc_serve(int *exit_code, pf_error *err)
             e->id = m.id;
             e->next = list;
             list = e;
-            create_body(e, (PetscInt)m.n, m.tolerance, 0, NULL, NULL, &ignored);
+            create_body(e, (PetscInt)m.n, NULL, m.tolerance, 0, NULL, NULL, &ignored);
         } else if (!e) {
             continue; /* a solver whose creation failed on rank 0 before it was announced */
         } else if (m.command == CMD_NULL_SPACE) {
@@ -498,6 +629,13 @@ pf_status pf_petsc_serve(int *exit_code, pf_error *err)
 void pf_petsc_finalize(int exit_code)
 {
     (void)exit_code;
+}
+
+pf_status pf_petsc_partition_rows(const pf_block_matrix *a, int32_t parts, int64_t *row,
+                                  int64_t *count, pf_error *err)
+{
+    (void)a, (void)parts, (void)row, (void)count;
+    return not_built(err);
 }
 
 pf_status pf_petsc_solver_create(pf_petsc_solver **p, const pf_block_matrix *a, double tolerance,

@@ -14,6 +14,14 @@ pf_status pf_petsc_solver_create(pf_petsc_solver **p, const pf_block_matrix *a, 
                                  pf_error *err);
 void pf_petsc_solver_destroy(pf_petsc_solver **p);
 
+/* How the rows are distributed over parts ranks: a's blocks (pf_block_matrix) partitioned by
+ * PETSc's MatPartitioning (PT-Scotch) on their coupling graph, whole blocks per part; count[r]
+ * rows for part r, and row[i] the PETSc row of a's row i: part r's rows in a's order from
+ * count[0] + ... + count[r - 1]. One part: the identity. Deterministic for a given matrix pattern
+ * and parts. PF_ERR_INVALID without PETSc or for parts < 1. */
+pf_status pf_petsc_partition_rows(const pf_block_matrix *a, int32_t parts, int64_t *row,
+                                  int64_t *count, pf_error *err);
+
 /* GAMG's near-null space: k vectors [k][n], orthonormalised on the way. */
 pf_status pf_petsc_solver_near_null_space(pf_petsc_solver *p, int32_t k, const double *vectors,
                                           pf_error *err);

@@ -240,9 +240,10 @@ const pf_solver_stats *pf_solver_get_stats(const pf_solver *s);
 /* ==== PETSc and MPI ==========================================================================
  * An MPI run (mpirun -n N prog) where one process, rank 0, does everything but the linear
  * algebra: it reads, assembles and writes as a one-process run does, and its petsc solvers hand
- * each matrix and right-hand side to PETSc, which distributes them over all ranks (contiguous
- * blocks of unknown triples) and solves there. The other ranks only serve: pf_petsc_serve runs
- * the collective half of every solver call rank 0 makes, until rank 0 finalises. */
+ * each matrix and right-hand side to PETSc, which distributes them over all ranks (whole blocks
+ * of the pf_block_matrix, grouped by a PT-Scotch partition of their couplings) and solves there.
+ * The other ranks only serve: pf_petsc_serve runs the collective half of every solver call rank 0
+ * makes, until rank 0 finalises. */
 
 /* Whether this libpf was built with PETSc (-DPF_PETSC=ON). */
 bool pf_petsc_available(void);

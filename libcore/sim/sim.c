@@ -188,6 +188,22 @@ static const struct {
     pf_method_create_fn create;
 } METHODS[] = {{PF_METHOD_DG, pf_sim_dg_create}, {PF_METHOD_CG, pf_sim_cg_create}};
 
+/* The scene's solver, except that auto keeps pcg once it chose it on the mesh before a change
+ * (solver_before.method, set by pf_sim_change_mesh): auto weighs a factorisation against PCG
+ * iterations by flops, and a cut that leaves separate pieces lowers the factorisation's flops
+ * far more than its time (its supernodes shrink, and CHOLMOD's rate per flop with them). On the
+ * 1,200 Kuhn tets of bench_cut steps, DG degree 1, three cuts took a factorisation from 26 to 8
+ * modelled iterations, below auto's 10, while it still cost about 19 measured ones: every step
+ * after the cuts refactorised (73 ms per step against 32 before, bench/results/cut_steps.csv).
+ * Direct is re-judged on the new mesh: a refinement can make a cheap factorisation costly. */
+static pf_solver_params solver_params(const pf_sim *s)
+{
+    pf_solver_params params = s->scene->solver;
+    if (params.method == PF_SOLVER_AUTO && s->solver_before.method == PF_SOLVER_PCG)
+        params.method = PF_SOLVER_PCG;
+    return params;
+}
+
 pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *reuse, double penalty,
                        pf_error *err)
 {
@@ -221,7 +237,8 @@ pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *re
         st = setup_contact(s, err);
     if (st >= 0) {
         bool changes = !scene->is_static && (scene->corotation || s->contact);
-        st = pf_solver_create(&s->solver, &s->k, &scene->solver, changes, err);
+        pf_solver_params params = solver_params(s);
+        st = pf_solver_create(&s->solver, &s->k, &params, changes, err);
     }
     if (st >= 0)
         st = set_rigid_modes(s, err);

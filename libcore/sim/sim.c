@@ -28,6 +28,8 @@ static pf_status allocate_state(pf_sim *s, pf_error *err)
         *vectors[k] = pf_calloc(n ? n : 1, sizeof(double));
         PF_CHECK(*vectors[k], err, PF_ERR_NOMEM, "cannot allocate %zu unknowns", n);
     }
+    s->rot = pf_alloc_array(3 * n + 1, sizeof *s->rot);
+    PF_CHECK(s->rot, err, PF_ERR_NOMEM, "cannot allocate the rotations of %zu unknowns", n);
     return PF_OK;
 }
 
@@ -288,6 +290,8 @@ void pf_sim_release(pf_sim *s)
         pf_free(*vectors[k]);
         *vectors[k] = NULL;
     }
+    pf_free(s->rot);
+    s->rot = NULL;
     pf_block_matrix_release(&s->k);
     pf_solver_destroy(&s->solver);
     pf_contact_destroy(&s->contact);
@@ -360,6 +364,11 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     double t0 = pf_time_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
+    if (sc->corotation && s->ops->triple_rotations &&
+        pf_solver_get_stats(s->solver)->method == PF_SOLVER_PCG) {
+        s->ops->triple_rotations(s->method, s->rot);
+        PF_TRY(pf_solver_set_rotations(s->solver, s->rot, err));
+    }
     s->stats.assemble_seconds += pf_time_seconds() - t0;
     if (contacts > 0) {
         pf_contact_forces(s->contact, s->u, s->f);

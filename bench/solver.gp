@@ -1,7 +1,7 @@
 # The solver policy: (a) CPU per corotated step against one factorisation of the same matrix,
 # direct and pcg, on the SOFA beams (bench_solver beam); (b) PCG iterations per step against the
 # rotation speed of a free body (bench_solver spin).
-# gnuplot bench/solver.gp   (writes solver.png)
+# gnuplot bench/solver.gp   (writes solver.png; bench/results/solver.png: -e "out='bench/results/solver.png'")
 # optional: -e "beam='...csv'; spin='...csv'; out='other.png'"
 if (!exists("beam")) beam = 'bench/results/solver_beam.csv'
 if (!exists("spin")) spin = 'bench/results/solver_spin.csv'
@@ -20,10 +20,12 @@ set ylabel 'step / factorisation'
 set style data histograms
 set style fill solid 0.6
 set yrange [0:*]
+set xtics rotate by -25 font ',9'
 plot beam using 10:xtic(sprintf("%s %s %s", stringcolumn(1), stringcolumn(2), stringcolumn(3))) \
      every ::1 notitle
 
 # columns: 1 omega, 2 factorisations per 100 steps, 3 pcg mean, 4 pcg max
+set xtics norotate font ''
 set title 'free body spinning: PCG iterations per step'
 set xlabel 'rad/s'
 set ylabel 'iterations'

@@ -196,8 +196,9 @@ static const struct {
  * far more than its time (its supernodes shrink, and CHOLMOD's rate per flop with them). On the
  * 1,200 Kuhn tets of bench_cut steps, DG degree 1, three cuts took a factorisation from 26 to 8
  * modelled iterations, below auto's 10, while it still cost about 19 measured ones: every step
- * after the cuts refactorised (73 ms per step against 32 before, bench/results/cut_steps.csv).
- * Direct is re-judged on the new mesh: a refinement can make a cheap factorisation costly. */
+ * after the cuts refactorised (73 ms per step against 32 before; with pcg kept, 30 against 42,
+ * bench/results/cut_steps.csv). Direct is re-judged on the new mesh: a refinement can make a
+ * cheap factorisation costly. */
 static pf_solver_params solver_params(const pf_sim *s)
 {
     pf_solver_params params = s->scene->solver;

@@ -1,7 +1,7 @@
 # The solver policy: (a) CPU per corotated step against one factorisation of the same matrix,
 # direct and pcg, on the SOFA beams (bench_solver beam); (b) PCG iterations per step against the
 # rotation speed of a free body (bench_solver spin).
-# gnuplot bench/solver.gp   (writes solver.png)
+# gnuplot bench/solver.gp   (writes solver.png; bench/results/solver.png: -e "out='bench/results/solver.png'")
 # optional: -e "beam='...csv'; spin='...csv'; out='other.png'"
 if (!exists("beam")) beam = 'bench/results/solver_beam.csv'
 if (!exists("spin")) spin = 'bench/results/solver_spin.csv'
@@ -26,6 +26,7 @@ plot beam using 10:xtic(sprintf("%s %s %s", stringcolumn(1), stringcolumn(2), st
      every ::1 notitle
 
 # columns: 1 omega, 2 factorisations per 100 steps, 3 pcg mean, 4 pcg max
+set xtics norotate font ''
 set title 'free body spinning: PCG iterations per step'
 set xlabel 'rad/s'
 set ylabel 'iterations'

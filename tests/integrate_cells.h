@@ -53,20 +53,7 @@ static inline real factorial(int n)
     return f;
 }
 
-/* ---- deterministic random numbers, rotations ------------------------------------------------ */
-
-static inline pf_mat3 random_rotation(rng *r)
-{
-    double w, x, y, z, n;
-    do {
-        w = uniform(r), x = uniform(r), y = uniform(r), z = uniform(r);
-        n = sqrt(w * w + x * x + y * y + z * z);
-    } while (n < 0.1 || n > 1);
-    w /= n, x /= n, y /= n, z /= n;
-    return (pf_mat3){{{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
-                      {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
-                      {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
-}
+/* ---- deterministic random numbers (rotations: test_random.h) ------------------------------- */
 
 static inline void no_leaks(void)
 {

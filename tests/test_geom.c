@@ -30,20 +30,6 @@ static pf_mat3 random_matrix(rng *r)
     return a;
 }
 
-/* Rotation from a random unit quaternion: independent of the code under test. */
-static pf_mat3 random_rotation(rng *r)
-{
-    double w, x, y, z, n;
-    do {
-        w = uniform(r), x = uniform(r), y = uniform(r), z = uniform(r);
-        n = sqrt(w * w + x * x + y * y + z * z);
-    } while (n < 0.1 || n > 1);
-    w /= n, x /= n, y /= n, z /= n;
-    return (pf_mat3){{{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
-                      {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
-                      {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
-}
-
 static pf_mat3 diag(double a, double b, double c)
 {
     return (pf_mat3){{{a, 0, 0}, {0, b, 0}, {0, 0, c}}};

@@ -288,19 +288,6 @@ static void transform(shape *s, pf_mat3 r, pf_vec3 t)
         pf_v3_store(pf_v3_add(pf_m3_mulv(r, pf_v3_load(s->x + 3 * i)), t), s->x + 3 * i);
 }
 
-static pf_mat3 random_rotation(rng *r)
-{
-    double w, x, y, z, n;
-    do {
-        w = uniform_in(r, -1, 1), x = uniform_in(r, -1, 1), y = uniform_in(r, -1, 1), z = uniform_in(r, -1, 1);
-        n = sqrt(w * w + x * x + y * y + z * z);
-    } while (n < 0.1 || n > 1);
-    w /= n, x /= n, y /= n, z /= n;
-    return (pf_mat3){{{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
-                      {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
-                      {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
-}
-
 /* ---- checking a split ------------------------------------------------------------------------ */
 
 typedef struct outcome {

@@ -29,6 +29,8 @@ static pf_status allocate_state(pf_sim *s, pf_error *err)
         *vectors[k] = pf_calloc(n ? n : 1, sizeof(double));
         PF_CHECK(*vectors[k], err, PF_ERR_NOMEM, "cannot allocate %zu unknowns", n);
     }
+    s->rot = pf_alloc_array(3 * n + 1, sizeof *s->rot);
+    PF_CHECK(s->rot, err, PF_ERR_NOMEM, "cannot allocate the rotations of %zu unknowns", n);
     return PF_OK;
 }
 
@@ -190,6 +192,23 @@ static const struct {
     pf_method_create_fn create;
 } METHODS[] = {{PF_METHOD_DG, pf_sim_dg_create}, {PF_METHOD_CG, pf_sim_cg_create}};
 
+/* The scene's solver, except that auto keeps pcg once it chose it on the mesh before a change
+ * (solver_before.method, set by pf_sim_change_mesh): auto weighs a factorisation against PCG
+ * iterations by flops, and a cut that leaves separate pieces lowers the factorisation's flops
+ * far more than its time (its supernodes shrink, and CHOLMOD's rate per flop with them). On the
+ * 1,200 Kuhn tets of bench_cut steps, DG degree 1, three cuts took a factorisation from 26 to 8
+ * modelled iterations, below auto's 10, while it still cost about 19 measured ones: every step
+ * after the cuts refactorised (73 ms per step against 32 before; with pcg kept, 30 against 42,
+ * bench/results/cut_steps.csv). Direct is re-judged on the new mesh: a refinement can make a
+ * cheap factorisation costly. */
+static pf_solver_params solver_params(const pf_sim *s)
+{
+    pf_solver_params params = s->scene->solver;
+    if (params.method == PF_SOLVER_AUTO && s->solver_before.method == PF_SOLVER_PCG)
+        params.method = PF_SOLVER_PCG;
+    return params;
+}
+
 pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *reuse, double penalty,
                        pf_error *err)
 {
@@ -223,7 +242,8 @@ pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *re
         st = setup_contact(s, err);
     if (st >= 0) {
         bool changes = !scene->is_static && (scene->corotation || s->contact || s->crack);
-        st = pf_solver_create(&s->solver, &s->k, &scene->solver, changes, err);
+        pf_solver_params params = solver_params(s);
+        st = pf_solver_create(&s->solver, &s->k, &params, changes, err);
     }
     if (st >= 0)
         st = set_rigid_modes(s, err);
@@ -274,6 +294,8 @@ void pf_sim_release(pf_sim *s)
         pf_free(*vectors[k]);
         *vectors[k] = NULL;
     }
+    pf_free(s->rot);
+    s->rot = NULL;
     pf_block_matrix_release(&s->k);
     pf_solver_destroy(&s->solver);
     pf_contact_destroy(&s->contact);
@@ -348,6 +370,11 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
+    if (sc->corotation && s->ops->triple_rotations &&
+        pf_solver_get_stats(s->solver)->method == PF_SOLVER_PCG) {
+        s->ops->triple_rotations(s->method, s->rot);
+        PF_TRY(pf_solver_set_rotations(s->solver, s->rot, err));
+    }
     s->stats.assemble_seconds += pf_time_seconds() - t0;
     s->stats.assemble_cpu_seconds += pf_cpu_seconds() - cpu0;
     if (contacts > 0) {

@@ -77,6 +77,7 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
     t->scene = s->scene;
     t->surface = s->surface;
     t->uncut_surface = s->uncut_surface;
+    t->solver_before.method = pf_solver_get_stats(s->solver)->method; /* auto's choice goes on */
     t->owned_mesh = pf_calloc(1, sizeof *t->owned_mesh);
     PF_CHECK(t->owned_mesh, err, PF_ERR_NOMEM, "cannot allocate the new mesh");
     *t->owned_mesh = *mesh;

@@ -36,6 +36,7 @@ struct pf_sim {
     double *f, *ku, *rhs;
     double *u_prev, *v_prev; /* the state before the frame, restored on failure */
     double *dv;              /* the last step's velocity change (the warm start's trend) */
+    double *rot;             /* [3 n] the rotation of every unknown triple (pcg's warp) */
     pf_block_matrix k;
     pf_solver *solver;
     bool assembled;      /* the system matrix has been assembled once (it changes afterwards only

@@ -229,6 +229,13 @@ pf_status pf_solver_factor(pf_solver *s, const pf_block_matrix *a, int64_t *fail
 pf_status pf_solver_set_near_null_space(pf_solver *s, int32_t k, const double *vectors,
                                         pf_error *err);
 
+/* The rotation of every unknown triple (unknowns 3 t .. 3 t + 2 a 3-vector) in the coming
+ * solve's matrix, rot [n / 3][9] row-major (copied), or NULL for none: a corotated matrix whose
+ * triples turned by R since the factor's were at R_f is close to Q A_f Q^T, Q = R R_f^T per
+ * triple, so pcg preconditions with Q A_f^-1 Q^T (the warp). Solves without rotations, and
+ * factors made without them, precondition with A_f^-1 alone. PF_ERR_NOMEM. */
+pf_status pf_solver_set_rotations(pf_solver *s, const double *rot, pf_error *err);
+
 /* Forgets the factor (the next solve factorises): after a failed step whose state was undone. */
 void pf_solver_reset(pf_solver *s);
 

@@ -96,6 +96,16 @@ typedef struct pf_method_ops {
     void (*destroy)(void *m);
 } pf_method_ops;
 
+/* The automatic contact stiffness per point for a method whose elements have the mean size h
+ * (model units): ten times (lambda + 2 mu) h of the stiffest material of table[n], an element's
+ * stiffness against a push of its own size. One rule for every method. */
+static inline double pf_method_ground_stiffness(const pf_material *table, int32_t n, double h)
+{
+    double modulus, per_density;
+    pf_material_stiffest(table, n, &modulus, &per_density);
+    return 10 * modulus * h;
+}
+
 /* Sorts a row of n triples ascending, their weights alongside (insertion sort: rows hold a few
  * dozen entries). */
 static inline void sort_row(int64_t *triple, double *w, int64_t n)

@@ -103,8 +103,8 @@ static void external_forces(const void *m, double *f)
             f[3 * (size_t)i + d] += nodal[3 * (size_t)c->map.block_node[i] + d];
 }
 
-/* (lambda + 2 mu) h, h the mean element size (half the nodes' bounding-box diagonal), times ten:
- * the DG method's rule. */
+/* pf_method_ground_stiffness with h the mean element size (half the nodes' bounding-box
+ * diagonal). */
 static double ground_stiffness(const void *m)
 {
     const cg_method *c = m;
@@ -112,9 +112,7 @@ static double ground_stiffness(const void *m)
     for (int32_t e = 0; e < c->cg.n_elems; ++e)
         h += c->cg.size[e];
     h /= c->cg.n_elems > 0 ? c->cg.n_elems : 1;
-    double modulus, per_density;
-    pf_material_stiffest(c->cg.materials, c->cg.n_materials, &modulus, &per_density);
-    return 10 * modulus * h;
+    return pf_method_ground_stiffness(c->cg.materials, c->cg.n_materials, h);
 }
 
 /* The nodal map of method.h: weight 1 on a free node's own triple. A fixed node has no entry: no

@@ -104,7 +104,7 @@ static void external_forces(const void *m, double *f)
         pf_dg_add_gravity(&d->dg, g, b, f);
 }
 
-/* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
+/* pf_method_ground_stiffness with h the mean element size (frame half-diagonal). */
 static double ground_stiffness(const void *m)
 {
     const dg_method *d = m;
@@ -112,9 +112,7 @@ static double ground_stiffness(const void *m)
     for (int32_t e = 0; e < d->dg.n_elems; ++e)
         h += d->dg.frame[e].scale;
     h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
-    double modulus, per_density;
-    pf_material_stiffest(d->dg.materials, d->dg.n_materials, &modulus, &per_density);
-    return 10 * modulus * h;
+    return pf_method_ground_stiffness(d->dg.materials, d->dg.n_materials, h);
 }
 
 static void set_penalty(void *m, double eta)

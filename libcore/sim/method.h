@@ -106,6 +106,28 @@ static inline double pf_method_ground_stiffness(const pf_material *table, int32_
     return 10 * modulus * h;
 }
 
+/* The scene's fixed region that holds boundary face f of m (centroid c): the first that selects
+ * it (pf_region_selects_face), or -1. Both methods fix a face by this rule (DG weakly on the face,
+ * CG strongly at its nodes). */
+static inline int32_t pf_method_fixed_region(const pf_scene *sc, const pf_mesh *m, int32_t f,
+                                             pf_vec3 c)
+{
+    for (int32_t k = 0; k < sc->n_fixed; ++k)
+        if (pf_region_selects_face(&sc->fixed[k].region, m, f, c))
+            return k;
+    return -1;
+}
+
+/* Whether some load region of the scene selects boundary face f of m (centroid c). */
+static inline bool pf_method_face_loaded(const pf_scene *sc, const pf_mesh *m, int32_t f,
+                                         pf_vec3 c)
+{
+    for (int32_t k = 0; k < sc->n_loads; ++k)
+        if (pf_region_selects_face(&sc->loads[k].region, m, f, c))
+            return true;
+    return false;
+}
+
 /* Sorts a row of n triples ascending, their weights alongside (insertion sort: rows hold a few
  * dozen entries). */
 static inline void sort_row(int64_t *triple, double *w, int64_t n)

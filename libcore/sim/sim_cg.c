@@ -485,22 +485,15 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
         const uint32_t *idx = mesh->face_nodes + mesh->face_offsets[f];
         int64_t n = mesh->face_offsets[f + 1] - mesh->face_offsets[f];
         pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
-        for (int32_t k = 0; k < sc->n_fixed; ++k)
-            if (pf_region_selects_face(&sc->fixed[k].region, mesh, f, centroid)) {
-                for (int64_t q = 0; q < n; ++q) {
-                    if (c->fixed[idx[q]])
-                        continue;
-                    c->fixed[idx[q]] = 1;
-                    pf_v3_store(sc->fixed[k].displacement, c->g + 3 * (size_t)idx[q]);
-                }
-                ++*fixed_faces;
-                break;
-            }
-        for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_selects_face(&sc->loads[k].region, mesh, f, centroid)) {
-                ++*loaded_faces;
-                break;
-            }
+        int32_t k = pf_method_fixed_region(sc, mesh, f, centroid);
+        for (int64_t q = 0; k >= 0 && q < n; ++q) {
+            if (c->fixed[idx[q]])
+                continue;
+            c->fixed[idx[q]] = 1;
+            pf_v3_store(sc->fixed[k].displacement, c->g + 3 * (size_t)idx[q]);
+        }
+        *fixed_faces += k >= 0;
+        *loaded_faces += pf_method_face_loaded(sc, mesh, f, centroid);
     }
     (void)err;
     return PF_OK;

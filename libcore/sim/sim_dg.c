@@ -436,17 +436,10 @@ static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loade
     *fixed_faces = *loaded_faces = 0;
     for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
         const pf_dg_face *face = &d->dg.faces[q];
-        for (int32_t k = 0; k < sc->n_fixed; ++k)
-            if (pf_region_selects_face(&sc->fixed[k].region, d->mesh, face->face, face->centroid)) {
-                d->face_fixed[face->face] = k;
-                ++*fixed_faces;
-                break;
-            }
-        for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_selects_face(&sc->loads[k].region, d->mesh, face->face, face->centroid)) {
-                ++*loaded_faces;
-                break;
-            }
+        int32_t k = pf_method_fixed_region(sc, d->mesh, face->face, face->centroid);
+        d->face_fixed[face->face] = k;
+        *fixed_faces += k >= 0;
+        *loaded_faces += pf_method_face_loaded(sc, d->mesh, face->face, face->centroid);
     }
     d->terms.ip = sc->flux == PF_FLUX_IP;
     d->terms.eta = sc->penalty > 0 ? sc->penalty : 1;

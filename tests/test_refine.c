@@ -596,18 +596,26 @@ static void test_tets(void **state)
     pf_mesh_release(&src);
 }
 
+/* The unit sphere of bands x 2 bands facets sliced res across (pf_mesh_slice's defaults). */
+static pf_mesh sliced_sphere(int32_t bands, int32_t res)
+{
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_mesh m = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, bands, 2 * bands, &err), PF_OK);
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.res = res;
+    assert_int_equal(pf_mesh_slice(&m, &s, &p, NULL, &err), PF_OK);
+    pf_surface_release(&s);
+    return m;
+}
+
 /* A sphere sliced on a 4^3 grid (hexes inside, exact non-convex-faced polyhedra at the surface):
  * every other element by octs, the others by halves along varied normals, in a scrambled order. */
 static void test_sliced_sphere(void **state)
 {
     (void)state;
-    pf_error err = {0};
-    pf_surface s = {0};
-    pf_mesh src = {0}, dst = {0};
-    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
-    pf_slice_params p = pf_slice_params_default();
-    p.grid.res = 4;
-    assert_int_equal(pf_mesh_slice(&src, &s, &p, NULL, &err), PF_OK);
+    pf_mesh src = sliced_sphere(8, 4), dst = {0};
     int32_t n = src.n_elems;
     pf_refine_request *req = calloc((size_t)n, sizeof *req);
     assert_non_null(req);
@@ -637,7 +645,6 @@ static void test_sliced_sphere(void **state)
     pf_mesh_release(&dst);
     free(req);
     pf_mesh_release(&src);
-    pf_surface_release(&s);
 }
 
 /* Shortest edge of any face of m over that face's diameter. */
@@ -671,12 +678,7 @@ static void test_sliced_sphere_all_octs(void **state)
 {
     (void)state;
     pf_error err = {0};
-    pf_surface s = {0};
-    pf_mesh src = {0}, dst = {0};
-    assert_int_equal(pf_surface_make_sphere(&s, 1, 32, 64, &err), PF_OK);
-    pf_slice_params p = pf_slice_params_default();
-    p.grid.res = 6;
-    assert_int_equal(pf_mesh_slice(&src, &s, &p, NULL, &err), PF_OK);
+    pf_mesh src = sliced_sphere(32, 6), dst = {0};
     pf_refine_request *req = calloc((size_t)src.n_elems, sizeof *req);
     assert_non_null(req);
     for (int32_t e = 0; e < src.n_elems; ++e)
@@ -696,7 +698,6 @@ static void test_sliced_sphere_all_octs(void **state)
     pf_mesh_release(&dst);
     free(req);
     pf_mesh_release(&src);
-    pf_surface_release(&s);
 }
 
 /* Random requests (about a third of the elements, either kind, random normals, random order),

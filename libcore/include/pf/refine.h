@@ -67,7 +67,11 @@ extern "C" {
  * of ~1e-11 of their face that the harmonic basis merges (pf_basis_params.merge_tol, 1e-9),
  * leaving a face with collinear nodes, or a split inconsistent. Planes no node lies off by more
  * than 1e-11 of the diagonal (rounding) are kept bit for bit (boxes: the exact planes); cut
- * planes (PF_SPLIT_PLANE) are never moved: they are the blade's, the same in every cell. */
+ * planes (PF_SPLIT_PLANE) are never moved: they are the blade's, the same in every cell.
+ * Limit: a snapped plane leaves its nodes up to this far from where a neighbour's later plane
+ * passes; where that neighbour's near nodes are not coplanar no snap applies, and a face a few
+ * 1e-7 wide can still be made, which the harmonic basis refuses as collinear (seen after
+ * several stress-driven refinements of a sphere sliced 6 across). */
 #define PF_REFINE_SNAP 1e-6
 
 typedef enum pf_split_kind {

@@ -128,6 +128,21 @@ static inline bool pf_method_face_loaded(const pf_scene *sc, const pf_mesh *m, i
     return false;
 }
 
+/* One mass-matrix pair's share of the kinetic energy 1/2 v^T M v, the linear momentum and the
+ * angular momentum int rho (x + u) x v, both methods writing the velocity and the deformed
+ * position through their functions (M_ab = int rho phi_a phi_b, x + u = sum_a x_a phi_a): with
+ * the pair's mass m_ab, position x_a and velocities v_a, v_b, adds 1/2 m_ab v_a . v_b to *ke,
+ * m_ab x_a x v_b to *angular and, when linear, m_ab v_b to *p (CG: every pair, as the functions
+ * sum to 1; DG: the pairs of its constant function phi_0 = 1 only). */
+static inline void pf_method_momentum_pair(double mab, pf_vec3 xa, pf_vec3 va, pf_vec3 vb,
+                                           bool linear, double *ke, pf_vec3 *p, pf_vec3 *angular)
+{
+    *ke += 0.5 * mab * pf_v3_dot(va, vb);
+    if (linear)
+        *p = pf_v3_add(*p, pf_v3_scale(vb, mab));
+    *angular = pf_v3_add(*angular, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+}
+
 /* Sorts a row of n triples ascending, their weights alongside (insertion sort: rows hold a few
  * dozen entries). */
 static inline void sort_row(int64_t *triple, double *w, int64_t n)

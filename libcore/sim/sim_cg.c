@@ -262,9 +262,7 @@ static void momentum(const void *m, const double *u, const double *v, double *ki
             pf_vec3 vi = pf_v3_load(v + 3 * (size_t)i);
             pf_vec3 xi =
                 pf_v3_add(pf_v3_load(c->mesh->x + 3 * (size_t)node), pf_v3_load(u + 3 * (size_t)i));
-            ke += 0.5 * mi * pf_v3_dot(vi, vi);
-            p = pf_v3_add(p, pf_v3_scale(vi, mi));
-            l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xi, vi), mi));
+            pf_method_momentum_pair(mi, xi, vi, vi, true, &ke, &p, &l);
         }
     } else {
         for (int32_t e = 0; e < cg->n_elems; ++e) {
@@ -282,10 +280,7 @@ static void momentum(const void *m, const double *u, const double *v, double *ki
                     if (j < 0)
                         continue;
                     pf_vec3 vb = pf_v3_load(v + 3 * (size_t)j);
-                    double mab = me[a * k + b];
-                    ke += 0.5 * mab * pf_v3_dot(va, vb);
-                    p = pf_v3_add(p, pf_v3_scale(vb, mab));
-                    l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+                    pf_method_momentum_pair(me[a * k + b], xa, va, vb, true, &ke, &p, &l);
                 }
             }
         }

@@ -246,10 +246,7 @@ static void momentum(const void *m, const double *u, const double *v, double *ki
                 pf_vec3 vb = {ve[3 * b], ve[3 * b + 1], ve[3 * b + 2]};
                 pf_vec3 xa = {xe[3 * a] + ue[3 * a], xe[3 * a + 1] + ue[3 * a + 1],
                               xe[3 * a + 2] + ue[3 * a + 2]};
-                ke += 0.5 * mab * pf_v3_dot(va, vb);
-                if (a == 0)
-                    p = pf_v3_add(p, pf_v3_scale(vb, mab));
-                l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+                pf_method_momentum_pair(mab, xa, va, vb, a == 0, &ke, &p, &l);
             }
     }
     *kinetic = ke;

@@ -24,6 +24,7 @@
 
 #include "test_check.h"
 #include "test_random.h"
+#include <pf/basis.h>
 #include <pf/geom.h>
 #include <pf/mesh.h>
 #include <pf/refine.h>
@@ -381,8 +382,10 @@ static void test_neighbour_halves(void **state)
 
 /* A plane that contains two edges of a cube up to 5e-14 (within pf_poly_split's tolerance): two
  * prisms on the cube's own nodes, no sliver faces, and the neighbour across x = 1, which the plane
- * only touches along an edge, is left alone. A plane 1e-6 from those edges crosses them and four
- * more edges near their ends (6 new nodes) and cuts a thin triangle off the shared face. */
+ * only touches along an edge, is left alone. A plane 7e-7 from those edges (within PF_REFINE_SNAP
+ * = 1e-6 of the cube's diagonal) is snapped onto them: the same two prisms. A plane 7e-6 from
+ * them crosses them and four more edges near their ends (6 new nodes) and cuts a thin triangle
+ * off the shared face. */
 static void test_plane_near_vertex(void **state)
 {
     (void)state;
@@ -402,6 +405,16 @@ static void test_plane_near_vertex(void **state)
     pf_mesh_release(&dst);
 
     req.normal = pf_v3(1, 1, 2e-6);
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_children, 2);
+    assert_int_equal(dst.n_nodes, src.n_nodes);
+    for (int c = 0; c < 2; ++c)
+        assert_near(pf_mesh_elem_volume(&dst, c), 0.5, 1e-14);
+    assert_int_equal(res.n_neighbours_changed, 0);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+
+    req.normal = pf_v3(1, 1, 2e-5);
     refine_ok(&src, &req, 1, &dst, &res);
     assert_int_equal(res.n_children, 2);
     assert_int_equal(dst.n_nodes, src.n_nodes + 6);
@@ -583,18 +596,26 @@ static void test_tets(void **state)
     pf_mesh_release(&src);
 }
 
+/* The unit sphere of bands x 2 bands facets sliced res across (pf_mesh_slice's defaults). */
+static pf_mesh sliced_sphere(int32_t bands, int32_t res)
+{
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_mesh m = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, bands, 2 * bands, &err), PF_OK);
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.res = res;
+    assert_int_equal(pf_mesh_slice(&m, &s, &p, NULL, &err), PF_OK);
+    pf_surface_release(&s);
+    return m;
+}
+
 /* A sphere sliced on a 4^3 grid (hexes inside, exact non-convex-faced polyhedra at the surface):
  * every other element by octs, the others by halves along varied normals, in a scrambled order. */
 static void test_sliced_sphere(void **state)
 {
     (void)state;
-    pf_error err = {0};
-    pf_surface s = {0};
-    pf_mesh src = {0}, dst = {0};
-    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
-    pf_slice_params p = pf_slice_params_default();
-    p.grid.res = 4;
-    assert_int_equal(pf_mesh_slice(&src, &s, &p, NULL, &err), PF_OK);
+    pf_mesh src = sliced_sphere(8, 4), dst = {0};
     int32_t n = src.n_elems;
     pf_refine_request *req = calloc((size_t)n, sizeof *req);
     assert_non_null(req);
@@ -624,7 +645,59 @@ static void test_sliced_sphere(void **state)
     pf_mesh_release(&dst);
     free(req);
     pf_mesh_release(&src);
-    pf_surface_release(&s);
+}
+
+/* Shortest edge of any face of m over that face's diameter. */
+static double shortest_relative_edge(const pf_mesh *m)
+{
+    double worst = INFINITY;
+    for (int32_t f = 0; f < m->n_faces; ++f) {
+        int64_t k0 = m->face_offsets[f], n = m->face_offsets[f + 1] - k0;
+        double diam = 0, edge = INFINITY;
+        const uint32_t *fn = m->face_nodes + k0;
+        for (int64_t a = 0; a < n; ++a) {
+            pf_vec3 pa = pf_v3_load(m->x + 3 * (size_t)fn[a]);
+            for (int64_t b = a + 1; b < n; ++b)
+                diam = fmax(diam, pf_v3_dist(pa, pf_v3_load(m->x + 3 * (size_t)fn[b])));
+            edge = fmin(edge, pf_v3_dist(pa, pf_v3_load(m->x + 3 * (size_t)fn[(a + 1) % n])));
+        }
+        worst = fmin(worst, edge / diam);
+    }
+    return worst;
+}
+
+/* The sphere of pf-shape (radius 1, 32 x 64 facets) sliced 6 across, every element by octs: the
+ * octs planes of its nearly symmetric cells pass within ~1e-9 of their corners and those of
+ * mirror-symmetric neighbours differ by rounding, which made edges of ~1e-11 of their face (the
+ * harmonic basis merged their nodes, 1e-9 of the face, and refused the face as collinear) and
+ * made a split inconsistent. Snapped (PF_REFINE_SNAP), the mesh is valid with volumes exact
+ * (check_refined, 1e-12), no split adds an edge below 1e-9 of its face (the source's shortest
+ * is 1.1e-5, the refined mesh's 1.2e-7; before the snap 7e-12) and the harmonic basis builds on
+ * every element. */
+static void test_sliced_sphere_all_octs(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_mesh src = sliced_sphere(32, 6), dst = {0};
+    pf_refine_request *req = calloc((size_t)src.n_elems, sizeof *req);
+    assert_non_null(req);
+    for (int32_t e = 0; e < src.n_elems; ++e)
+        req[e] = (pf_refine_request){.elem = e, .kind = PF_SPLIT_OCTS};
+    pf_refine_result res;
+    refine_ok(&src, req, src.n_elems, &dst, &res);
+    assert_int_equal(res.n_split, src.n_elems);
+    double shortest = shortest_relative_edge(&dst);
+    printf("sliced sphere 6 across, all octs: %d -> %d elements, shortest edge %.3g of its face\n",
+           (int)src.n_elems, (int)dst.n_elems, shortest);
+    assert_true(shortest > 1e-9);
+    pf_basis b = {0};
+    pf_status st = pf_basis_create(&b, &dst, NULL, &err);
+    CHECKF(st == PF_OK, "basis on the refined sphere: %s", err.msg);
+    pf_basis_release(&b);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    free(req);
+    pf_mesh_release(&src);
 }
 
 /* Random requests (about a third of the elements, either kind, random normals, random order),
@@ -862,6 +935,7 @@ int main(void)
         cmocka_unit_test(test_sliver_skipped),
         cmocka_unit_test(test_tets),
         cmocka_unit_test(test_sliced_sphere),
+        cmocka_unit_test(test_sliced_sphere_all_octs),
         cmocka_unit_test(test_random_requests),
         cmocka_unit_test(test_kuhn_halves_then_octs),
         cmocka_unit_test(test_random_sequences),

@@ -221,14 +221,15 @@ pf_status pf_refine_element_axes(const pf_polyhedron *p, double *vol, pf_vec3 *c
 
 /* ---- the planes applied to every piece ----------------------------------------------------- */
 
-/* Splits every piece of L->cur by pl into L->next; *cut when some piece was split, *smallest the
- * smallest resulting volume. */
-static pf_status split_all(refine_local *L, const pf_plane *pl, bool closed, bool *cut,
+/* Splits every piece of L->cur by pl into L->next (on-plane tolerance tol, 0: pf_poly_split's);
+ * *cut when some piece was split, *smallest the smallest resulting volume. */
+static pf_status split_all(refine_local *L, const pf_plane *pl, double tol, bool closed, bool *cut,
                            double *smallest, pf_error *err)
 {
     refine_pieces *cur = &L->cur, *next = &L->next;
     pf_refine_pieces_clear(next);
     pf_split_params sp = pf_split_params_default();
+    sp.tol = tol;
     sp.assume_closed = closed; /* pieces of a split are closed; the element is checked */
     *cut = false;
     pf_status st = PF_OK;
@@ -280,6 +281,114 @@ static pf_status split_all(refine_local *L, const pf_plane *pl, bool closed, boo
     return PF_OK;
 }
 
+/* ---- planes through the nodes near them ------------------------------------------------------ */
+
+/* The bounding-box diagonal of the element (its own nodes, before any plane). */
+static double element_diagonal(const refine_local *L)
+{
+    pf_vec3 lo = pf_v3_load(L->x), hi = lo;
+    for (int32_t i = 1; i < L->n_orig; ++i) {
+        pf_vec3 p = pf_v3_load(L->x + 3 * (size_t)i);
+        lo = pf_v3(fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z));
+        hi = pf_v3(fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z));
+    }
+    return pf_v3_dist(lo, hi);
+}
+
+/* The least change of pl, a turn and a shift, that puts the nodes of L within band of it on it:
+ * with pl's normal n, two unit vectors t1, t2 across it, the near nodes' mean r and
+ * y_i = (x_i - r) / diag, the plane (n + a t1 + b t2) . (x - r) = h + e diag (h: pl's offset at
+ * r) holds node i when a t1.y_i + b t2.y_i - e = -d_i / diag, d_i its distance from pl. The
+ * least-squares solution of least norm (a, b, e) comes from the normal equations through their
+ * eigenvectors, eigenvalues below 1e-12 of the largest dropped (near nodes along a line leave
+ * the turn about it free: none is taken). *resid: the largest distance of a near node from the
+ * result (pl itself when no node is near). */
+static pf_plane fit_plane(const refine_local *L, pf_plane pl, double diag, double band,
+                          double *resid)
+{
+    pf_vec3 r = pf_v3(0, 0, 0);
+    int32_t n_near = 0;
+    for (int32_t i = 0; i < L->n; ++i) {
+        pf_vec3 x = pf_v3_load(L->x + 3 * (size_t)i);
+        if (fabs(pf_plane_signed_distance(pl, x)) < band) {
+            r = pf_v3_add(r, x);
+            n_near++;
+        }
+    }
+    *resid = 0;
+    if (n_near == 0)
+        return pl;
+    r = pf_v3_scale(r, 1.0 / n_near);
+    pf_vec3 t1 =
+        pf_v3_normalize(pf_v3_cross(pl.n, fabs(pl.n.x) < 0.6 ? pf_v3(1, 0, 0) : pf_v3(0, 1, 0)));
+    pf_vec3 t2 = pf_v3_cross(pl.n, t1);
+    pf_mat3 m = {{{0}}};
+    double rhs[3] = {0, 0, 0};
+    for (int32_t i = 0; i < L->n; ++i) {
+        pf_vec3 x = pf_v3_load(L->x + 3 * (size_t)i);
+        double d = pf_plane_signed_distance(pl, x);
+        if (!(fabs(d) < band))
+            continue;
+        pf_vec3 y = pf_v3_scale(pf_v3_sub(x, r), 1.0 / diag);
+        double row[3] = {pf_v3_dot(t1, y), pf_v3_dot(t2, y), -1};
+        for (int a = 0; a < 3; ++a) {
+            rhs[a] -= row[a] * d / diag;
+            for (int b = 0; b < 3; ++b)
+                m.m[a][b] += row[a] * row[b];
+        }
+    }
+    double val[3];
+    pf_mat3 v;
+    pf_mat3_sym_eigen(m, val, &v);
+    double u[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+        if (!(val[k] > 1e-12 * val[2]))
+            continue;
+        double c = (v.m[0][k] * rhs[0] + v.m[1][k] * rhs[1] + v.m[2][k] * rhs[2]) / val[k];
+        for (int a = 0; a < 3; ++a)
+            u[a] += c * v.m[a][k];
+    }
+    pf_vec3 nn = pf_v3_add(pl.n, pf_v3_add(pf_v3_scale(t1, u[0]), pf_v3_scale(t2, u[1])));
+    double len = pf_v3_norm(nn), h = pl.d - pf_v3_dot(pl.n, r);
+    pf_plane fit = {pf_v3_scale(nn, 1.0 / len), (h + u[2] * diag + pf_v3_dot(nn, r)) / len};
+    for (int32_t i = 0; i < L->n; ++i) {
+        pf_vec3 x = pf_v3_load(L->x + 3 * (size_t)i);
+        if (fabs(pf_plane_signed_distance(pl, x)) < band)
+            *resid = fmax(*resid, fabs(pf_plane_signed_distance(fit, x)));
+    }
+    return fit;
+}
+
+/* The plane an octs or halves split uses instead of pl, and its on-plane tolerance *tol (0:
+ * pf_poly_split's own; PF_REFINE_SNAP): the nodes within PF_REFINE_SNAP of the diagonal (else
+ * within 1e-8) are put on it by fit_plane when they are coplanar to 1e-10 of the diagonal, and
+ * *tol is raised to twice what they stay off it, at least 1e-10 of the diagonal (a cap stays
+ * planar to 1e-10 of the element, within pf_mesh_validate's 1e-9 of the face for caps down to a
+ * tenth of the element). Then no node lies off the plane by less than the band: the split makes
+ * no edge shorter than that. pl stays as it is when no node lies off it by more than 1e-11 of
+ * the diagonal (rounding: boxes keep their exact planes) or when no band fits. */
+static pf_plane snap_plane(const refine_local *L, pf_plane pl, double diag, double *tol)
+{
+    *tol = 0;
+    bool off = false;
+    for (int32_t i = 0; i < L->n && !off; ++i) {
+        double d = fabs(pf_plane_signed_distance(pl, pf_v3_load(L->x + 3 * (size_t)i)));
+        off = d > 1e-11 * diag && d < PF_REFINE_SNAP * diag;
+    }
+    if (!off)
+        return pl;
+    const double bands[2] = {PF_REFINE_SNAP, 1e-8};
+    for (int k = 0; k < 2; ++k) {
+        double resid;
+        pf_plane fit = fit_plane(L, pl, diag, bands[k] * diag, &resid);
+        if (resid <= 1e-10 * diag) {
+            *tol = fmax(2 * resid, 1e-10 * diag);
+            return fit;
+        }
+    }
+    return pl;
+}
+
 pf_status pf_refine_split_local(refine_local *L, const pf_refine_request *req, double vol,
                                 pf_vec3 centroid, const pf_vec3 axes[3], int32_t *planes_applied,
                                 int32_t *planes_skipped, pf_error *err)
@@ -287,16 +396,20 @@ pf_status pf_refine_split_local(refine_local *L, const pf_refine_request *req, d
     *planes_applied = 0;
     *planes_skipped = 0;
     int n_planes = req->kind == PF_SPLIT_OCTS ? 3 : 1;
+    double diag = element_diagonal(L);
     double min_fraction = req->min_fraction > 0 ? req->min_fraction : PF_REFINE_MIN_FRACTION;
     double min_piece = fmax(min_fraction * vol, req->min_volume);
     for (int i = 0; i < n_planes; ++i) {
         pf_vec3 n = req->kind == PF_SPLIT_OCTS ? axes[i] : req->normal;
         pf_vec3 at = req->kind == PF_SPLIT_PLANE ? req->point : centroid;
         pf_plane pl = pf_plane_from_point_normal(at, n);
+        double tol = 0;
+        if (req->kind != PF_SPLIT_PLANE) /* a cut's plane is the blade's, the same in every cell */
+            pl = snap_plane(L, pl, diag, &tol);
         int32_t n_before = L->n;
         bool cut;
         double smallest;
-        PF_TRY(split_all(L, &pl, *planes_applied > 0, &cut, &smallest, err));
+        PF_TRY(split_all(L, &pl, tol, *planes_applied > 0, &cut, &smallest, err));
         if (!cut || smallest < min_piece) {
             L->n = n_before; /* the trial's nodes are dropped with it */
             if (cut)

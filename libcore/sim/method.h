@@ -104,6 +104,53 @@ typedef struct pf_method_ops {
     void (*destroy)(void *m);
 } pf_method_ops;
 
+/* The automatic contact stiffness per point for a method whose elements have the mean size h
+ * (model units): ten times (lambda + 2 mu) h of the stiffest material of table[n], an element's
+ * stiffness against a push of its own size. One rule for every method. */
+static inline double pf_method_ground_stiffness(const pf_material *table, int32_t n, double h)
+{
+    double modulus, per_density;
+    pf_material_stiffest(table, n, &modulus, &per_density);
+    return 10 * modulus * h;
+}
+
+/* The scene's fixed region that holds boundary face f of m (centroid c): the first that selects
+ * it (pf_region_selects_face), or -1. Both methods fix a face by this rule (DG weakly on the face,
+ * CG strongly at its nodes). */
+static inline int32_t pf_method_fixed_region(const pf_scene *sc, const pf_mesh *m, int32_t f,
+                                             pf_vec3 c)
+{
+    for (int32_t k = 0; k < sc->n_fixed; ++k)
+        if (pf_region_selects_face(&sc->fixed[k].region, m, f, c))
+            return k;
+    return -1;
+}
+
+/* Whether some load region of the scene selects boundary face f of m (centroid c). */
+static inline bool pf_method_face_loaded(const pf_scene *sc, const pf_mesh *m, int32_t f,
+                                         pf_vec3 c)
+{
+    for (int32_t k = 0; k < sc->n_loads; ++k)
+        if (pf_region_selects_face(&sc->loads[k].region, m, f, c))
+            return true;
+    return false;
+}
+
+/* One mass-matrix pair's share of the kinetic energy 1/2 v^T M v, the linear momentum and the
+ * angular momentum int rho (x + u) x v, both methods writing the velocity and the deformed
+ * position through their functions (M_ab = int rho phi_a phi_b, x + u = sum_a x_a phi_a): with
+ * the pair's mass m_ab, position x_a and velocities v_a, v_b, adds 1/2 m_ab v_a . v_b to *ke,
+ * m_ab x_a x v_b to *angular and, when linear, m_ab v_b to *p (CG: every pair, as the functions
+ * sum to 1; DG: the pairs of its constant function phi_0 = 1 only). */
+static inline void pf_method_momentum_pair(double mab, pf_vec3 xa, pf_vec3 va, pf_vec3 vb,
+                                           bool linear, double *ke, pf_vec3 *p, pf_vec3 *angular)
+{
+    *ke += 0.5 * mab * pf_v3_dot(va, vb);
+    if (linear)
+        *p = pf_v3_add(*p, pf_v3_scale(vb, mab));
+    *angular = pf_v3_add(*angular, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+}
+
 /* Sorts a row of n triples ascending, their weights alongside (insertion sort: rows hold a few
  * dozen entries). */
 static inline void sort_row(int64_t *triple, double *w, int64_t n)

@@ -131,8 +131,8 @@ static void external_forces(const void *m, double *f)
             f[3 * (size_t)i + d] += nodal[3 * (size_t)c->map.block_node[i] + d];
 }
 
-/* (lambda + 2 mu) h, h the mean element size (half the nodes' bounding-box diagonal), times ten:
- * the DG method's rule. */
+/* pf_method_ground_stiffness with h the mean element size (half the nodes' bounding-box
+ * diagonal). */
 static double ground_stiffness(const void *m)
 {
     const cg_method *c = m;
@@ -140,9 +140,7 @@ static double ground_stiffness(const void *m)
     for (int32_t e = 0; e < c->cg.n_elems; ++e)
         h += c->cg.size[e];
     h /= c->cg.n_elems > 0 ? c->cg.n_elems : 1;
-    double modulus, per_density;
-    pf_material_stiffest(c->cg.materials, c->cg.n_materials, &modulus, &per_density);
-    return 10 * modulus * h;
+    return pf_method_ground_stiffness(c->cg.materials, c->cg.n_materials, h);
 }
 
 /* The nodal map of method.h: weight 1 on a free node's own triple. A fixed node has no entry: no
@@ -292,9 +290,7 @@ static void momentum(const void *m, const double *u, const double *v, double *ki
             pf_vec3 vi = pf_v3_load(v + 3 * (size_t)i);
             pf_vec3 xi =
                 pf_v3_add(pf_v3_load(c->mesh->x + 3 * (size_t)node), pf_v3_load(u + 3 * (size_t)i));
-            ke += 0.5 * mi * pf_v3_dot(vi, vi);
-            p = pf_v3_add(p, pf_v3_scale(vi, mi));
-            l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xi, vi), mi));
+            pf_method_momentum_pair(mi, xi, vi, vi, true, &ke, &p, &l);
         }
     } else {
         for (int32_t e = 0; e < cg->n_elems; ++e) {
@@ -312,10 +308,7 @@ static void momentum(const void *m, const double *u, const double *v, double *ki
                     if (j < 0)
                         continue;
                     pf_vec3 vb = pf_v3_load(v + 3 * (size_t)j);
-                    double mab = me[a * k + b];
-                    ke += 0.5 * mab * pf_v3_dot(va, vb);
-                    p = pf_v3_add(p, pf_v3_scale(vb, mab));
-                    l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+                    pf_method_momentum_pair(me[a * k + b], xa, va, vb, true, &ke, &p, &l);
                 }
             }
         }
@@ -516,22 +509,15 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
         const uint32_t *idx = mesh->face_nodes + mesh->face_offsets[f];
         int64_t n = mesh->face_offsets[f + 1] - mesh->face_offsets[f];
         pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
-        for (int32_t k = 0; k < sc->n_fixed; ++k)
-            if (pf_region_selects_face(&sc->fixed[k].region, mesh, f, centroid)) {
-                for (int64_t q = 0; q < n; ++q) {
-                    if (c->fixed[idx[q]])
-                        continue;
-                    c->fixed[idx[q]] = 1;
-                    pf_v3_store(sc->fixed[k].displacement, c->g + 3 * (size_t)idx[q]);
-                }
-                ++*fixed_faces;
-                break;
-            }
-        for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_selects_face(&sc->loads[k].region, mesh, f, centroid)) {
-                ++*loaded_faces;
-                break;
-            }
+        int32_t k = pf_method_fixed_region(sc, mesh, f, centroid);
+        for (int64_t q = 0; k >= 0 && q < n; ++q) {
+            if (c->fixed[idx[q]])
+                continue;
+            c->fixed[idx[q]] = 1;
+            pf_v3_store(sc->fixed[k].displacement, c->g + 3 * (size_t)idx[q]);
+        }
+        *fixed_faces += k >= 0;
+        *loaded_faces += pf_method_face_loaded(sc, mesh, f, centroid);
     }
     (void)err;
     return PF_OK;

@@ -104,7 +104,7 @@ static void external_forces(const void *m, double *f)
         pf_dg_add_gravity(&d->dg, g, b, f);
 }
 
-/* (lambda + 2 mu) h, h the mean element size (frame half-diagonal), times ten. */
+/* pf_method_ground_stiffness with h the mean element size (frame half-diagonal). */
 static double ground_stiffness(const void *m)
 {
     const dg_method *d = m;
@@ -112,9 +112,7 @@ static double ground_stiffness(const void *m)
     for (int32_t e = 0; e < d->dg.n_elems; ++e)
         h += d->dg.frame[e].scale;
     h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
-    double modulus, per_density;
-    pf_material_stiffest(d->dg.materials, d->dg.n_materials, &modulus, &per_density);
-    return 10 * modulus * h;
+    return pf_method_ground_stiffness(d->dg.materials, d->dg.n_materials, h);
 }
 
 static void set_penalty(void *m, double eta)
@@ -248,10 +246,7 @@ static void momentum(const void *m, const double *u, const double *v, double *ki
                 pf_vec3 vb = {ve[3 * b], ve[3 * b + 1], ve[3 * b + 2]};
                 pf_vec3 xa = {xe[3 * a] + ue[3 * a], xe[3 * a + 1] + ue[3 * a + 1],
                               xe[3 * a + 2] + ue[3 * a + 2]};
-                ke += 0.5 * mab * pf_v3_dot(va, vb);
-                if (a == 0)
-                    p = pf_v3_add(p, pf_v3_scale(vb, mab));
-                l = pf_v3_add(l, pf_v3_scale(pf_v3_cross(xa, vb), mab));
+                pf_method_momentum_pair(mab, xa, va, vb, a == 0, &ke, &p, &l);
             }
     }
     *kinetic = ke;
@@ -438,17 +433,10 @@ static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loade
     *fixed_faces = *loaded_faces = 0;
     for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q) {
         const pf_dg_face *face = &d->dg.faces[q];
-        for (int32_t k = 0; k < sc->n_fixed; ++k)
-            if (pf_region_selects_face(&sc->fixed[k].region, d->mesh, face->face, face->centroid)) {
-                d->face_fixed[face->face] = k;
-                ++*fixed_faces;
-                break;
-            }
-        for (int32_t k = 0; k < sc->n_loads; ++k)
-            if (pf_region_selects_face(&sc->loads[k].region, d->mesh, face->face, face->centroid)) {
-                ++*loaded_faces;
-                break;
-            }
+        int32_t k = pf_method_fixed_region(sc, d->mesh, face->face, face->centroid);
+        d->face_fixed[face->face] = k;
+        *fixed_faces += k >= 0;
+        *loaded_faces += pf_method_face_loaded(sc, d->mesh, face->face, face->centroid);
     }
     d->terms.ip = sc->flux == PF_FLUX_IP;
     d->terms.eta = sc->penalty > 0 ? sc->penalty : 1;

@@ -19,6 +19,7 @@
 #include <pf/sim.h>
 
 #include "sim/sim_internal.h"
+#include "test_cut_requests.h"
 #include "test_sim_changes.h"
 
 /* The bar: [0, 4] x [0, 1] x [0, 1] in 8 x 2 x 4 hexahedra or cells of 6 Kuhn tetrahedra,
@@ -47,19 +48,10 @@ static void cut_bar(pf_sim *sim, double x_cut, double z_from)
     pf_cut_request *req = calloc((size_t)m->n_elems, sizeof *req);
     assert_non_null(req);
     pf_plane pl = pf_plane_from_point_normal(pf_v3(x_cut, 0, 0), pf_v3(1, 0, 0));
-    int32_t k = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e) {
-        bool below = false, above = false;
-        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
-            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
-            for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
-                double d = m->x[3 * (size_t)m->face_nodes[j]] - x_cut;
-                below |= d<0, above |= d> 0;
-            }
-        }
-        if (below && above && elem_centroid(m, e).z > z_from)
-            req[k++] = (pf_cut_request){.elem = e, .plane = pl};
-    }
+    int32_t n = requests_meeting(m, pl, 0, req), k = 0;
+    for (int32_t i = 0; i < n; ++i)
+        if (elem_centroid(m, req[i].elem).z > z_from)
+            req[k++] = req[i];
     assert_true(k > 0);
     pf_error err = {0};
     pf_cut_result r;

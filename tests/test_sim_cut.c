@@ -19,6 +19,7 @@
 #include <pf/embed.h>
 #include <pf/sim.h>
 
+#include "test_cut_requests.h"
 #include "test_sim_changes.h"
 
 /* A cut surface after frame f: closed, manifold, the box's volume 3.8 x 0.8 x 0.8. */
@@ -28,26 +29,6 @@
             fail_msg("frame %d: the cut surface: closed %d, manifold %d, volume %.17g", (f),       \
                      (ss).closed, (ss).manifold, (ss).volume);                                     \
     } while (0)
-
-/* Requests for every element of m that the plane crosses. */
-static int32_t crossing(const pf_mesh *m, pf_plane pl, pf_cut_request *req)
-{
-    int32_t k = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e) {
-        bool below = false, above = false;
-        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
-            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
-            for (int64_t j = m->face_offsets[f]; j < m->face_offsets[f + 1]; ++j) {
-                double d =
-                    pf_plane_signed_distance(pl, pf_v3_load(m->x + 3 * (size_t)m->face_nodes[j]));
-                below |= d<0, above |= d> 0;
-            }
-        }
-        if (below && above)
-            req[k++] = (pf_cut_request){.elem = e, .plane = pl};
-    }
-    return k;
-}
 
 /* A free 2 x 1 x 1 box of 4 x 2 x 2 hexes, deformed by an affine displacement and moving with an
  * affine velocity, cut through by a plane: both methods hold affine fields exactly on any
@@ -68,7 +49,7 @@ static void affine_state_survives_cut(const char *json, pf_vec3 normal, double t
     pf_vec3 p0, l0, p1, l1;
     pf_sim_momentum(sim, &k0, &p0, &l0);
     pf_cut_request req[16];
-    int32_t k = crossing(&m, pf_plane_from_point_normal(pf_v3(1.1, 0.5, 0.5), normal), req);
+    int32_t k = requests_meeting(&m, pf_plane_from_point_normal(pf_v3(1.1, 0.5, 0.5), normal), 0, req);
     assert_true(k > 0);
     pf_error err = {0};
     pf_cut_result r;
@@ -649,7 +630,7 @@ static double *run_after_cut(pf_solver_method method, int64_t *factorisations, i
         const pf_mesh *now = pf_sim_mesh(sim);
         pf_cut_request *req = malloc(((size_t)now->n_elems + 1) * sizeof *req);
         assert_non_null(req);
-        int32_t k = crossing(now, pf_plane_from_point_normal(point[c], normal[c]), req);
+        int32_t k = requests_meeting(now, pf_plane_from_point_normal(point[c], normal[c]), 0, req);
         assert_true(k > 0);
         pf_cut_result r;
         if (pf_sim_cut(sim, req, k, &r, &err) < 0)

@@ -22,7 +22,8 @@ static inline void plane_range(const pf_mesh *m, int32_t e, pf_plane pl, double 
 
 /* Requests pl on every element of m whose nodes lie on both sides of it by more than -tol (tol
  * > 0: also the elements it touches); returns their count. */
-static inline int32_t requests_meeting(const pf_mesh *m, pf_plane pl, double tol, pf_cut_request *req)
+static inline int32_t requests_meeting(const pf_mesh *m, pf_plane pl, double tol,
+                                       pf_cut_request *req)
 {
     int32_t k = 0;
     for (int32_t e = 0; e < m->n_elems; ++e) {

@@ -49,7 +49,8 @@ static void affine_state_survives_cut(const char *json, pf_vec3 normal, double t
     pf_vec3 p0, l0, p1, l1;
     pf_sim_momentum(sim, &k0, &p0, &l0);
     pf_cut_request req[16];
-    int32_t k = requests_meeting(&m, pf_plane_from_point_normal(pf_v3(1.1, 0.5, 0.5), normal), 0, req);
+    int32_t k =
+        requests_meeting(&m, pf_plane_from_point_normal(pf_v3(1.1, 0.5, 0.5), normal), 0, req);
     assert_true(k > 0);
     pf_error err = {0};
     pf_cut_result r;

@@ -103,7 +103,8 @@ static inline void check_no_hanging_nodes(const pf_mesh *m)
 /* Everything pf_mesh_refine promises for any input: a valid derived conforming mesh without
  * hanging nodes, src nodes kept bit for bit, children in place of their parent with the parent's
  * volume, total volume and boundary area unchanged, `changed` and `face_src` exact. */
-static inline void check_refined(const pf_mesh *src, const pf_mesh *dst, const pf_refine_result *res)
+static inline void check_refined(const pf_mesh *src, const pf_mesh *dst,
+                                 const pf_refine_result *res)
 {
     pf_error err = {0};
     CHECKF(pf_mesh_validate(dst, NULL, &err) == PF_OK, "validate: %s", err.msg);
@@ -157,8 +158,8 @@ static inline void check_refined(const pf_mesh *src, const pf_mesh *dst, const p
     pf_mesh_release(&s);
 }
 
-static inline void refine_ok(const pf_mesh *src, const pf_refine_request *req, int32_t n, pf_mesh *dst,
-                      pf_refine_result *res)
+static inline void refine_ok(const pf_mesh *src, const pf_refine_request *req, int32_t n,
+                             pf_mesh *dst, pf_refine_result *res)
 {
     pf_error err = {0};
     pf_status st = pf_mesh_refine(src, req, n, dst, res, &err);

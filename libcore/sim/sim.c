@@ -29,8 +29,12 @@ static pf_status allocate_state(pf_sim *s, pf_error *err)
         *vectors[k] = pf_calloc(n ? n : 1, sizeof(double));
         PF_CHECK(*vectors[k], err, PF_ERR_NOMEM, "cannot allocate %zu unknowns", n);
     }
-    s->rot = pf_alloc_array(3 * n + 1, sizeof *s->rot);
-    PF_CHECK(s->rot, err, PF_ERR_NOMEM, "cannot allocate the rotations of %zu unknowns", n);
+    /* the warp preconditioner's rotations: only for a method that gives them, in corotated
+     * dynamics */
+    if (s->ops->triple_rotations && s->scene->corotation && !s->scene->is_static) {
+        s->rot = pf_alloc_array(3 * n + 1, sizeof *s->rot);
+        PF_CHECK(s->rot, err, PF_ERR_NOMEM, "cannot allocate the rotations of %zu unknowns", n);
+    }
     return PF_OK;
 }
 
@@ -370,8 +374,7 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
-    if (sc->corotation && s->ops->triple_rotations &&
-        pf_solver_get_stats(s->solver)->method == PF_SOLVER_PCG) {
+    if (s->rot && pf_solver_get_stats(s->solver)->method == PF_SOLVER_PCG) {
         s->ops->triple_rotations(s->method, s->rot);
         PF_TRY(pf_solver_set_rotations(s->solver, s->rot, err));
     }

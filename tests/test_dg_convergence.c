@@ -59,7 +59,8 @@ static void make_sliced_sphere(pf_mesh *m, int res)
         s.x[q] += 0.5;
     pf_slice_params p = pf_slice_params_default();
     p.grid.res = res;
-    assert_int_equal(pf_mesh_slice(m, &s, &p, NULL, &err), PF_OK);
+    if (pf_mesh_slice(m, &s, &p, NULL, &err) != PF_OK)
+        fail_msg("slice res %d: %s", res, err.msg);
     pf_surface_release(&s);
 }
 
@@ -460,11 +461,12 @@ static double solve_manufactured(const pf_mesh *m, int degree, double *eta, doub
     return e;
 }
 
-/* Runs a mesh family (sizes: cells across) and checks the rate between the two finest meshes. */
+/* Runs a mesh family (sizes: cells across) and checks the rate between every pair of successive
+ * meshes, so that a family whose error stalls anywhere fails, not only one whose finest pair does. */
 static void convergence_family(family fam, int degree, const int *sizes, int count, double rate)
 {
     size_t live = pf_alloc_live_bytes();
-    double eta = 1, prev = 0, last_rate = 0;
+    double eta = 1, prev = 0, slowest = INFINITY;
     clock_t t0 = clock();
     printf("%s degree %d (IP)\n   n  elems    L2 error   relative    rate   eta\n",
            FAMILY_NAMES[fam], degree);
@@ -480,22 +482,24 @@ static void convergence_family(family fam, int degree, const int *sizes, int cou
         if (fam == SPHERE)
             eta = 1; /* cut cells differ from mesh to mesh: search afresh */
         double e = solve_manufactured(&m, degree, &eta, &rel);
-        if (s > 0)
-            last_rate = log(prev / e) / log((double)sizes[s] / sizes[s - 1]);
+        double pair_rate = s > 0 ? log(prev / e) / log((double)sizes[s] / sizes[s - 1]) : 0.0;
+        if (s > 0 && pair_rate < slowest)
+            slowest = pair_rate;
         printf("%4d %6d  %10.3e  %9.3e  %6.3f  %4g\n", sizes[s], (int)m.n_elems, e, rel,
-               s > 0 ? last_rate : 0.0, eta);
+               pair_rate, eta);
         prev = e;
         pf_mesh_release(&m);
     }
     printf("   (%.2f s of CPU)\n", (double)(clock() - t0) / CLOCKS_PER_SEC);
-    if (!(last_rate >= rate))
-        fail_msg("%s degree %d: L2 rate %.3f below %.2f", FAMILY_NAMES[fam], degree, last_rate,
+    if (!(slowest >= rate))
+        fail_msg("%s degree %d: L2 rate %.3f below %.2f", FAMILY_NAMES[fam], degree, slowest,
                  rate);
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
 
-/* The issue's requirement: rates >= 1.8 (p = 1) and >= 2.7 (p = 2) between the finest two of
- * four meshes. */
+/* Rates >= 1.8 (p = 1) and >= 2.7 (p = 2), the a-priori h^(p+1) less a margin for the
+ * pre-asymptotic coarse meshes, between every pair of successive meshes. Measured: 2.75, 2.27,
+ * 2.23 (p = 1) and 2.82, 3.01, 3.09 (p = 2). */
 static void l2_convergence_hexes(void **state)
 {
     (void)state;
@@ -504,25 +508,29 @@ static void l2_convergence_hexes(void **state)
     convergence_family(HEXES, 2, p2, 4, 2.7);
 }
 
+/* Measured: 1.85, 1.90 (p = 1) and 2.78, 2.84 (p = 2). Degree 2 starts at 2 cells: from 1 cell
+ * (6 tets) the first rate is 2.60, pre-asymptotic. */
 static void l2_convergence_tets(void **state)
 {
     (void)state;
-    const int p1[] = {2, 4, 8}, p2[] = {1, 2, 4};
+    const int p1[] = {2, 4, 8}, p2[] = {2, 3, 4};
     convergence_family(TETS, 1, p1, 3, 1.8);
     convergence_family(TETS, 2, p2, 3, 2.7);
 }
 
 /* The cut cells at the surface are not nested from one res to the next, so the error does not
- * fall as regularly as on hexes: measured rates 1.45, 2.29, 2.15 (p = 1) and 1.43, 1.66, 2.99
- * (p = 2). The penalty is searched per mesh: a penalty carried over from a coarser mesh (64 for
+ * fall as regularly as on hexes. From res 2 the first rates are pre-asymptotic (1.45 for p = 1;
+ * 1.43 and 1.66 from res 2 and 3 for p = 2: two cells across a sphere are mostly surface), so
+ * the families start at res 4, where every pair passes: measured 2.29, 2.15 (p = 1) and 2.99,
+ * 3.43 (p = 2). The penalty is searched per mesh: a penalty carried over from a coarser mesh (64 for
  * p = 1 against the 8 the finest needs) over-stiffens the jumps and stalls the p = 1 error near
  * 30 % (sec. 9.1: eta must not be too high). About 1.2 s of CPU at -O2. */
 static void l2_convergence_sliced_sphere(void **state)
 {
     (void)state;
-    const int p1[] = {2, 4, 6, 8}, p2[] = {2, 3, 4, 6};
-    convergence_family(SPHERE, 1, p1, 4, 1.8);
-    convergence_family(SPHERE, 2, p2, 4, 2.7);
+    const int p1[] = {4, 6, 8}, p2[] = {4, 6, 8};
+    convergence_family(SPHERE, 1, p1, 3, 1.8);
+    convergence_family(SPHERE, 2, p2, 3, 2.7);
 }
 
 /* ---- locking ------------------------------------------------------------------------------ */

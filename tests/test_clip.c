@@ -36,14 +36,6 @@ static double boundary_area(const pf_mesh *m)
     return a;
 }
 
-static double mesh_volume(const pf_mesh *m)
-{
-    double v = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        v += pf_mesh_elem_volume(m, e);
-    return v;
-}
-
 /* Clips, checks validity, volume and boundary area against the expected ones (tolerance rel). */
 static void clip_and_check(const char *name, const pf_mesh *src, const pf_surface *s,
                            pf_clip_keep keep, double volume, double area, double rel, pf_mesh *out)
@@ -55,7 +47,7 @@ static void clip_and_check(const char *name, const pf_mesh *src, const pf_surfac
         fail_msg("%s: %s", name, err.msg);
     if (pf_mesh_validate(out, NULL, &err) != PF_OK)
         fail_msg("%s: invalid: %s", name, err.msg);
-    double v = mesh_volume(out), a = boundary_area(out);
+    double v = pf_mesh_volume(out), a = boundary_area(out);
     printf("%-22s %5d -> %5d elements (%d kept, %d clipped into %d parts, %d merged, %d "
            "dropped), volume error %.1e, area error %.1e, %lld splits, %.3f s\n",
            name, (int)src->n_elems, (int)out->n_elems, (int)st.n_kept, (int)st.n_clipped,

@@ -42,10 +42,7 @@ static void parse(pf_scene *sc, const char *text, const char *name)
 
 static double mesh_mass(const pf_mesh *m, double density)
 {
-    double v = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        v += pf_mesh_elem_volume(m, e);
-    return density * v;
+    return density * pf_mesh_volume(m);
 }
 
 /* Stitched nodal positions x + u of the simulator's current state. */

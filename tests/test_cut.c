@@ -24,14 +24,6 @@
 #include <pf/mesh.h>
 #include <pf/refine.h>
 
-static double mesh_volume(const pf_mesh *m)
-{
-    double v = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        v += pf_mesh_elem_volume(m, e);
-    return v;
-}
-
 /* Each cut face has one user, and no node is shared by two bodies (groups of elements connected
  * through faces): duplication separated every node the cut runs through. */
 static void check_separated(const pf_mesh *m, const pf_cut_result *r)
@@ -85,7 +77,7 @@ static void cut_ok(const pf_mesh *src, const pf_cut_request *req, int32_t n, con
     pf_mesh_validate_params vp = pf_mesh_validate_params_default();
     st = pf_mesh_validate(dst, &vp, &err);
     CHECKF(st == PF_OK, "pf_mesh_validate after the cut: %s", err.msg);
-    double v0 = mesh_volume(src), v1 = mesh_volume(dst) + res->dropped_volume;
+    double v0 = pf_mesh_volume(src), v1 = pf_mesh_volume(dst) + res->dropped_volume;
     CHECKF(fabs(v1 - v0) <= 1e-12 * v0, "volume %.17g, expected %.17g", v1, v0);
     assert_int_equal(dst->id, src->id + 1);
     for (int32_t e = 0; e < dst->n_elems; ++e)
@@ -383,7 +375,7 @@ static void test_random_blades(void **state)
     pf_slice_params sp = pf_slice_params_default();
     sp.grid.res = 3;
     assert_int_equal(pf_mesh_slice(&m, &s, &sp, NULL, &err), PF_OK);
-    double v0 = mesh_volume(&m), dropped = 0;
+    double v0 = pf_mesh_volume(&m), dropped = 0;
     rng g = {0x9e3779b97f4a7c15ull};
     for (int blade = 0; blade < 100; ++blade) {
         pf_vec3 p = pf_v3(0.6 * uniform(&g), 0.6 * uniform(&g), 0.6 * uniform(&g));
@@ -405,7 +397,7 @@ static void test_random_blades(void **state)
         m = next;
         free(req);
     }
-    double v1 = mesh_volume(&m) + dropped;
+    double v1 = pf_mesh_volume(&m) + dropped;
     CHECKF(fabs(v1 - v0) <= 1e-11 * v0, "after 100 blades: %.17g + dropped vs %.17g", v1, v0);
     pf_mesh_release(&m);
     pf_surface_release(&s);

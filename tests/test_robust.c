@@ -71,9 +71,7 @@ static double slice_volume(const char *name, const pf_surface *s, int32_t res, b
         fail_msg("%s: %s", name, err.msg);
     if (pf_mesh_validate(&m, NULL, &err) != PF_OK)
         fail_msg("%s: invalid mesh: %s", name, err.msg);
-    double v = 0;
-    for (int32_t e = 0; e < m.n_elems; ++e)
-        v += pf_mesh_elem_volume(&m, e);
+    double v = pf_mesh_volume(&m);
     if (hash)
         *hash = mesh_hash(&m);
     printf("%-26s %5d elements, volume %.6f, robust %d contoured %d\n", name, (int)m.n_elems, v,
@@ -383,10 +381,7 @@ static double mesh_volume_checked(const char *name, const pf_mesh *m)
     pf_error err = {0};
     if (pf_mesh_validate(m, NULL, &err) != PF_OK)
         fail_msg("%s: invalid mesh: %s", name, err.msg);
-    double v = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        v += pf_mesh_elem_volume(m, e);
-    return v;
+    return pf_mesh_volume(m);
 }
 
 static void slices_real_models(void **state)

@@ -329,14 +329,6 @@ static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, pf_error *err)
     return PF_OK;
 }
 
-static double total_volume(const pf_mesh *m)
-{
-    double v = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        v += pf_mesh_elem_volume(m, e);
-    return v;
-}
-
 static pf_status cut(run *r, pf_error *err)
 {
     PF_CHECK(r->state.have_mesh, err, PF_ERR_INVALID, "%s: no MESH chunk to cut", r->in_name);
@@ -351,7 +343,7 @@ static pf_status cut(run *r, pf_error *err)
     }
     r->in_elems = r->mesh.n_elems;
     r->in_nodes = r->mesh.n_nodes;
-    r->in_volume = total_volume(&r->mesh);
+    r->in_volume = pf_mesh_volume(&r->mesh);
     if (r->knife_path)
         PF_TRY(clip(r, err));
     if (r->knife_path || r->drop_surface) {
@@ -435,7 +427,7 @@ static pf_status write_stats(const run *r, pf_error *err)
         "\"cap_triangles\": %d,\n  \"cap_area\": %.17g,\n  \"wall_seconds\": %.6f,\n  "
         "\"cpu_seconds\": %.6f\n}\n",
         (int)r->in_elems, (int)r->mesh.n_elems, (int)r->in_nodes, (int)r->mesh.n_nodes,
-        r->in_volume, total_volume(&r->mesh), (int)r->n_planes, (int)r->split, (int)r->snapped,
+        r->in_volume, pf_mesh_volume(&r->mesh), (int)r->n_planes, (int)r->split, (int)r->snapped,
         (int)r->opened, (int)r->duplicated, (int)r->bodies, (int)r->dropped_bodies,
         r->dropped_volume, r->clipped ? "true" : "false",
         r->clip.keep == PF_CLIP_OUTSIDE ? "outside" : "inside", (int)c->n_kept, (int)c->n_clipped,

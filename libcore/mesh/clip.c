@@ -723,8 +723,7 @@ pf_status pf_mesh_clip_surface(const pf_mesh *src, const pf_surface *s,
         return st;
     }
     dst->id = src->id + 1;
-    for (int32_t e = 0; e < dst->n_elems; ++e)
-        stats->volume += pf_mesh_elem_volume(dst, e);
+    stats->volume += pf_mesh_volume(dst);
     stats->seconds = pf_time_seconds() - t0;
     return PF_OK;
 }

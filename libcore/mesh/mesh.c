@@ -272,6 +272,14 @@ double pf_mesh_elem_volume(const pf_mesh *m, int32_t e)
     return volume;
 }
 
+double pf_mesh_volume(const pf_mesh *m)
+{
+    double volume = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        volume += pf_mesh_elem_volume(m, e);
+    return volume;
+}
+
 void pf_mesh_bounds(const pf_mesh *m, pf_vec3 *lo, pf_vec3 *hi)
 {
     *lo = *hi = pf_v3(0, 0, 0);

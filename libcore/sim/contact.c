@@ -194,9 +194,7 @@ static pf_status allocate_points(pf_contact *c, int32_t np, pf_error *err)
 /* The mean element size: the cube root of the mean element volume. */
 static double element_size(const pf_mesh *m)
 {
-    double v = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        v += pf_mesh_elem_volume(m, e);
+    double v = pf_mesh_volume(m);
     return m->n_elems > 0 ? cbrt(fabs(v) / m->n_elems) : 0;
 }
 

@@ -654,9 +654,7 @@ double pf_sim_deformed_volume(const pf_sim *s)
         x[q] += m->x[q];
     pf_mesh moved = *m; /* borrowed arrays, only the positions differ */
     moved.x = x;
-    double volume = 0;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        volume += pf_mesh_elem_volume(&moved, e);
+    double volume = pf_mesh_volume(&moved);
     pf_free(x);
     return volume;
 }

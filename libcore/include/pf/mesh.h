@@ -128,6 +128,10 @@ bool pf_mesh_elem_same(const pf_mesh *a, int32_t ea, const pf_mesh *b, int32_t e
 /* Volume of element e (signed: negative when inside out), exact for planar faces. */
 double pf_mesh_elem_volume(const pf_mesh *m, int32_t e);
 
+/* Sum of the signed element volumes, summed in element order (so the same mesh gives the same
+ * bits). */
+double pf_mesh_volume(const pf_mesh *m);
+
 /* Bounding box of all nodes; both zero for an empty mesh. */
 void pf_mesh_bounds(const pf_mesh *m, pf_vec3 *lo, pf_vec3 *hi);
 

@@ -75,6 +75,7 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
                           const uint8_t *changed, pf_error *err)
 {
     t->scene = s->scene;
+    t->progress = s->progress;
     t->surface = s->surface;
     t->uncut_surface = s->uncut_surface;
     t->solver_before.method = pf_solver_get_stats(s->solver)->method; /* auto's choice goes on */

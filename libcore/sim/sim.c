@@ -16,6 +16,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "sim_change.h"
 #include "sim_internal.h"
 
 /* ---- set-up ------------------------------------------------------------------------------ */
@@ -327,6 +328,7 @@ void pf_sim_release(pf_sim *s)
     s->owned_weights = NULL;
     pf_free(s->blade_locks);
     s->blade_locks = NULL;
+    pf_scene_free_lists(&s->owned_scene);
     if (s->owned_surface)
         pf_surface_release(s->owned_surface);
     pf_free(s->owned_surface);

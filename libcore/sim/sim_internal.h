@@ -10,7 +10,9 @@
 #include "method.h"
 
 struct pf_sim {
-    const pf_scene *scene;
+    const pf_scene *scene;     /* the caller's, or owned_scene after a mesh change */
+    pf_scene *owned_scene;     /* the caller's with its node and element lists carried to the
+                                  current mesh (sim_change.h); NULL without lists */
     const pf_mesh *mesh;       /* the caller's, or owned_mesh after a refinement */
     pf_mesh *owned_mesh;       /* NULL until a refinement (on the heap: the method and contact
                                   keep pointers to it) */

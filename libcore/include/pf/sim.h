@@ -309,8 +309,8 @@ pf_status pf_region_set_list(pf_region *r, const pf_mesh *m, const int32_t *indi
  * entry that selects an element, else 0. Also checks that every group the scene names (fixed,
  * loads: dimension 2; materials: dimension 3) is one of the mesh's: PF_ERR_INVALID "fixed[1].group:
  * the mesh has no group 'name' of faces (its groups: ...)"; and that every list region was handed
- * over for m (PF_ERR_INVALID otherwise, and for lists in a scene that changes its mesh: a list
- * numbers the starting mesh's nodes and elements). PF_ERR_NOMEM. */
+ * over for m (PF_ERR_INVALID otherwise; a simulator whose mesh changes carries its own copy of
+ * the lists to each new mesh). PF_ERR_NOMEM. */
 pf_status pf_scene_materials(const pf_scene *s, const pf_mesh *m, pf_material **table, int32_t *n,
                              int32_t **elem, pf_error *err);
 

@@ -95,9 +95,9 @@ sys.exit(0 if a['mesh_changes']['changes'] >= 1 and a['mesh_changes']['elements'
     diff -r "$tmp/rvtu_boxes_$method" "$tmp/rvtu_lists_$method"
 done
 # a cut (nodes duplicated along the crack): the same again
+cut='"cuts": [{"plane": {"point": [1.25, 0.5, 0.5], "normal": [1, 0.2, 0]}, "time": 0.03}]'
 for s in boxes lists; do
-  sed 's/"ground": false,/"ground": false, "cuts": [{"plane": {"point": [1.25, 0.5, 0.5], "normal": [1, 0.2, 0]}, "time": 0.03}],/' \
-    "$tmp/scenes/$s.json" >"$tmp/scenes/cut_$s.json"
+  sed "s/\"ground\": false,/\"ground\": false, $cut,/" "$tmp/scenes/$s.json" >"$tmp/scenes/cut_$s.json"
   (cd "$tmp/run" && "$bin/pf-sim" ../scenes/cut_$s.json --quiet --input ../bar.pfs >cut_$s.pfs) ||
     echo "FAIL: pf-sim cut $s"
   "$bin/pf-export" --vtu "$tmp/cvtu_$s" --ascii --quiet "$tmp/run/cut_$s.pfs"

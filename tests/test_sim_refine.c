@@ -490,7 +490,7 @@ static void test_dg_reuse_matches_fresh(void **state)
                          .same_solid = same,
                          .same_faces = same + ne,
                          .face_src = res.face_src};
-    assert_int_equal(pf_dg_create_reusing(&reused, &fine, 2, &one, &reuse, &err), PF_OK);
+    assert_int_equal(pf_dg_create_reusing(&reused, &fine, 2, &one, &reuse, NULL, &err), PF_OK);
     int nb = fresh.nb;
     size_t nk = (size_t)ne * 9 * nb * nb, nm = (size_t)ne * nb * nb;
     double scale = 0, worst = 0;

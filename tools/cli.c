@@ -328,17 +328,16 @@ const char *pf_cli_progress_times(const pf_cli_progress *p, char *buf, size_t si
     return buf;
 }
 
-void pf_cli_progress_report(pf_cli_progress *p, const char *what, double done, double total)
+/* One progress line now: what, the percentage of done in total (total <= 0: none), the seconds
+ * since wall0 and cpu0, and the ETA at the rate since wall0. */
+static void print_line(pf_cli_progress *p, const char *what, double done, double total,
+                       double wall0, double cpu0)
 {
-    if (!p->on)
-        return;
     double now = pf_time_seconds();
-    if (now - p->last < (p->tty ? 0.1 : p->interval))
-        return;
     p->last = now;
     char times[64], eta[64] = "";
-    pf_cli_progress_times(p, times, sizeof times);
-    double elapsed = now - p->wall0;
+    snprintf(times, sizeof times, "%.3g s (CPU %.3g s)", now - wall0, pf_cpu_seconds() - cpu0);
+    double elapsed = now - wall0;
     if (total > 0 && done > 0 && done < total) {
         char d[32];
         format_duration(elapsed * (total - done) / done, d, sizeof d);
@@ -352,6 +351,45 @@ void pf_cli_progress_report(pf_cli_progress *p, const char *what, double done, d
                 times, p->tty ? "\033[K" : "\n");
     p->printed = p->tty;
     fflush(stderr);
+}
+
+void pf_cli_progress_report(pf_cli_progress *p, const char *what, double done, double total)
+{
+    if (!p->on || pf_time_seconds() - p->last < (p->tty ? 0.1 : p->interval))
+        return;
+    print_line(p, what, done, total, p->wall0, p->cpu0);
+}
+
+void pf_cli_progress_event(void *user, const pf_progress_event *ev)
+{
+    pf_cli_progress *p = user;
+    if (!p->on)
+        return;
+    bool start = ev->done == 0 || ev->phase != p->phase, end = ev->done >= ev->total;
+    if (start) {
+        p->phase = ev->phase;
+        p->phase_wall0 = pf_time_seconds();
+        p->phase_cpu0 = pf_cpu_seconds();
+    }
+    /* phases of one step (analysis, factorisation) have no share to show */
+    double total = ev->total > 1 ? (double)ev->total : 0;
+    /* in a log, a phase reported element by element gets a line a second at most, whatever
+     * --progress=S says */
+    double gap = p->tty ? 0.1 : fmax(p->interval, 1);
+    if (!(p->phase_lines && (start || end)) && pf_time_seconds() - p->last < gap)
+        return;
+    if (start && !p->tty) { /* no times yet: the count to do */
+        fprintf(stderr, "%s: %s started", p->tool, ev->phase);
+        if (total > 0)
+            fprintf(stderr, " (%lld)", (long long)ev->total);
+        fputc('\n', stderr);
+        fflush(stderr);
+        p->last = pf_time_seconds();
+        return;
+    }
+    char what[96];
+    snprintf(what, sizeof what, end ? "%s done" : "%s", ev->phase);
+    print_line(p, what, end ? 0 : (double)ev->done, end ? 0 : total, p->phase_wall0, p->phase_cpu0);
 }
 
 void pf_cli_progress_done(pf_cli_progress *p)

@@ -108,6 +108,11 @@ typedef struct pf_cli_progress {
     double interval;
     double wall0, cpu0, last; /* wall and CPU seconds at the start, wall at the last report */
     bool printed;             /* a line is pending on a terminal */
+    /* phases (pf_cli_progress_event) */
+    bool phase_lines;          /* in a log, a line at each phase's start and end (a set-up);
+                                  false: phases only feed the lines every interval */
+    const char *phase;         /* the phase under way, NULL before the first */
+    double phase_wall0, phase_cpu0; /* the clocks at its start */
 } pf_cli_progress;
 
 /* plain: the seconds between plain lines given by --progress[=SECONDS], or < 0 when --progress
@@ -121,6 +126,12 @@ void pf_cli_progress_report(pf_cli_progress *p, const char *what, double done, d
 void pf_cli_progress_done(pf_cli_progress *p);
 /* A pf_progress_fn for library calls: ctx is a pf_cli_progress, labelled "done". */
 void pf_cli_progress_fn(void *ctx, double done, double total);
+/* A pf_progress_event_fn (pf/base.h) for library calls made of phases: user is a
+ * pf_cli_progress. On a terminal the line in place names the phase, its percentage and ETA
+ * (from the phase's own rate); in a log, with phase_lines, one line when a phase starts and one
+ * when it ends (its wall and CPU seconds), and the phase's line every interval (at least a
+ * second) in between; nothing when quiet. */
+void pf_cli_progress_event(void *user, const pf_progress_event *ev);
 /* Wall and CPU seconds since start, "1.23 s (CPU 0.98 s)", into buf. */
 const char *pf_cli_progress_times(const pf_cli_progress *p, char *buf, size_t size);
 

@@ -61,7 +61,7 @@ static const char USAGE[] =
     "                     when complete (a killed run leaves FILE.part, which --resume\n"
     "                     continues); needed under mpirun\n"
     "  --quiet, -q        no progress or summary on stderr\n"
-    "  --progress[=S]     a plain progress line every S seconds (default 5; in a log always)\n"
+    "  --progress[=S]     plain lines: set-up phases, frames every S s (default 5); logs: always\n"
     "  --stats FILE       write the run's statistics to FILE as JSON (docs/scene.md, \"Run\n"
     "                     statistics\"), also after a diverged run\n"
     "  --help, --version\n"
@@ -113,6 +113,7 @@ typedef struct run {
     const char *output_path;
     bool quiet;
     double progress;        /* --progress=S: S; -1 without (pf_cli_progress_start) */
+    pf_cli_progress bar;    /* the set-up's phases, then the frames */
     const char *stats_path; /* --stats FILE, or NULL */
     double wall0, cpu0;     /* the clocks at the start */
     pf_mesh mesh;           /* the input's latest MESH, moved out of input */
@@ -511,8 +512,9 @@ static pf_status restore_checkpoint(run *r, pf_sim *sim, const pf_chunk *restore
  * energy against the largest (of the frames this run made). */
 static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
 {
-    pf_cli_progress progress;
-    pf_cli_progress_start(&progress, "pf-sim", r->quiet, r->progress);
+    pf_cli_progress *progress = &r->bar; /* the simulator's phases go on reaching it */
+    pf_cli_progress_done(progress);
+    pf_cli_progress_start(progress, "pf-sim", r->quiet, r->progress);
     pf_status st = PF_OK;
     double kinetic = 0, peak = 0;
     int32_t peak_frame = 0;
@@ -522,13 +524,13 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
             st = emit_frame(r, sim, k, err);
         char what[48];
         snprintf(what, sizeof what, "frame %d of %d", (int)k, (int)r->scene.frames);
-        pf_cli_progress_report(&progress, what, k - first, r->scene.frames - first);
+        pf_cli_progress_report(progress, what, k - first, r->scene.frames - first);
         pf_vec3 linear, angular;
         pf_sim_momentum(sim, &kinetic, &linear, &angular);
         if (kinetic > peak)
             peak = kinetic, peak_frame = k;
     }
-    pf_cli_progress_done(&progress);
+    pf_cli_progress_done(progress);
     if (st >= 0 && !r->quiet && first < r->scene.frames)
         fprintf(
             stderr,
@@ -552,9 +554,15 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_mesh = r->mesh.id;
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
+    pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);
+    r->bar.phase_lines = true;
+    pf_sim_options opt = {.surface = embedded ? &r->input.surface : NULL,
+                          .weights = embedded ? w : NULL,
+                          .progress = {pf_cli_progress_event, &r->bar}};
     pf_sim *sim = NULL;
-    PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
-                                  embedded ? w : NULL, err));
+    pf_status created = pf_sim_create_with(&sim, &r->scene, &r->mesh, &opt, err);
+    pf_cli_progress_done(&r->bar);
+    PF_TRY(created);
     if (pf_scene_changes_mesh(&r->scene) && r->checkpoint_given && r->checkpoint_every > 0 &&
         !r->quiet)
         fprintf(stderr, "pf-sim: the scene refines or cuts (its mesh changes between frames): "
@@ -569,6 +577,7 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
         st = emit_frame(r, sim, 0, err);
     if (st >= 0 && !r->scene.is_static)
         st = advance(r, sim, first, err);
+    pf_cli_progress_done(&r->bar);
     if (!r->quiet)
         print_summary(r, sim);
     if (r->stats_path) { /* also after a failed frame: the statistics of what was done */

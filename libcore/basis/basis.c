@@ -820,6 +820,7 @@ pf_status pf_basis_create_reusing(pf_basis *b, const pf_mesh *m, const pf_basis_
     int32_t ne = m->n_elems;
     b->n_elems = ne;
     b->params = p;
+    b->params.progress = (pf_progress_hook){0}; /* borrowed for the set-up only */
     create_state cs = {0};
     pf_status s = PF_OK;
     if (!PF_ALLOC_N(b->node_offsets, ne + 1) || !PF_ALLOC_N(b->data_offsets, ne + 1) ||
@@ -845,12 +846,17 @@ pf_status pf_basis_create_reusing(pf_basis *b, const pf_mesh *m, const pf_basis_
     b->data_offsets[0] = 0;
     /* One BLAS thread: small systems, and bits independent of the core count (pf/base.h). */
     pf_blas_threads blas = pf_blas_threads_set(1, false);
+    pf_progress_post(&p.progress, "basis functions", 0, ne);
     for (int32_t e = 0; e < ne && s >= 0; ++e) {
+        if (e > 0)
+            pf_progress_post(&p.progress, "basis functions", e, ne);
         int32_t o = source_of(reuse, &p, m, e);
         b->taken[e] = -1;
         s = o >= 0 ? take_elem(b, &cs, reuse, e, o, err) : build_elem(b, &cs, m, e, &p, err);
     }
     pf_blas_threads_restore(blas);
+    if (s >= 0 && ne > 0)
+        pf_progress_post(&p.progress, "basis functions", ne, ne);
     for (int32_t f = 0; f < m->n_faces; ++f) {
         b->n_face_mfs += cs.faces[f].kind == FACE_MFS;
         b->n_face_closed += cs.faces[f].kind == FACE_LINEAR || cs.faces[f].kind == FACE_BILINEAR;

@@ -588,7 +588,7 @@ static void copy_elem(pf_cg *cg, int32_t e, const pf_cg *old, int32_t o)
 }
 
 static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, const pf_cg_reuse *reuse,
-                                pf_error *err)
+                                const pf_progress_hook *progress, pf_error *err)
 {
     size_t entries = 0, eval = 0;
     for (int32_t e = 0; e < m->n_elems; ++e) {
@@ -603,7 +603,10 @@ static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, const pf_cg_reuse *
                        ? PF_OK
                        : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "no scratch");
     double t0 = pf_time_seconds();
+    pf_progress_post(progress, "element matrices", 0, cg->n_elems);
     for (int32_t e = 0; st >= 0 && e < cg->n_elems; ++e) {
+        if (e > 0)
+            pf_progress_post(progress, "element matrices", e, cg->n_elems);
         double te = pf_time_seconds();
         const int32_t *nodes;
         int32_t k = pf_basis_elem_nodes(&cg->basis, e, &nodes);
@@ -632,6 +635,8 @@ static pf_status setup_elements(pf_cg *cg, const pf_mesh *m, const pf_cg_reuse *
             cg->lumped[nodes[p]] += pf_cg_material(cg, e)->density * cg->n_int[o + p];
     }
     cg->integrate_seconds = pf_time_seconds() - t0;
+    if (st >= 0 && cg->n_elems > 0)
+        pf_progress_post(progress, "element matrices", cg->n_elems, cg->n_elems);
     pf_arena_release(&arena);
     return st;
 }
@@ -657,6 +662,8 @@ pf_status pf_cg_create_reusing(pf_cg *cg, const pf_mesh *m, const pf_materials *
     pf_cg_params p = params ? *params : pf_cg_params_default();
     if (p.quadrature_degree == 0)
         p.quadrature_degree = PF_CG_DEFAULT_QUADRATURE;
+    if (!p.basis.progress.fn)
+        p.basis.progress = p.progress;
     PF_CHECK(p.quadrature_degree >= 1 && p.quadrature_degree <= 29, err, PF_ERR_INVALID,
              "CG quadrature degree must be in [1, 29], got %d", (int)p.quadrature_degree);
     PF_CHECK(m->face_elems, err, PF_ERR_INVALID, "mesh not derived (pf_mesh_derive)");
@@ -688,7 +695,7 @@ pf_status pf_cg_create_reusing(pf_cg *cg, const pf_mesh *m, const pf_materials *
     if (st >= 0)
         st = allocate(cg, err);
     if (st >= 0)
-        st = setup_elements(cg, m, reuse, err);
+        st = setup_elements(cg, m, reuse, &p.progress, err);
     pf_blas_threads_restore(blas);
     if (st < 0)
         pf_cg_release(cg);

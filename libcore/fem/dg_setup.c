@@ -104,11 +104,14 @@ static void copy_element(pf_dg *dg, int32_t e, const pf_dg *old, int32_t p)
 }
 
 static pf_status setup_elements(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reuse *reuse,
-                                pf_arena *arena, pf_error *err)
+                                const pf_progress_hook *progress, pf_arena *arena, pf_error *err)
 {
     int nb = dg->nb, n = 3 * nb;
     double m[PF_MOMENT_MAX_COUNT];
+    pf_progress_post(progress, "element integrals", 0, mesh->n_elems);
     for (int32_t e = 0; e < mesh->n_elems; ++e) {
+        if (e > 0)
+            pf_progress_post(progress, "element integrals", e, mesh->n_elems);
         if (reuse && reuse->same_solid[e]) {
             copy_element(dg, e, reuse->old, reuse->parent[e]);
             dg->reused_elems++;
@@ -135,6 +138,8 @@ static pf_status setup_elements(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reus
         element_mass(dg, mat->density, m, dg->me + (size_t)e * nb * nb,
                      dg->phi_int + (size_t)e * nb);
     }
+    if (mesh->n_elems > 0)
+        pf_progress_post(progress, "element integrals", mesh->n_elems, mesh->n_elems);
     return PF_OK;
 }
 
@@ -299,7 +304,7 @@ static void copy_face(const pf_dg *dg, pf_dg_face *out, int32_t f, int32_t left,
 }
 
 static pf_status setup_faces(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reuse *reuse,
-                             pf_error *err)
+                             const pf_progress_hook *progress, pf_error *err)
 {
     int nb = dg->nb;
     size_t per_face = 4 * (size_t)nb * nb * 4; /* S and G (3 per entry) */
@@ -311,6 +316,7 @@ static pf_status setup_faces(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reuse *
     dg->n_faces = mesh->n_faces;
     /* Interior faces first, then boundary faces. */
     int32_t slot = 0;
+    pf_progress_post(progress, "face integrals", 0, mesh->n_faces);
     for (int pass = 0; pass < 2; ++pass)
         for (int32_t f = 0; f < mesh->n_faces; ++f) {
             int32_t a = mesh->face_elems[2 * f], b = mesh->face_elems[2 * f + 1];
@@ -338,7 +344,11 @@ static pf_status setup_faces(pf_dg *dg, const pf_mesh *mesh, const pf_dg_reuse *
             ++slot;
             if (pass == 0)
                 dg->n_interior = slot;
+            if (slot < mesh->n_faces)
+                pf_progress_post(progress, "face integrals", slot, mesh->n_faces);
         }
+    if (mesh->n_faces > 0)
+        pf_progress_post(progress, "face integrals", mesh->n_faces, mesh->n_faces);
     return PF_OK;
 }
 
@@ -479,12 +489,12 @@ pf_status pf_dg_create(pf_dg *dg, const pf_mesh *m, int32_t degree, double E, do
 pf_status pf_dg_create_materials(pf_dg *dg, const pf_mesh *m, int32_t degree,
                                  const pf_materials *materials, pf_error *err)
 {
-    return pf_dg_create_reusing(dg, m, degree, materials, NULL, err);
+    return pf_dg_create_reusing(dg, m, degree, materials, NULL, NULL, err);
 }
 
 pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree,
                                const pf_materials *materials, const pf_dg_reuse *reuse,
-                               pf_error *err)
+                               const pf_progress_hook *progress, pf_error *err)
 {
     memset(dg, 0, sizeof *dg);
     PF_CHECK(degree == 1 || degree == 2, err, PF_ERR_INVALID, "DG degree must be 1 or 2, got %d",
@@ -510,13 +520,13 @@ pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree,
     if (s >= 0)
         s = allocate_elements(dg, err);
     if (s >= 0)
-        s = setup_elements(dg, m, reuse, &arena, err);
+        s = setup_elements(dg, m, reuse, progress, &arena, err);
     if (s >= 0) {
         double total = 0;
         for (int32_t e = 0; e < dg->n_elems; ++e)
             total += dg->volume[e];
         dg->body_length = cbrt(total);
-        s = setup_faces(dg, m, reuse, err);
+        s = setup_faces(dg, m, reuse, progress, err);
     }
     if (s >= 0)
         s = setup_stitching(dg, m, err);

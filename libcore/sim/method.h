@@ -182,18 +182,20 @@ typedef struct pf_method_reuse {
 
 /* Creates a method for the scene on the mesh: *ops and *ctx; fixed_faces and loaded_faces count
  * the boundary faces the scene's regions selected. reuse: NULL, or what a refined mesh takes
- * over. */
+ * over. progress hears the set-up's phases (zero hook: none). */
 typedef pf_status (*pf_method_create_fn)(const pf_scene *scene, const pf_mesh *mesh,
-                                         const pf_method_reuse *reuse, const pf_method_ops **ops,
-                                         void **ctx, int32_t *fixed_faces, int32_t *loaded_faces,
+                                         const pf_method_reuse *reuse,
+                                         const pf_progress_hook *progress,
+                                         const pf_method_ops **ops, void **ctx,
+                                         int32_t *fixed_faces, int32_t *loaded_faces,
                                          pf_error *err);
 
 pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
-                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
-                           int32_t *loaded_faces, pf_error *err);
+                           const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
+                           int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
 
 pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
-                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
-                           int32_t *loaded_faces, pf_error *err);
+                           const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
+                           int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
 
 #endif

@@ -147,24 +147,21 @@ static bool list_selects_elem(const pf_region *r, const pf_mesh *m, int32_t e)
 }
 
 /* A list region must have been handed over for this very mesh: its indices mean nothing on
- * another one (a refined or cut mesh renumbers elements and adds nodes). */
-static pf_status check_list(const pf_scene *s, const pf_region *r, const pf_mesh *m,
-                            const char *what, int32_t k, pf_error *err)
+ * another one (a simulator carries its own copy of the lists through mesh changes,
+ * pf_scene_carry_lists in sim_change.h). */
+static pf_status check_list(const pf_region *r, const pf_mesh *m, const char *what, int32_t k,
+                            pf_error *err)
 {
     if (!is_list(r))
         return PF_OK;
     const char *key = r->kind == PF_REGION_NODES ? "nodes_file" : "elements_file";
-    PF_CHECK(!pf_scene_changes_mesh(s), err, PF_ERR_INVALID,
-             "%s[%d].%s: a list numbers the nodes and elements of the starting mesh, which "
-             "refine and cuts change: select by group, box or plane in such a scene",
-             what, (int)k, key);
     PF_CHECK(r->listed, err, PF_ERR_INVALID,
-             "%s[%d].%s: %s: the list was not handed over (pf_region_set_list)", what, (int)k,
-             key, r->file ? r->file : "");
-    PF_CHECK(r->list_mesh == m->id && r->n_listed == (r->kind == PF_REGION_NODES ? m->n_nodes
-                                                                                  : m->n_elems),
-             err, PF_ERR_INVALID, "%s[%d].%s: %s: the list numbers mesh %llu, not mesh %llu",
-             what, (int)k, key, r->file ? r->file : "", (unsigned long long)r->list_mesh,
+             "%s[%d].%s: %s: the list was not handed over (pf_region_set_list)", what, (int)k, key,
+             r->file ? r->file : "");
+    PF_CHECK(r->list_mesh == m->id &&
+                 r->n_listed == (r->kind == PF_REGION_NODES ? m->n_nodes : m->n_elems),
+             err, PF_ERR_INVALID, "%s[%d].%s: %s: the list numbers mesh %llu, not mesh %llu", what,
+             (int)k, key, r->file ? r->file : "", (unsigned long long)r->list_mesh,
              (unsigned long long)m->id);
     return PF_OK;
 }
@@ -226,15 +223,15 @@ pf_status pf_scene_materials(const pf_scene *s, const pf_mesh *m, pf_material **
     *n = 0;
     for (int32_t k = 0; k < s->n_fixed; ++k) {
         PF_TRY(check_group(&s->fixed[k].region, m, 2, "fixed", k, err));
-        PF_TRY(check_list(s, &s->fixed[k].region, m, "fixed", k, err));
+        PF_TRY(check_list(&s->fixed[k].region, m, "fixed", k, err));
     }
     for (int32_t k = 0; k < s->n_loads; ++k) {
         PF_TRY(check_group(&s->loads[k].region, m, 2, "loads", k, err));
-        PF_TRY(check_list(s, &s->loads[k].region, m, "loads", k, err));
+        PF_TRY(check_list(&s->loads[k].region, m, "loads", k, err));
     }
     for (int32_t k = 0; k < s->n_materials; ++k) {
         PF_TRY(check_group(&s->materials[k].region, m, 3, "materials", k, err));
-        PF_TRY(check_list(s, &s->materials[k].region, m, "materials", k, err));
+        PF_TRY(check_list(&s->materials[k].region, m, "materials", k, err));
     }
     *table = pf_alloc_array((size_t)s->n_materials + 1, sizeof **table);
     *elem = pf_calloc((size_t)m->n_elems + 1, sizeof **elem);

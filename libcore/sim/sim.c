@@ -16,6 +16,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "sim_change.h"
 #include "sim_internal.h"
 
 /* ---- set-up ------------------------------------------------------------------------------ */
@@ -187,7 +188,15 @@ static pf_status set_rigid_modes(pf_sim *s, pf_error *err)
 
 pf_status pf_sim_create(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh, pf_error *err)
 {
-    return pf_sim_create_embedded(out, scene, mesh, NULL, NULL, err);
+    return pf_sim_create_with(out, scene, mesh, NULL, err);
+}
+
+pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh,
+                                 const pf_surface *surface, const pf_weights *weights,
+                                 pf_error *err)
+{
+    pf_sim_options opt = {.surface = surface, .weights = weights};
+    return pf_sim_create_with(out, scene, mesh, &opt, err);
 }
 
 /* The methods, by the scene's method (method.h). */
@@ -208,6 +217,7 @@ static const struct {
 static pf_solver_params solver_params(const pf_sim *s)
 {
     pf_solver_params params = s->scene->solver;
+    params.progress = s->progress;
     if (params.method == PF_SOLVER_AUTO && s->solver_before.method == PF_SOLVER_PCG)
         params.method = PF_SOLVER_PCG;
     return params;
@@ -224,8 +234,8 @@ pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *re
             create = METHODS[k].create;
     PF_CHECK(create, err, PF_ERR_INVALID, "unknown method %d", (int)scene->method);
     double t0 = pf_cpu_seconds();
-    pf_status st = create(scene, mesh, reuse, &s->ops, &s->method, &s->stats.fixed_faces,
-                          &s->stats.loaded_faces, err);
+    pf_status st = create(scene, mesh, reuse, &s->progress, &s->ops, &s->method,
+                          &s->stats.fixed_faces, &s->stats.loaded_faces, err);
     s->method_seconds = pf_cpu_seconds() - t0;
     if (st >= 0)
         s->ops->setup_stats(s->method, &s->stats);
@@ -262,11 +272,13 @@ pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *re
     return PF_OK;
 }
 
-pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh,
-                                 const pf_surface *surface, const pf_weights *weights,
-                                 pf_error *err)
+pf_status pf_sim_create_with(pf_sim **out, const pf_scene *scene, const pf_mesh *mesh,
+                             const pf_sim_options *options, pf_error *err)
 {
     *out = NULL;
+    pf_sim_options opt = options ? *options : (pf_sim_options){0};
+    const pf_surface *surface = opt.surface;
+    const pf_weights *weights = opt.weights;
     PF_CHECK(!surface == !weights, err, PF_ERR_INVALID,
              "an embedded surface needs both the surface and its weights");
     double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
@@ -275,6 +287,7 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
     s->scene = scene;
     s->surface = s->uncut_surface = surface;
     s->weights = weights;
+    s->progress = opt.progress;
     pf_status st = pf_sim_build(s, mesh, NULL, 0, err);
     if (st < 0) {
         pf_sim_destroy(&s);
@@ -315,6 +328,7 @@ void pf_sim_release(pf_sim *s)
     s->owned_weights = NULL;
     pf_free(s->blade_locks);
     s->blade_locks = NULL;
+    pf_scene_free_lists(&s->owned_scene);
     if (s->owned_surface)
         pf_surface_release(s->owned_surface);
     pf_free(s->owned_surface);

@@ -524,8 +524,8 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
 }
 
 pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
-                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
-                           int32_t *loaded_faces, pf_error *err)
+                           const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
+                           int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err)
 {
     *ops = &CG_OPS;
     *ctx = NULL;
@@ -537,6 +537,7 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     pf_cg_params params = pf_cg_params_default();
     params.basis.no_check_stats = true;
     params.basis.edge_samples = scene->edge_samples;
+    params.progress = *progress;
     pf_material *table = NULL;
     int32_t *elem = NULL, n_materials = 0;
     /* an element whose faces are its parent's node for node may take its functions and

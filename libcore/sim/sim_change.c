@@ -75,6 +75,7 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
                           const uint8_t *changed, pf_error *err)
 {
     t->scene = s->scene;
+    t->progress = s->progress;
     t->surface = s->surface;
     t->uncut_surface = s->uncut_surface;
     t->solver_before.method = pf_solver_get_stats(s->solver)->method; /* auto's choice goes on */
@@ -119,6 +120,14 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
         same[e] = !merged && !child;
         same[ne + e] = same[e] && !changed[e];
     }
+    pf_status carried =
+        pf_scene_carry_lists(s->scene, s->mesh, t->owned_mesh, change, &t->owned_scene, err);
+    if (carried < 0) {
+        pf_free(same);
+        return carried;
+    }
+    if (t->owned_scene)
+        t->scene = t->owned_scene;
     pf_method_reuse reuse = {.old = s->method,
                              .old_mesh = s->mesh,
                              .parent = change->parent,

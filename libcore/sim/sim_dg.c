@@ -446,8 +446,8 @@ static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loade
 }
 
 pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
-                           const pf_method_ops **ops, void **ctx, int32_t *fixed_faces,
-                           int32_t *loaded_faces, pf_error *err)
+                           const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
+                           int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err)
 {
     *ops = &DG_OPS;
     *ctx = NULL;
@@ -468,7 +468,8 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                                      .same_solid = reuse->same_solid,
                                      .same_faces = reuse->same_faces,
                                      .face_src = reuse->face_src};
-        st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, &mat, reuse ? &dg_reuse : NULL, err);
+        st = pf_dg_create_reusing(&d->dg, mesh, scene->degree, &mat, reuse ? &dg_reuse : NULL,
+                                  progress, err);
     }
     pf_free(table);
     pf_free(elem);

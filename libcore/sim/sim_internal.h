@@ -10,7 +10,9 @@
 #include "method.h"
 
 struct pf_sim {
-    const pf_scene *scene;
+    const pf_scene *scene;     /* the caller's, or owned_scene after a mesh change */
+    pf_scene *owned_scene;     /* the caller's with its node and element lists carried to the
+                                  current mesh (sim_change.h); NULL without lists */
     const pf_mesh *mesh;       /* the caller's, or owned_mesh after a refinement */
     pf_mesh *owned_mesh;       /* NULL until a refinement (on the heap: the method and contact
                                   keep pointers to it) */
@@ -54,11 +56,12 @@ struct pf_sim {
     pf_sim_stats stats;
     pf_solver_stats solver_before; /* the solves of the solvers of meshes before a change */
     double method_seconds;         /* creating the method (pf_sim_build), CPU seconds */
+    pf_progress_hook progress;     /* the caller's (pf_sim_options), zero: none */
 };
 
 /* Creates the discretisation of s->scene on mesh: the method (taking over what reuse allows; NULL:
  * nothing), state vectors, pattern, contact, solver and constant forces, with the penalty given
- * (> 0, DG) or searched (0). s->scene, s->surface and s->weights must be set. */
+ * (> 0, DG) or searched (0). s->scene, s->surface, s->weights and s->progress must be set. */
 pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *reuse, double penalty,
                        pf_error *err);
 

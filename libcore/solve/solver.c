@@ -119,6 +119,16 @@ static pf_status create_petsc(pf_solver **out, pf_solver *s, const pf_block_matr
     return PF_OK;
 }
 
+/* CHOLMOD's analysis (no progress of its own: the phase's start and end). */
+static pf_status analyse(pf_solver *s, const pf_block_matrix *a, pf_error *err)
+{
+    pf_progress_post(&s->params.progress, "symbolic analysis", 0, 1);
+    pf_status st = pf_cholesky_create(&s->chol, a, err);
+    if (st >= 0)
+        pf_progress_post(&s->params.progress, "symbolic analysis", 1, 1);
+    return st;
+}
+
 pf_status pf_solver_create(pf_solver **out, const pf_block_matrix *a,
                            const pf_solver_params *params, bool matrix_changes, pf_error *err)
 {
@@ -140,7 +150,7 @@ pf_status pf_solver_create(pf_solver **out, const pf_block_matrix *a,
     s->nnz = a->col_ptr[a->n];
     if (pr.method == PF_SOLVER_PETSC)
         return create_petsc(out, s, a, err);
-    pf_status st = pf_cholesky_create(&s->chol, a, err);
+    pf_status st = analyse(s, a, err);
     if (st >= 0) {
         size_t n = (size_t)s->n + 1;
         s->r = pf_alloc_array(n, sizeof *s->r);
@@ -196,7 +206,9 @@ static pf_status factor_timed(pf_solver *s, const pf_block_matrix *m, pf_refacto
                               int64_t *failed, pf_error *err)
 {
     double t0 = pf_time_seconds(), c0 = pf_cpu_seconds();
+    pf_progress_post(&s->params.progress, "numeric factorisation", 0, 1);
     pf_status st = pf_cholesky_factor(s->chol, m, failed, err);
+    pf_progress_post(&s->params.progress, "numeric factorisation", 1, 1); /* also a failed one */
     s->stats.factor_seconds += pf_time_seconds() - t0;
     s->stats.factor_cpu_seconds += pf_cpu_seconds() - c0;
     s->stats.factorisations++;
@@ -223,9 +235,14 @@ pf_status pf_solver_factor(pf_solver *s, const pf_block_matrix *a, int64_t *fail
                            pf_error *err)
 {
     if (!s->chol) /* petsc: a definiteness test factorises on this rank */
-        PF_TRY(pf_cholesky_create(&s->chol, a, err));
+        PF_TRY(analyse(s, a, err));
     s->have_factor = s->factor_current = false;
     return factor_timed(s, a, PF_REFACTOR_OTHER, failed_column, err);
+}
+
+void pf_solver_set_progress(pf_solver *s, const pf_progress_hook *progress)
+{
+    s->params.progress = progress ? *progress : (pf_progress_hook){0};
 }
 
 void pf_solver_reset(pf_solver *s)

@@ -41,6 +41,20 @@ check "pf-sim: frame, share, times and ETA" \
 check "pf-sim: the last at 100 %" grep -Eq "^pf-sim: frame 4 of 4, 100%, " "$tmp/err"
 check "pf-sim: the summary gives CPU beside wall seconds for set-up and assembly" \
   grep -Eq "setup [0-9.]+ s wall / [0-9.]+ s cpu, assembly [0-9.]+ s wall / [0-9.]+ s cpu" "$tmp/err"
+# the set-up's phases in a log: a line at each start and end, with the phase's own times
+times='[0-9.e+-]+ s \(CPU [0-9.e+-]+ s\)'
+for phase in "element integrals" "face integrals" "symbolic analysis" "numeric factorisation"; do
+  check "pf-sim dg: '$phase' started" \
+    grep -Eq "^pf-sim: $phase started( \([0-9]+\))?$" "$tmp/err"
+  check "pf-sim dg: '$phase' done" grep -Eq "^pf-sim: $phase done, $times$" "$tmp/err"
+done
+check "pf-sim dg: the set-up's lines before the first frame's" \
+  bash -c "grep -m1 -E 'face integrals done|frame 1 of 4' '$tmp/err' | grep -q 'face integrals'"
+expect 0 "" "$bin/pf-sim" --method cg --frames 1 --input "$tmp/box.pfs"
+for phase in "basis functions" "element matrices" "symbolic analysis"; do
+  check "pf-sim cg in a log (no --progress): '$phase' done" \
+    grep -Eq "^pf-sim: $phase done, $times$" "$tmp/err"
+done
 printf '{"time": {"frames": 2}}' >"$tmp/two.json"
 expect 0 "" "$bin/pf-sim" -q "$tmp/two.json" --input "$tmp/box.pfs"
 check "pf-sim -q: nothing on stderr" test ! -s "$tmp/err"

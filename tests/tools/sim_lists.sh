@@ -73,8 +73,35 @@ scene '"box": [[-1, -1, -1], [0, 2, 2]]' '"box": [[2, -1, -1], [3, 2, 2]]' \
   '"elements_file": "bad.txt"' >"$tmp/scenes/bad.json"
 expect 1 "materials[0].elements_file: $tmp/scenes/bad.txt:1: element 99 out of range: the mesh has 16 elements" \
   "$bin/pf-sim" "$tmp/scenes/bad.json" --input "$tmp/bar.pfs"
-sed 's/"ground": false,/"ground": false, "refine": {"threshold": 1e9},/' "$tmp/scenes/lists.json" \
-  >"$tmp/scenes/refine.json"
-expect 1 "a list numbers the nodes and elements of the starting mesh" \
-  "$bin/pf-sim" "$tmp/scenes/refine.json" --input "$tmp/bar.pfs"
+
+# a refining scene: the lists go with the mesh (children in their parent's element list, new
+# nodes on a listed face in the node list), so the frames are again those by boxes
+for s in boxes lists; do
+  sed 's/"ground": false,/"ground": false, "refine": {"threshold": 50, "max_level": 1},/' \
+    "$tmp/scenes/$s.json" >"$tmp/scenes/refine_$s.json"
+done
+for method in dg cg; do
+  for s in boxes lists; do
+    (cd "$tmp/run" && "$bin/pf-sim" ../scenes/refine_$s.json --method $method --quiet \
+      --input ../bar.pfs --stats refine_$s.json >refine_$s.pfs) ||
+      echo "FAIL: pf-sim refine $s $method"
+    "$bin/pf-export" --vtu "$tmp/rvtu_${s}_$method" --ascii --quiet "$tmp/run/refine_$s.pfs"
+  done
+  check "$method refined: the mesh changed" python3 -c "
+import json, sys
+a = json.load(open('$tmp/run/refine_lists.json'))
+sys.exit(0 if a['mesh_changes']['changes'] >= 1 and a['mesh_changes']['elements'] > 16 else 1)"
+  check "$method refined: the frames by lists are those by boxes, bit for bit (17 digits)" \
+    diff -r "$tmp/rvtu_boxes_$method" "$tmp/rvtu_lists_$method"
+done
+# a cut (nodes duplicated along the crack): the same again
+cut='"cuts": [{"plane": {"point": [1.25, 0.5, 0.5], "normal": [1, 0.2, 0]}, "time": 0.03}]'
+for s in boxes lists; do
+  sed "s/\"ground\": false,/\"ground\": false, $cut,/" "$tmp/scenes/$s.json" >"$tmp/scenes/cut_$s.json"
+  (cd "$tmp/run" && "$bin/pf-sim" ../scenes/cut_$s.json --quiet --input ../bar.pfs >cut_$s.pfs) ||
+    echo "FAIL: pf-sim cut $s"
+  "$bin/pf-export" --vtu "$tmp/cvtu_$s" --ascii --quiet "$tmp/run/cut_$s.pfs"
+done
+check "cut: the frames by lists are those by boxes, bit for bit" \
+  diff -r "$tmp/cvtu_boxes" "$tmp/cvtu_lists"
 finish

@@ -145,6 +145,29 @@ double pf_median(double *v, int64_t n);
  * reported now and then from the thread that called the computation; ctx is the caller's. */
 typedef void (*pf_progress_fn)(void *ctx, double done, double total);
 
+/* Progress of a computation made of named phases (a simulator's set-up: "element integrals",
+ * "face integrals", "basis functions", "element matrices", "symbolic analysis", "numeric
+ * factorisation"). phase is a static string; done counts the phase's items out of total
+ * (elements, faces; 1 for a phase reported only at its start and end). Every phase is reported
+ * first with done = 0 and last with done = total; done never decreases in between. */
+typedef struct pf_progress_event {
+    const char *phase;
+    int64_t done, total;
+} pf_progress_event;
+
+/* Called from the thread that called the computation, often (up to once per item): it must be
+ * cheap, and throttling what it prints is its own business. user is the hook's. */
+typedef void (*pf_progress_event_fn)(void *user, const pf_progress_event *ev);
+
+/* A callback and its context, borrowed by whatever it is handed to; zero value: none. */
+typedef struct pf_progress_hook {
+    pf_progress_event_fn fn;
+    void *user;
+} pf_progress_hook;
+
+/* Reports phase at done of total through h; nothing when h or h->fn is NULL. */
+void pf_progress_post(const pf_progress_hook *h, const char *phase, int64_t done, int64_t total);
+
 /* OpenBLAS's thread count for a stretch of BLAS / LAPACK calls (base/blas_threads.c says why pf
  * runs its own calls on one: results independent of the core count, and small products).
  * pf_blas_threads_set sets it to threads (> 0) unless the user set OPENBLAS_NUM_THREADS,

@@ -147,6 +147,8 @@ typedef struct pf_basis_params {
                                    (boundary, linear and unity errors, min_value stay 0; counts
                                    and setup_ms are kept): they cost about as much as the MFS
                                    solves and the simulator does not read them */
+    pf_progress_hook progress;  /* the phase "basis functions" (elements, taken ones counted),
+                                   borrowed during pf_basis_create only; zero: none */
 } pf_basis_params;
 
 pf_basis_params pf_basis_params_default(void);

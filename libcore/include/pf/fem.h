@@ -162,10 +162,11 @@ typedef struct pf_dg_reuse {
 
 /* pf_dg_create_materials, copying what reuse allows (NULL: nothing: an element copied keeps
  * its parent's material, as every element that is its parent's solid does); dg->reused_elems and
- * dg->reused_faces count what was copied. */
+ * dg->reused_faces count what was copied. progress (NULL or zero: none) hears the phases
+ * "element integrals" (elements) and "face integrals" (faces), copies counted as done. */
 pf_status pf_dg_create_reusing(pf_dg *dg, const pf_mesh *m, int32_t degree,
                                const pf_materials *materials, const pf_dg_reuse *reuse,
-                               pf_error *err);
+                               const pf_progress_hook *progress, pf_error *err);
 
 /* The coefficient vector of the rest positions, X0 of sec. 6.2 (x = sum_a x0_a phi_a), [n_dofs]. */
 void pf_dg_rest_coefficients(const pf_dg *dg, double *x0);
@@ -349,6 +350,9 @@ typedef struct pf_cg_params {
     pf_basis_params basis;     /* zero fields: basis defaults */
     int32_t quadrature_degree; /* harmonic elements, 1..29; 0 = PF_CG_DEFAULT_QUADRATURE */
     bool no_consistency_correction; /* true: the paper's K_e as is (above; studies) */
+    pf_progress_hook progress; /* the phases "basis functions" (unless basis.progress is set)
+                                  and "element matrices" (elements, copied ones counted);
+                                  borrowed during the set-up only; zero: none */
 } pf_cg_params;
 
 pf_cg_params pf_cg_params_default(void);

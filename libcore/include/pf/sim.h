@@ -309,8 +309,8 @@ pf_status pf_region_set_list(pf_region *r, const pf_mesh *m, const int32_t *indi
  * entry that selects an element, else 0. Also checks that every group the scene names (fixed,
  * loads: dimension 2; materials: dimension 3) is one of the mesh's: PF_ERR_INVALID "fixed[1].group:
  * the mesh has no group 'name' of faces (its groups: ...)"; and that every list region was handed
- * over for m (PF_ERR_INVALID otherwise, and for lists in a scene that changes its mesh: a list
- * numbers the starting mesh's nodes and elements). PF_ERR_NOMEM. */
+ * over for m (PF_ERR_INVALID otherwise; a simulator whose mesh changes carries its own copy of
+ * the lists to each new mesh). PF_ERR_NOMEM. */
 pf_status pf_scene_materials(const pf_scene *s, const pf_mesh *m, pf_material **table, int32_t *n,
                              int32_t **elem, pf_error *err);
 
@@ -398,6 +398,25 @@ pf_status pf_sim_create(pf_sim **sim, const pf_scene *scene, const pf_mesh *mesh
 pf_status pf_sim_create_embedded(pf_sim **sim, const pf_scene *scene, const pf_mesh *mesh,
                                  const pf_surface *surface, const pf_weights *weights,
                                  pf_error *err);
+
+/* What pf_sim_create_with takes besides the scene and mesh; the zero value (or NULL) is
+ * pf_sim_create's. */
+typedef struct pf_sim_options {
+    /* an embedded surface for contact and its weights, both or neither (pf_sim_create_embedded) */
+    const pf_surface *surface;
+    const pf_weights *weights;
+    /* Hears the set-up's phases: DG "element integrals" and "face integrals", CG "basis
+     * functions" and "element matrices" (pf/base.h: counted in elements or faces), then the
+     * solver's "symbolic analysis" and "numeric factorisation" (start and end only, total 1;
+     * the DG penalty search factorises once per penalty tried). The same phases are heard
+     * again at every later factorisation (pf_sim_frame, pf_sim_solve_static) and at every mesh
+     * change's new set-up. Borrowed: user must outlive the simulator. Zero: none, at no cost. */
+    pf_progress_hook progress;
+} pf_sim_options;
+
+/* pf_sim_create_embedded with options (NULL: none). */
+pf_status pf_sim_create_with(pf_sim **sim, const pf_scene *scene, const pf_mesh *mesh,
+                             const pf_sim_options *options, pf_error *err);
 void pf_sim_destroy(pf_sim **sim);
 
 /* Static solve: the displacement under the scene's loads, gravity and fixed regions (linear

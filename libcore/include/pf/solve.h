@@ -149,12 +149,16 @@ const char *pf_solver_method_name(pf_solver_method m);
 bool pf_solver_method_parse(const char *name, pf_solver_method *m);
 
 typedef struct pf_solver_params {
-    pf_solver_method method; /* default auto */
-    double tolerance;        /* PCG (and petsc's CG) stops at ||b - A x|| <= tolerance ||b||
-                                (default 1e-10) */
-    int32_t max_iterations;  /* PCG iterations of one solve before it gives up on a factor and
-                                refactorises (default 200; fewer when a factorisation costs
-                                less than that many iterations) */
+    pf_solver_method method;   /* default auto */
+    double tolerance;          /* PCG (and petsc's CG) stops at ||b - A x|| <= tolerance ||b||
+                                  (default 1e-10) */
+    int32_t max_iterations;    /* PCG iterations of one solve before it gives up on a factor and
+                                  refactorises (default 200; fewer when a factorisation costs
+                                  less than that many iterations) */
+    pf_progress_hook progress; /* the phases "symbolic analysis" (in pf_solver_create) and
+                                  "numeric factorisation" (each, also pf_solver_factor's),
+                                  each reported at its start and end only (total 1); borrowed
+                                  for the solver's life; zero: none */
 } pf_solver_params;
 
 pf_solver_params pf_solver_params_default(void);
@@ -238,6 +242,8 @@ pf_status pf_solver_set_rotations(pf_solver *s, const double *rot, pf_error *err
 
 /* Forgets the factor (the next solve factorises): after a failed step whose state was undone. */
 void pf_solver_reset(pf_solver *s);
+/* Replaces the progress hook of the params (NULL or zero: none; borrowed, as there). */
+void pf_solver_set_progress(pf_solver *s, const pf_progress_hook *progress);
 
 /* The residual ||b - A x|| / ||b|| of the last solve (0 for b = 0). */
 double pf_solver_last_residual(const pf_solver *s);

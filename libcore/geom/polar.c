@@ -28,23 +28,15 @@ static pf_mat3 orthonormalize(pf_mat3 r)
     return pf_m3_mul(r, e);
 }
 
-/* exp([w]x) by Rodrigues' formula, I + a [w]x + b [w]x^2, its series for small angles. */
+/* The rotation by about w (to second order: the Cayley transform of [w / 2]x, exactly
+ * orthogonal), from the unit quaternion (1, w / 2) / |(1, w / 2)|: no trigonometry, and Newton's
+ * quadratic convergence is kept (the rotation differs from exp([w]x) by O(|w|^3)). */
 static pf_mat3 rotation_of(pf_vec3 w)
 {
-    double t2 = pf_v3_dot(w, w), a, b;
-    if (t2 < 1e-8) {
-        a = 1 - t2 / 6 * (1 - t2 / 20);
-        b = 0.5 * (1 - t2 / 12 * (1 - t2 / 30));
-    } else {
-        double t = sqrt(t2);
-        a = sin(t) / t;
-        b = (1 - cos(t)) / t2;
-    }
-    pf_mat3 k = {{{0, -w.z, w.y}, {w.z, 0, -w.x}, {-w.y, w.x, 0}}};
-    pf_mat3 r = pf_m3_add(pf_m3_scale(k, a), pf_m3_scale(pf_m3_mul(k, k), b));
-    for (int i = 0; i < 3; ++i)
-        r.m[i][i] += 1;
-    return r;
+    double x = 0.5 * w.x, y = 0.5 * w.y, z = 0.5 * w.z, s = 2 / (1 + x * x + y * y + z * z);
+    return (pf_mat3){{{1 - s * (y * y + z * z), s * (x * y - z), s * (x * z + y)},
+                      {s * (x * y + z), 1 - s * (x * x + z * z), s * (y * z - x)},
+                      {s * (x * z - y), s * (y * z + x), 1 - s * (x * x + y * y)}}};
 }
 
 /* The Newton step w of M = R^T A: with M ~ (I + [w]x) S, S symmetric, the skew part of M is

@@ -183,6 +183,61 @@ static void product_matches_dense(void **state)
         assert_true(fabs(y[k] - ref[k]) <= 1e-10);
 }
 
+/* The product one stored column at a time, through the row indices: the summation order the
+ * block product must keep bit for bit. */
+static void column_product(const pf_block_matrix *a, double alpha, const double *x, double beta,
+                           double *y)
+{
+    for (int64_t r = 0; r < a->n; ++r)
+        y[r] = beta == 0 ? 0 : beta * y[r];
+    for (int64_t c = 0; c < a->n; ++c) {
+        double xc = alpha * x[c], yc = 0;
+        for (int64_t p = a->col_ptr[c]; p < a->col_ptr[c + 1]; ++p) {
+            int64_t r = a->row_idx[p];
+            y[r] += a->val[p] * xc;
+            if (r != c)
+                yc += a->val[p] * x[r];
+        }
+        y[c] += alpha * yc;
+    }
+}
+
+/* Random block sizes 1 .. 10 (remainders of the three-column groups), then blocks of 3 (CG's
+ * nodes): the block product equals the column product byte for byte. */
+static void product_is_bit_identical(void **state)
+{
+    fixture *f = *state;
+    rng r = {4242};
+    for (int pass = 0; pass < 2; ++pass) {
+        make_pattern(f, &r);
+        if (pass == 1) { /* the same pairs on blocks of 3 */
+            pf_block_matrix_release(&f->a);
+            for (int32_t b = 0; b < f->n_blocks; ++b)
+                f->size[b] = 3, f->start[b + 1] = f->start[b] + 3;
+            pf_error err = {0};
+            assert_int_equal(
+                pf_block_matrix_create(&f->a, f->n_blocks, f->size, f->n_pairs, f->pairs, &err),
+                PF_OK);
+            free(f->dense);
+            f->dense = calloc((size_t)(f->a.n * f->a.n), sizeof *f->dense);
+            assert_non_null(f->dense);
+        }
+        fill_random(f, &r);
+        double x[120], y[120], ref[120];
+        for (int64_t k = 0; k < f->a.n; ++k)
+            x[k] = uniform(&r), y[k] = ref[k] = uniform(&r);
+        pf_block_matrix_mul(&f->a, 1.7, x, 0.3, y);
+        column_product(&f->a, 1.7, x, 0.3, ref);
+        assert_memory_equal(y, ref, (size_t)f->a.n * sizeof *y);
+        pf_block_matrix_mul(&f->a, 1, x, 0, y);
+        column_product(&f->a, 1, x, 0, ref);
+        assert_memory_equal(y, ref, (size_t)f->a.n * sizeof *y);
+        pf_block_matrix_release(&f->a);
+        free(f->dense);
+        f->dense = NULL;
+    }
+}
+
 static double residual(const fixture *f, const double *x, const double *b)
 {
     int64_t n = f->a.n;
@@ -316,8 +371,8 @@ static void single_precision_solve_matches(void **state)
 }
 
 /* out = Q_i m Q_j^T, Q_t = now_t factor_t^T (3 x 3, row-major). */
-static void warp_3x3(const double *now, const double *factor, int32_t i, int32_t j,
-                     const double *m, double *out)
+static void warp_3x3(const double *now, const double *factor, int32_t i, int32_t j, const double *m,
+                     double *out)
 {
     double qi[9] = {0}, qj[9] = {0}, t[9] = {0};
     for (int a = 0; a < 3; ++a)
@@ -618,6 +673,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(assembly_matches_dense, setup, teardown),
         cmocka_unit_test_setup_teardown(uncoupled_pairs_have_no_slot, setup, teardown),
         cmocka_unit_test_setup_teardown(product_matches_dense, setup, teardown),
+        cmocka_unit_test_setup_teardown(product_is_bit_identical, setup, teardown),
         cmocka_unit_test_setup_teardown(cholesky_solves_and_refactors, setup, teardown),
         cmocka_unit_test(blas_threads_restore),
         cmocka_unit_test(cholesky_reports_indefinite_column),

@@ -69,8 +69,9 @@ static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *
  * iterations per solve, factorisations per 100 steps): the CG beam of bench_solver (1,911
  * hexes) 2.99 and 3 against 3.88 and 8; a free 2 x 1 x 1 box of 16 x 8 x 8 hexes spinning at
  * (0, 1, 5) rad/s 2.9 and 1 against 4.5 and 6; with the body's mean rotation instead of the
- * nodes' the beam needed 3.89 and 5. */
-static void triple_rotations(const void *m, double *rot)
+ * nodes' the beam needed 3.89 and 5. From the last step's rotations, Newton's polar
+ * (pf_mat3_polar_rotation_near) replaces the SVD's. */
+static void triple_rotations(const void *m, const double *last, double *rot)
 {
     const cg_method *c = m;
     memset(rot, 0, 9 * (size_t)c->map.n_free * sizeof *rot);
@@ -87,7 +88,14 @@ static void triple_rotations(const void *m, double *rot)
     for (int32_t i = 0; i < c->map.n_free; ++i) {
         pf_mat3 sum;
         memcpy(sum.m, rot + 9 * (size_t)i, sizeof sum.m);
-        pf_mat3 r = pf_mat3_polar_rotation(sum);
+        pf_mat3 r;
+        if (last) {
+            pf_mat3 guess;
+            memcpy(guess.m, last + 9 * (size_t)i, sizeof guess.m);
+            r = pf_mat3_polar_rotation_near(sum, guess, NULL);
+        } else {
+            r = pf_mat3_polar_rotation(sum);
+        }
         memcpy(rot + 9 * (size_t)i, r.m, sizeof r.m);
     }
 }

@@ -37,8 +37,14 @@ struct pf_sim {
     double *u, *v; /* state */
     double *f, *ku, *rhs;
     double *u_prev, *v_prev; /* the state before the frame, restored on failure */
-    double *dv;              /* the last step's velocity change (the warm start's trend) */
-    double *rot;             /* [3 n] the rotation of every unknown triple (pcg's warp) */
+    /* The warm start's trend: the last two steps' velocity changes, valid for the last trend
+     * steps (0, 1 or 2; pf_sim_forget_trend) */
+    double *dv, *dv2;
+    int32_t trend;
+    /* [3 n] the rotation of every unknown triple (pcg's warp), now and at the last step (the
+     * next one's starting guess when rot_warm) */
+    double *rot, *rot_last;
+    bool rot_warm;
     pf_block_matrix k;
     pf_solver *solver;
     bool assembled;      /* the system matrix has been assembled once (it changes afterwards only
@@ -70,5 +76,10 @@ void pf_sim_release(pf_sim *s);
 
 /* The solver's statistics, with those of earlier meshes' solvers, into the simulator's. */
 void pf_sim_sync_solver_stats(pf_sim *s);
+
+/* Drops the history the next step starts from (the velocity trend, the warp's last rotations):
+ * after a failed step, a restored state or a restart point, so that what follows depends on the
+ * state alone. */
+void pf_sim_forget_trend(pf_sim *s);
 
 #endif

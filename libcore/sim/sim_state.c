@@ -6,9 +6,8 @@
  * energy check's accumulators, and the solver's history (the factor PCG iterates on and its age,
  * the contact set that tells whether the matrix changed). The history is not stored: a checkpoint
  * is a restart point (restart_point), after which both the run that continues and the run
- * restored from the bytes factorise afresh. The warm start's trend dv is not stored either: the
- * first solve after a restart point is the exact solve on a fresh factor, which overwrites the
- * start it was given, and it sets dv anew; restored, dv is zero.
+ * restored from the bytes factorise afresh. Nor is the warm start's history (the velocity trend,
+ * the warp's last rotations): both runs forget it at the restart point.
  *
  * A fingerprint (CRC-32) of the scene as resolved (its JSON with 17 significant digits), the mesh's
  * node positions and the mesh obstacles' triangles ties the state to what made it: restoring into
@@ -33,6 +32,7 @@ enum { HEADER_BYTES = 68, FLAG_ENERGY_STARTED = 1 };
 static void restart_point(pf_sim *s)
 {
     pf_solver_reset(s->solver);
+    pf_sim_forget_trend(s);
     s->assembled = false;
 }
 
@@ -146,7 +146,6 @@ pf_status pf_sim_restore(pf_sim *s, const void *bytes, size_t size, pf_error *er
     for (size_t q = 0; q < n; ++q) {
         s->u[q] = le_get_f64(p + HEADER_BYTES + 8 * q);
         s->v[q] = le_get_f64(p + HEADER_BYTES + 8 * (n + q));
-        s->dv[q] = 0;
     }
     s->frame = (int32_t)frame;
     s->time = t;

@@ -148,6 +148,17 @@ static inline pf_mat3 pf_m3_inverse(pf_mat3 a, double *det)
  * identity. Accurate to a few ulps of orthogonality. Non-finite input returns the identity. */
 pf_mat3 pf_mat3_polar_rotation(pf_mat3 a);
 
+/* The same rotation found from a guess close to it (the last time step's): Newton's method on
+ * the rotation, R <- R Cay(w) (the Cayley rotation, exp([w]x) to second order) with w solving
+ * sym(tr(M) I - M) w = axial(M - M^T), M = R^T A, quadratic from the guess's error: from a guess
+ * 1e-3 rad off, three iterations, about 0.65 of the SVD's time. Falls back
+ * to pf_mat3_polar_rotation when the guess is not finite, when Newton does not converge within 8
+ * iterations, or when the rotation is ill-determined (A of rank 1 or about: the pairwise sums of
+ * its singular values differ by more than 1e3). Agrees with pf_mat3_polar_rotation to about
+ * 1e-15 times that condition. *iterations (may be NULL): Newton's iterations, -1 after a
+ * fall-back. */
+pf_mat3 pf_mat3_polar_rotation_near(pf_mat3 a, pf_mat3 guess, int32_t *iterations);
+
 /* Eigen-decomposition of a symmetric matrix (only the upper triangle is read): eigenvalues in
  * ascending order in values[3], unit eigenvectors as the columns of *vectors (right-handed).
  * Jacobi rotations, accurate to a few ulps relative to the largest |eigenvalue|. Non-finite

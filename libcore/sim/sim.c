@@ -313,6 +313,8 @@ void pf_sim_release(pf_sim *s)
         pf_weights_release(s->owned_weights);
     pf_free(s->owned_weights);
     s->owned_weights = NULL;
+    pf_free(s->embed_steps);
+    s->embed_steps = NULL;
     pf_free(s->blade_locks);
     s->blade_locks = NULL;
     if (s->owned_surface)

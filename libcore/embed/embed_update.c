@@ -148,25 +148,40 @@ typedef struct update_job {
     double *val;   /* [same] */
 } update_job;
 
-static pf_status update_rows(update_job *u, int32_t *steps, pf_embed_update_stats *st,
-                             pf_error *err)
+/* Marks the rows to recompute (redo[v]) and returns the entries of the rows copied plus twice
+ * those of the rows recomputed: room for them to grow without moving the arrays. */
+static int64_t mark_rows(update_job *u, uint8_t *redo)
+{
+    const pf_weights *old = u->old;
+    int64_t room = 0;
+    for (int32_t v = 0; v < u->s->n_verts; ++v) {
+        pf_vec3 x = pf_v3_load(u->s->x + 3 * (size_t)v);
+        double scale = pf_mls_scale(u->c.p, u->old_steps[v]);
+        redo[v] = !copy_row(&u->nc, old, v, u->col) ||
+                  new_node_reaches(&u->nc, u->c.m, u->c.radius, x, scale);
+        room += (old->row_offsets[v + 1] - old->row_offsets[v]) * (redo[v] ? 2 : 1);
+    }
+    return room;
+}
+
+static pf_status update_rows(update_job *u, const uint8_t *redo, int32_t *steps,
+                             pf_embed_update_stats *st, pf_error *err)
 {
     pf_embed_stats row_stats;
     memset(&row_stats, 0, sizeof row_stats);
     const pf_weights *old = u->old;
     for (int32_t v = 0; v < u->s->n_verts; ++v) {
-        pf_vec3 x = pf_v3_load(u->s->x + 3 * (size_t)v);
-        int32_t step = u->old_steps[v];
         int32_t n = (int32_t)(old->row_offsets[v + 1] - old->row_offsets[v]);
-        if (copy_row(&u->nc, old, v, u->col) &&
-            !new_node_reaches(&u->nc, u->c.m, u->c.radius, x, pf_mls_scale(u->c.p, step))) {
+        if (!redo[v]) {
+            copy_row(&u->nc, old, v, u->col);
             memcpy(u->val, old->val + old->row_offsets[v], (size_t)n * sizeof *u->val);
             PF_TRY(pf_row_builder_add(&u->b, v, u->col, u->val, n, err));
-            steps[v] = step;
+            steps[v] = u->old_steps[v];
             continue;
         }
         uint32_t *col;
         double *val;
+        pf_vec3 x = pf_v3_load(u->s->x + 3 * (size_t)v);
         PF_TRY(pf_mls_row(&u->c, v, x, &col, &val, &n, &steps[v], &row_stats, err));
         PF_TRY(pf_row_builder_add(&u->b, v, col, val, n, err));
         st->rows_computed++;
@@ -204,11 +219,17 @@ static pf_status update_mls(update_job *u, const pf_mesh *old_mesh, const pf_mes
     PF_TRY(pf_mls_init(&u->c, m, p, NULL, err));
     PF_TRY(find_changes(&u->nc, old_mesh, m, p, u->c.radius, err));
     st->nodes_changed = u->nc.n_changed;
-    int64_t hint = u->old->row_offsets[u->old->rows] + 16;
-    PF_TRY(pf_row_builder_init(&u->b, w, u->s->n_verts, m->n_nodes, hint, err));
-    PF_TRY(update_rows(u, steps, st, err));
-    pf_row_builder_finish(&u->b);
-    return PF_OK;
+    uint8_t *redo = NULL;
+    PF_CHECK(PF_ALLOC_N(redo, (size_t)u->s->n_verts), err, PF_ERR_NOMEM,
+             "out of memory for %d row flags", (int)u->s->n_verts);
+    int64_t room = mark_rows(u, redo);
+    pf_status status = pf_row_builder_init(&u->b, w, u->s->n_verts, m->n_nodes, room + 16, err);
+    if (status >= 0)
+        status = update_rows(u, redo, steps, st, err);
+    pf_free(redo);
+    if (status >= 0)
+        pf_row_builder_finish(&u->b);
+    return status;
 }
 
 pf_status pf_embed_update(const pf_mesh *old_mesh, const pf_weights *old, const int32_t *old_steps,

@@ -137,6 +137,45 @@ static void normalise_support(mls_context *c, double scale)
                     s->d + 3 * (size_t)i);
 }
 
+/* The support grid (every node's box of half side its radius), and r_max. */
+static pf_status build_supports(mls_context *c, pf_error *err)
+{
+    const pf_mesh *m = c->m;
+    double *box = NULL;
+    PF_CHECK(PF_ALLOC_N(box, 6 * (size_t)m->n_nodes), err, PF_ERR_NOMEM,
+             "out of memory for %d node boxes", (int)m->n_nodes);
+    double mean = 0;
+    for (int32_t i = 0; i < m->n_nodes; ++i) {
+        double r = c->radius[i];
+        mean += r;
+        c->r_max = fmax(c->r_max, r);
+        for (int a = 0; a < 3; ++a) {
+            box[6 * (size_t)i + a] = m->x[3 * (size_t)i + a] - r;
+            box[6 * (size_t)i + 3 + a] = m->x[3 * (size_t)i + a] + r;
+        }
+    }
+    c->mean_radius = mean / m->n_nodes;
+    pf_status st = pf_bucket_grid_build(&c->supports, box, m->n_nodes, c->mean_radius, err);
+    pf_free(box);
+    return st;
+}
+
+/* The point grid, built by the first grown support (few vertices need one). */
+static pf_status build_points(mls_context *c, pf_error *err)
+{
+    const pf_mesh *m = c->m;
+    double *box = NULL;
+    PF_CHECK(PF_ALLOC_N(box, 6 * (size_t)m->n_nodes), err, PF_ERR_NOMEM,
+             "out of memory for %d node boxes", (int)m->n_nodes);
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        for (int a = 0; a < 3; ++a)
+            box[6 * (size_t)i + a] = box[6 * (size_t)i + 3 + a] = m->x[3 * (size_t)i + a];
+    pf_status st = pf_bucket_grid_build(&c->points, box, m->n_nodes, c->mean_radius, err);
+    pf_free(box);
+    c->points_built = st >= 0;
+    return st;
+}
+
 /* The nodes whose (scaled) support holds x, in the order of their indices: at scale 1 the
  * candidates of x's cell of the support grid; grown, every cell of the point grid within
  * scale * r_max. */
@@ -152,6 +191,8 @@ static pf_status gather(mls_context *c, pf_vec3 x, double scale, pf_error *err)
         for (int64_t q = g->offsets[k]; q < g->offsets[k + 1]; ++q)
             PF_TRY(consider(c, g->items[q], x, scale, err));
     } else {
+        if (!c->points_built)
+            PF_TRY(build_points(c, err));
         const bucket_grid *g = &c->points;
         double reach = scale * c->r_max;
         int32_t lo[3], hi[3];
@@ -168,33 +209,6 @@ static pf_status gather(mls_context *c, pf_vec3 x, double scale, pf_error *err)
     sort_support(&c->s);
     normalise_support(c, scale);
     return PF_OK;
-}
-
-static pf_status build_grids(mls_context *c, pf_error *err)
-{
-    const pf_mesh *m = c->m;
-    double *box = NULL;
-    PF_CHECK(PF_ALLOC_N(box, 6 * (size_t)m->n_nodes), err, PF_ERR_NOMEM,
-             "out of memory for %d node boxes", (int)m->n_nodes);
-    double mean = 0;
-    for (int32_t i = 0; i < m->n_nodes; ++i) {
-        double r = c->radius[i];
-        mean += r;
-        c->r_max = fmax(c->r_max, r);
-        for (int a = 0; a < 3; ++a) {
-            box[6 * (size_t)i + a] = m->x[3 * (size_t)i + a] - r;
-            box[6 * (size_t)i + 3 + a] = m->x[3 * (size_t)i + a] + r;
-        }
-    }
-    mean /= m->n_nodes;
-    pf_status st = pf_bucket_grid_build(&c->supports, box, m->n_nodes, mean, err);
-    for (int32_t i = 0; i < m->n_nodes && st >= 0; ++i)
-        for (int a = 0; a < 3; ++a)
-            box[6 * (size_t)i + a] = box[6 * (size_t)i + 3 + a] = m->x[3 * (size_t)i + a];
-    if (st >= 0)
-        st = pf_bucket_grid_build(&c->points, box, m->n_nodes, mean, err);
-    pf_free(box);
-    return st;
 }
 
 static double amplification(const double *w, int32_t n)
@@ -292,7 +306,7 @@ pf_status pf_mls_init(mls_context *c, const pf_mesh *m, const pf_embed_params *p
     PF_CHECK(PF_ALLOC_N(c->radius, (size_t)m->n_nodes), err, PF_ERR_NOMEM,
              "out of memory for %d radii", (int)m->n_nodes);
     PF_TRY(pf_embed_mls_radii(m, p, c->radius, err));
-    PF_TRY(build_grids(c, err));
+    PF_TRY(build_supports(c, err));
     if (!p->blocking_faces)
         return PF_OK;
     c->use_vis = true;

@@ -19,7 +19,9 @@ typedef struct mls_context {
     double *radius; /* [n_nodes] owned: pf_embed_mls_radii */
     double r_max;
     bucket_grid supports; /* nodes by their support boxes */
-    bucket_grid points;   /* nodes by position, for grown supports */
+    bucket_grid points;   /* nodes by position, for grown supports (built by the first) */
+    bool points_built;
+    double mean_radius;   /* the grids' cell size */
     mls_support s;
     visibility vis;
     bool use_vis;      /* p->blocking_faces given */

@@ -47,6 +47,16 @@
  *   bench_adapt reuse ... slice N  the sphere sliced N across (default 5). At 6 the all-octs
  *                          check passes; the stress-driven runs still stop at a later refinement
  *                          ("nodes are collinear": a face between planes of successive rounds)
+ *   bench_adapt embed      CSV: the embedded surface's MLS weights after each of three local
+ *                          refinements (octs of the elements whose mean corner lies in the last
+ *                          30 %, 15 %, 7.5 % of the mesh's extent in x), updated (pf_embed_update)
+ *                          against computed afresh (pf_embed_compute_steps; checked to be the same
+ *                          bits): a sphere (radius 0.95, 64 x 128 facets) in a sliced sphere
+ *                          (radius 1, 8 x 16 facets, sliced 8 across, or N: slice N) and the bunny
+ *                          in its own mesh sliced 8 across. CPU seconds of each (the fastest of
+ *                          3 runs):
+ *                          case,change,elems,nodes,nodes_changed,rows,rows_computed,full_cpu_s,
+ *                          update_cpu_s,speedup
  *   bench_adapt ... quick  smaller cases (a check that the program runs)
  *
  * Timings are CPU seconds of the process (pf_sim_stats' refinement parts, the first
@@ -57,6 +67,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <pf/embed.h>
+#include <pf/io.h>
 #include <pf/mesh.h>
 #include <pf/refine.h>
 #include <pf/sim.h>
@@ -422,6 +434,139 @@ static int accuracy(bool quick)
     return 0;
 }
 
+/* The mean x of element e's face corners (each face's own). */
+static double elem_mean_x(const pf_mesh *m, int32_t e)
+{
+    double sum = 0;
+    int64_t n = 0;
+    for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+        int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+        for (int64_t q = m->face_offsets[f]; q < m->face_offsets[f + 1]; ++q, ++n)
+            sum += m->x[3 * (size_t)m->face_nodes[q]];
+    }
+    return sum / (double)n;
+}
+
+/* Octs of the elements of *m whose mean corner x exceeds cut; *m becomes the refined mesh. */
+static pf_status refine_beyond(pf_mesh *m, double cut, pf_error *err)
+{
+    pf_refine_request *req = pf_alloc_array((size_t)m->n_elems, sizeof *req);
+    PF_CHECK(req, err, PF_ERR_NOMEM, "out of memory for %d requests", (int)m->n_elems);
+    int32_t n = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        if (elem_mean_x(m, e) > cut)
+            req[n++] = (pf_refine_request){.elem = e, .kind = PF_SPLIT_OCTS};
+    pf_mesh next = {0};
+    pf_refine_result res;
+    pf_status st = pf_mesh_refine(m, req, n, &next, &res, err);
+    pf_free(req);
+    if (st < 0)
+        return st;
+    pf_refine_result_release(&res);
+    next.id = m->id + 1;
+    pf_mesh_release(m);
+    *m = next;
+    return PF_OK;
+}
+
+static bool same_weights(const pf_weights *a, const pf_weights *b)
+{
+    size_t nnz = (size_t)a->row_offsets[a->rows];
+    return a->rows == b->rows && a->cols == b->cols && nnz == (size_t)b->row_offsets[b->rows] &&
+           !memcmp(a->row_offsets, b->row_offsets, ((size_t)a->rows + 1) * sizeof(int64_t)) &&
+           !memcmp(a->col, b->col, nnz * sizeof *a->col) &&
+           !memcmp(a->val, b->val, nnz * sizeof *a->val);
+}
+
+/* One change from (old, w0, steps0): the fastest of 3 full computations and of 3 updates. */
+static pf_status embed_change(const char *name, int change, const pf_mesh *old, const pf_mesh *m,
+                              const pf_surface *s, pf_weights *w0, int32_t **steps0,
+                              pf_error *err)
+{
+    int32_t *steps = pf_alloc_array((size_t)s->n_verts, sizeof *steps);
+    PF_CHECK(steps, err, PF_ERR_NOMEM, "out of memory for %d steps", (int)s->n_verts);
+    pf_weights full = {0}, up = {0};
+    pf_embed_update_stats ust;
+    double t_full = INFINITY, t_up = INFINITY;
+    pf_status st = PF_OK;
+    for (int r = 0; r < 3 && st >= 0; ++r) {
+        pf_weights_release(&full);
+        pf_weights_release(&up);
+        double c0 = bench_cpu_seconds();
+        st = pf_embed_compute_steps(m, s, NULL, &full, steps, NULL, err);
+        double c1 = bench_cpu_seconds();
+        if (st >= 0)
+            st = pf_embed_update(old, w0, *steps0, m, NULL, s, NULL, &up, steps, &ust, err);
+        t_full = fmin(t_full, c1 - c0);
+        t_up = fmin(t_up, bench_cpu_seconds() - c1);
+    }
+    if (st >= 0 && !same_weights(&full, &up))
+        st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
+                          "%s change %d: the updated weights differ from the computed ones", name,
+                          change);
+    if (st >= 0)
+        printf("%s,%d,%d,%d,%d,%d,%d,%.6f,%.6f,%.2f\n", name, change, (int)m->n_elems,
+               (int)m->n_nodes, (int)ust.nodes_changed, (int)ust.rows, (int)ust.rows_computed,
+               t_full, t_up, t_full / t_up);
+    pf_weights_release(&up);
+    pf_weights_release(w0);
+    *w0 = full;
+    pf_free(*steps0);
+    *steps0 = steps;
+    return st;
+}
+
+static pf_status embed_case(const char *name, pf_mesh *m, const pf_surface *s, pf_error *err)
+{
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(m, &lo, &hi);
+    int32_t *steps = pf_alloc_array((size_t)s->n_verts, sizeof *steps);
+    PF_CHECK(steps, err, PF_ERR_NOMEM, "out of memory for %d steps", (int)s->n_verts);
+    pf_weights w = {0};
+    pf_mesh old = {0};
+    m->id = 1;
+    pf_status st = pf_embed_compute_steps(m, s, NULL, &w, steps, NULL, err);
+    double band = 0.3;
+    for (int change = 1; change <= 3 && st >= 0; ++change, band /= 2) {
+        pf_mesh_release(&old);
+        st = pf_mesh_copy(&old, m, err);
+        if (st >= 0)
+            st = refine_beyond(m, hi.x - band * (hi.x - lo.x), err);
+        if (st >= 0)
+            st = embed_change(name, change, &old, m, s, &w, &steps, err);
+    }
+    pf_mesh_release(&old);
+    pf_weights_release(&w);
+    pf_free(steps);
+    return st;
+}
+
+static int embed(bool quick, int slice)
+{
+    pf_error err = {0};
+    pf_surface outer = {0}, inner = {0}, bunny = {0};
+    pf_mesh sphere = {0}, bunny_mesh = {0};
+    pf_slice_params sp = pf_slice_params_default();
+    sp.grid.res = slice > 0 ? slice : quick ? 4 : 8;
+    if (pf_surface_make_sphere(&outer, 1, 8, 16, &err) < 0 ||
+        pf_surface_make_sphere(&inner, 0.95, quick ? 16 : 64, quick ? 32 : 128, &err) < 0 ||
+        pf_mesh_slice(&sphere, &outer, &sp, NULL, &err) < 0 ||
+        pf_import_surface(PF_MODELS_DIR "/bunny.obj", &bunny, &err) < 0 ||
+        pf_mesh_slice(&bunny_mesh, &bunny, &sp, NULL, &err) < 0)
+        return fail(&err);
+    printf("case,change,elems,nodes,nodes_changed,rows,rows_computed,full_cpu_s,update_cpu_s,"
+           "speedup\n");
+    pf_status st = embed_case("sphere", &sphere, &inner, &err);
+    if (st >= 0)
+        st = embed_case("bunny", &bunny_mesh, &bunny, &err);
+    pf_mesh_release(&sphere);
+    pf_mesh_release(&bunny_mesh);
+    pf_surface_release(&outer);
+    pf_surface_release(&inner);
+    pf_surface_release(&bunny);
+    return st < 0 ? fail(&err) : 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *mode = argc > 1 ? argv[1] : "events";
@@ -444,6 +589,8 @@ int main(int argc, char **argv)
         return accuracy(quick);
     if (!strcmp(mode, "reuse"))
         return reuse(quick, slice);
-    fprintf(stderr, "usage: bench_adapt events|accuracy|reuse [quick] [slice N]\n");
+    if (!strcmp(mode, "embed"))
+        return embed(quick, slice);
+    fprintf(stderr, "usage: bench_adapt events|accuracy|reuse|embed [quick] [slice N]\n");
     return 2;
 }

@@ -440,11 +440,14 @@ static void print_summary(const run *r, const pf_sim *sim)
         fprintf(stderr,
                 "pf-sim: mesh changes: %d (%lld elements split, %lld groups merged back; %d -> "
                 "%d elements), %.3f s cpu; integrals %lld reused, %lld computed; shape "
-                "functions %lld reused, %lld built\n",
+                "functions %lld reused, %lld built; embedding rows %lld of %lld recomputed "
+                "(%.3f s cpu)\n",
                 (int)st->refinements, (long long)st->elements_split, (long long)st->elements_merged,
                 (int)r->mesh.n_elems, (int)st->elements, st->refine_seconds,
                 (long long)st->integrals_reused, (long long)st->integrals_computed,
-                (long long)st->basis_reused, (long long)st->basis_computed);
+                (long long)st->basis_reused, (long long)st->basis_computed,
+                (long long)st->embed_rows_computed, (long long)st->embed_rows,
+                st->refine_embed_seconds);
     if (st->cuts > 0)
         fprintf(stderr,
                 "pf-sim: cuts: %d (%lld elements split), %d bodies, %.3g dropped (volume %.3g), "

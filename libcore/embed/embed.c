@@ -169,7 +169,7 @@ void pf_row_builder_finish(row_builder *b)
 
 /* ---- entry point ------------------------------------------------------------------------------- */
 
-static pf_status check_inputs(const pf_mesh *m, const pf_surface *s, pf_error *err)
+pf_status pf_embed_check_inputs(const pf_mesh *m, const pf_surface *s, pf_error *err)
 {
     PF_CHECK(m->n_nodes > 0 && m->n_elems > 0, err, PF_ERR_INVALID,
              "embedding needs a mesh with elements (got %d nodes, %d elements)", (int)m->n_nodes,
@@ -186,6 +186,13 @@ static pf_status check_inputs(const pf_mesh *m, const pf_surface *s, pf_error *e
 pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed_params *params,
                            pf_weights *w, pf_embed_stats *stats, pf_error *err)
 {
+    return pf_embed_compute_steps(m, s, params, w, NULL, stats, err);
+}
+
+pf_status pf_embed_compute_steps(const pf_mesh *m, const pf_surface *s,
+                                 const pf_embed_params *params, pf_weights *w, int32_t *steps,
+                                 pf_embed_stats *stats, pf_error *err)
+{
     double t0 = pf_time_seconds();
     memset(w, 0, sizeof *w);
     pf_embed_params p;
@@ -193,7 +200,7 @@ pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed
     pf_embed_stats *st_out = stats ? stats : &local;
     memset(st_out, 0, sizeof *st_out);
     PF_TRY(pf_embed_resolve_params(params, &p, err));
-    PF_TRY(check_inputs(m, s, err));
+    PF_TRY(pf_embed_check_inputs(m, s, err));
     locator L;
     PF_TRY(pf_locator_build(&L, m, err));
     row_builder b;
@@ -201,7 +208,9 @@ pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed
     pf_status st = pf_row_builder_init(&b, w, s->n_verts, m->n_nodes, hint, err);
     if (st >= 0) {
         st_out->n_verts = s->n_verts;
-        st = p.method == PF_EMBED_MLS ? pf_embed_mls(m, s, &p, &L, &b, st_out, err)
+        if (steps && p.method != PF_EMBED_MLS)
+            memset(steps, 0, (size_t)s->n_verts * sizeof *steps);
+        st = p.method == PF_EMBED_MLS ? pf_embed_mls(m, s, &p, &L, &b, steps, st_out, err)
                                       : pf_embed_bary(m, s, p.vertex_side, &L,
                                                    p.method == PF_EMBED_HARMONIC, &b, st_out, err);
     }

@@ -9,6 +9,9 @@
 /* The parameters with zero fields replaced by the defaults, checked. */
 pf_status pf_embed_resolve_params(const pf_embed_params *in, pf_embed_params *out, pf_error *err);
 
+/* A mesh with elements and finite coordinates of mesh and surface (PF_ERR_INVALID). */
+pf_status pf_embed_check_inputs(const pf_mesh *m, const pf_surface *s, pf_error *err);
+
 /* Every element's boundary as outward triangles on mesh nodes, and its distinct nodes. Each mesh
  * face is triangulated once, in its stored orientation, and flipped for the element using it
  * reversed, so two neighbours see the same triangles on their shared face (bary stays C0). */
@@ -147,8 +150,10 @@ void pf_row_builder_finish(row_builder *b);
 
 /* The two methods, filling b for every vertex and the method's statistics. */
 /* With p->blocking_faces, the visibility rule; p->vertex_side nudges the vertices seen from. */
+/* steps (may be NULL): [s->n_verts] each row's growth step (pf_embed_compute_steps). */
 pf_status pf_embed_mls(const pf_mesh *m, const pf_surface *s, const pf_embed_params *p,
-                    locator *L, row_builder *b, pf_embed_stats *stats, pf_error *err);
+                       locator *L, row_builder *b, int32_t *steps, pf_embed_stats *stats,
+                       pf_error *err);
 /* harmonic: general polyhedra weighted by their harmonic (CG) functions, not mean value
  * coordinates. vertex_side: as pf_embed_params (may be NULL). */
 pf_status pf_embed_bary(const pf_mesh *m, const pf_surface *s, const double *vertex_side,

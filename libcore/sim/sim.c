@@ -337,6 +337,8 @@ void pf_sim_release(pf_sim *s)
         pf_weights_release(s->owned_weights);
     pf_free(s->owned_weights);
     s->owned_weights = NULL;
+    pf_free(s->embed_steps);
+    s->embed_steps = NULL;
     pf_free(s->blade_locks);
     s->blade_locks = NULL;
     pf_scene_free_lists(&s->owned_scene);

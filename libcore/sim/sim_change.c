@@ -48,6 +48,9 @@ static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
     t->stats.integrals_computed += mesh_stats.integrals_computed;
     t->stats.basis_reused += mesh_stats.basis_reused;
     t->stats.basis_computed += mesh_stats.basis_computed;
+    t->stats.embed_rows += mesh_stats.embed_rows;
+    t->stats.embed_rows_computed += mesh_stats.embed_rows_computed;
+    t->stats.refine_embed_seconds += mesh_stats.refine_embed_seconds;
     t->stats.refine_transfer_seconds += transfer_seconds;
     t->solver_before = s->stats.solver;
     pf_sim_sync_solver_stats(t);
@@ -67,6 +70,31 @@ static pf_status carry_over(pf_sim *t, const pf_sim *s, const pf_mesh_change *ch
     t->fixed_energy = s->fixed_energy;
     t->energy_floor = s->energy_floor;
     carry_stats(t, s, pf_cpu_seconds() - t0);
+    return PF_OK;
+}
+
+/* The surface's weights on t's mesh: only the rows the change reaches recomputed when s's
+ * weights are its own (their growth steps known), all of them after the caller's or a cut's. */
+static pf_status reweight(pf_sim *t, const pf_sim *s, const pf_mesh_change *change, pf_error *err)
+{
+    double t0 = pf_cpu_seconds();
+    int32_t n = s->surface->n_verts;
+    t->owned_weights = pf_calloc(1, sizeof *t->owned_weights);
+    t->embed_steps = pf_alloc_array(n > 0 ? (size_t)n : 1, sizeof *t->embed_steps);
+    PF_CHECK(t->owned_weights && t->embed_steps, err, PF_ERR_NOMEM,
+             "cannot allocate the surface's weights");
+    pf_embed_update_stats st = {.rows = n, .rows_computed = n};
+    if (s->embed_steps)
+        PF_TRY(pf_embed_update(s->mesh, s->weights, s->embed_steps, t->owned_mesh,
+                               change->node_map, s->surface, NULL, t->owned_weights,
+                               t->embed_steps, &st, err));
+    else
+        PF_TRY(pf_embed_compute_steps(t->owned_mesh, s->surface, NULL, t->owned_weights,
+                                      t->embed_steps, NULL, err));
+    t->weights = t->owned_weights;
+    t->stats.embed_rows = st.rows;
+    t->stats.embed_rows_computed = st.rows_computed;
+    t->stats.refine_embed_seconds = pf_cpu_seconds() - t0;
     return PF_OK;
 }
 
@@ -103,10 +131,7 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
         t->surface = t->owned_surface;
         t->weights = t->owned_weights;
     } else if (s->surface) {
-        t->owned_weights = pf_calloc(1, sizeof *t->owned_weights);
-        PF_CHECK(t->owned_weights, err, PF_ERR_NOMEM, "cannot allocate the surface's weights");
-        PF_TRY(pf_embed_compute(t->owned_mesh, s->surface, NULL, t->owned_weights, NULL, err));
-        t->weights = t->owned_weights;
+        PF_TRY(reweight(t, s, change, err));
     }
     /* same solid: neither a child nor a merged element (a neighbour whose faces were only
      * subdivided or united is the same polyhedron) */

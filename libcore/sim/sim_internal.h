@@ -19,6 +19,9 @@ struct pf_sim {
     const pf_surface *surface; /* the embedded surface (the caller's), NULL without */
     const pf_weights *weights; /* its weights on mesh: the caller's, or owned_weights */
     pf_weights *owned_weights;
+    int32_t *embed_steps;      /* [surface vertices] the growth steps of owned_weights
+                                  (pf_embed_compute_steps), NULL while the weights are the
+                                  caller's or a cut's: the next change then computes all rows */
     pf_surface *owned_surface; /* the surface after a cut (surface then points to it) */
     const pf_surface *uncut_surface; /* the caller's surface, from which every cut surface is
                                         made with all the faces opened so far */

@@ -81,6 +81,9 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
         add_int(changes, "elements_merged", st->elements_merged);
         add_int(changes, "integrals_reused", st->integrals_reused);
         add_int(changes, "integrals_computed", st->integrals_computed);
+        add_int(changes, "embed_rows", st->embed_rows);
+        add_int(changes, "embed_rows_computed", st->embed_rows_computed);
+        cJSON_AddNumberToObject(changes, "embed_seconds", st->refine_embed_seconds);
         cJSON_AddNumberToObject(changes, "seconds", st->refine_seconds);
         cJSON *cuts = cJSON_AddObjectToObject(root, "cuts");
         add_int(cuts, "cuts", st->cuts);

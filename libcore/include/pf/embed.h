@@ -17,7 +17,10 @@
  *   exactly and use no node farther than its support radius. Where the support holds too few or
  *   nearly coplanar nodes (the weighted covariance of the support is rank-deficient), every radius
  *   is multiplied by `growth` for that vertex until it is well conditioned; such vertices are
- *   counted (there the weights are continuous only where the growth factor is the same).
+ *   counted (there the weights are continuous only where the growth factor is the same). A row
+ *   is a function of its support alone (its nodes, their positions and radii, summed in the order
+ *   of their indices, offsets scaled by the largest radius among them), so a change of the mesh
+ *   away from it leaves it bit for bit (pf_embed_update).
  * - PF_EMBED_BARY: each vertex is located in its element (a uniform grid over element bounding
  *   boxes, then the winding number over the element's triangulated faces) and weighted with the
  *   element's shape functions: barycentric for tets, trilinear for hexes (the trilinear map
@@ -121,6 +124,36 @@ typedef struct pf_embed_stats {
  * max_growth steps; harmonic: the statuses of pf_basis_create, naming the element; PF_ERR_NOMEM. Cost about linear in vertices plus elements. */
 pf_status pf_embed_compute(const pf_mesh *m, const pf_surface *s, const pf_embed_params *params,
                            pf_weights *w, pf_embed_stats *stats, pf_error *err);
+
+/* pf_embed_compute, also giving each row's growth step: steps[s->n_verts] (may be NULL), the MLS
+ * row of vertex v used the radii growth^steps[v] R_i (0 for bary, harmonic and the element
+ * weights of a vertex near a cut). What pf_embed_update needs besides the weights. */
+pf_status pf_embed_compute_steps(const pf_mesh *m, const pf_surface *s,
+                                 const pf_embed_params *params, pf_weights *w, int32_t *steps,
+                                 pf_embed_stats *stats, pf_error *err);
+
+typedef struct pf_embed_update_stats {
+    int32_t rows;          /* surface vertices */
+    int32_t rows_computed; /* rows recomputed; the others were copied, their nodes renumbered */
+    int32_t nodes_changed; /* nodes of the new mesh that are new, moved or of a new radius */
+    double cpu_seconds;    /* of the update (process CPU time) */
+} pf_embed_update_stats;
+
+/* The weights of s on mesh m after a change of the mesh, from its weights old (and old_steps,
+ * pf_embed_compute_steps) on old_mesh, bit for bit those pf_embed_compute_steps gives on m.
+ * node_map[old_mesh->n_nodes]: the index in m of each old node, -1 when removed (NULL: every old
+ * node keeps its index). An MLS row depends only on its support: the nodes within its radii,
+ * their positions and radii, in the order of their indices. A row is recomputed when its
+ * support (at its growth step) held a removed node or one whose position or radius changed, or
+ * now reaches a node of m that is new, moved or of a new radius, or when the renumbering
+ * reorders its nodes; every other row is copied with its nodes renumbered. bary, harmonic and
+ * MLS with blocking faces (cuts) are recomputed in full. w zeroed or released (zero again after
+ * a failure); steps[s->n_verts] receives the new steps; stats may be NULL. Statuses: those of
+ * pf_embed_compute; PF_ERR_INVALID when old does not fit s and old_mesh. */
+pf_status pf_embed_update(const pf_mesh *old_mesh, const pf_weights *old, const int32_t *old_steps,
+                          const pf_mesh *m, const int32_t *node_map, const pf_surface *s,
+                          const pf_embed_params *params, pf_weights *w, int32_t *steps,
+                          pf_embed_update_stats *stats, pf_error *err);
 
 /* The MLS support radius of every node (radius[n_nodes], model units) before any growth:
  * support * the longest edge at the node. Nodes on no edge get the mesh's longest edge. */

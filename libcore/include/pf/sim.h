@@ -371,6 +371,12 @@ typedef struct pf_sim_stats {
     /* CG: elements whose shape functions were copied from the mesh before a change (the same
      * element node for node), and built (by every set-up, the first included) */
     int64_t basis_reused, basis_computed;
+    /* The embedded surface's weights on each new mesh (pf_embed_update): rows over all changes,
+     * rows recomputed (the others copied, their nodes renumbered: the first change after the
+     * caller's or a cut's weights recomputes all), and the CPU seconds (part of
+     * refine_setup_seconds) */
+    int64_t embed_rows, embed_rows_computed;
+    double refine_embed_seconds;
     /* cutting (the scene's "cuts"; each cut is also a mesh change above) */
     int32_t cuts;            /* cuts applied (a blade's sweep over one frame, or a plane) */
     int64_t elements_cut;    /* elements split by them */
@@ -487,7 +493,8 @@ const pf_surface *pf_sim_surface(const pf_sim *sim);
  * position), between steps: a new discretisation on the new mesh (DG integrals of untouched
  * elements and faces copied, the rest computed; pattern, factorisation), the same penalty, the
  * same time and energy bookkeeping. The embedded surface's weights are recomputed (MLS,
- * pf_embed_compute's defaults). *n_split (may be NULL) receives the elements split (0: nothing
+ * pf_embed_compute's defaults; after the first change only the rows the change reaches,
+ * pf_embed_update). *n_split (may be NULL) receives the elements split (0: nothing
  * changed). On failure the simulator is unchanged. */
 pf_status pf_sim_split(pf_sim *sim, const pf_refine_request *req, int32_t n_req, int32_t *n_split,
                        pf_error *err);

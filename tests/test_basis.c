@@ -588,7 +588,9 @@ static void test_block_eval_matches_pointwise(void **state)
     int32_t harmonic = 0;
     for (int32_t e = 0; e < m.n_elems; ++e) {
         harmonic += pf_basis_elem_kind(&b, e) == PF_BASIS_HARMONIC;
-        assert_true(quick.stats[e].boundary_error == 0 && quick.stats[e].linear_error == 0);
+        /* skipped: all but the boundary error, which is the full statistics' */
+        assert_true(quick.stats[e].boundary_error == b.stats[e].boundary_error &&
+                    quick.stats[e].linear_error == 0);
         assert_int_equal(quick.stats[e].n_kernels, b.stats[e].n_kernels);
         const int32_t *nodes;
         int32_t k = pf_basis_elem_nodes(&b, e, &nodes);

@@ -579,11 +579,15 @@ static pf_status elem_stats(const pf_basis *b, elem_ctx *c, const pf_basis_param
                             pf_basis_elem_stats *st, pf_error *err)
 {
     int32_t e = c->e;
-    st->min_value = INFINITY;
+    bool full = !p->no_check_stats; /* else the boundary error only */
+    st->min_value = full ? INFINITY : 0;
     st->linear_error = st->unity_error = 0;
-    for (int32_t i = 0; i < c->k; ++i)
+    for (int32_t i = 0; i < c->k && full; ++i)
         check_point(b, e, c, c->pos[i], st);
     if (b->kind[e] != PF_BASIS_HARMONIC) {
+        st->boundary_error = 0;
+        if (!full)
+            return PF_OK;
         /* Convex: the centroid, the midpoints of node pairs and the centroid-node midpoints. */
         check_point(b, e, c, c->c, st);
         for (int32_t i = 0; i < c->k; ++i) {
@@ -607,7 +611,8 @@ static pf_status elem_stats(const pf_basis *b, elem_ctx *c, const pf_basis_param
     double num = 0, den = 0;
     for (int32_t r = 0; r < pts->n; ++r) {
         const pt3 *pt = &pts->p[r];
-        check_point(b, e, c, pt->x, st);
+        if (full)
+            check_point(b, e, c, pt->x, st);
         if (pt->face < 0)
             continue;
         boundary_values(c, pt, fv, bv, 1);
@@ -619,6 +624,8 @@ static pf_status elem_stats(const pf_basis *b, elem_ctx *c, const pf_basis_param
         }
     }
     st->boundary_error = den > 0 ? sqrt(num / den) : 0;
+    if (!full)
+        return PF_OK;
     /* Interior: a 5 x 5 x 5 grid over the bounding box, points inside only. */
     pf_vec3 lo = c->pos[0], hi = c->pos[0];
     for (int32_t i = 1; i < c->k; ++i) {
@@ -728,7 +735,7 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
     b->data_offsets[e + 1] = end;
     b->kind[e] = (uint8_t)kind;
     st->setup_ms = 1e3 * (pf_time_seconds() - t0);
-    pf_status sst = p->no_check_stats ? PF_OK : elem_stats(b, c, p, &cs->pts, st, err);
+    pf_status sst = elem_stats(b, c, p, &cs->pts, st, err);
     if (c->has_patch)
         pf_face_release(&c->patch);
     c->has_patch = false;

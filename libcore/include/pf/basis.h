@@ -174,10 +174,11 @@ typedef struct pf_basis_params {
                                    the cell) until they fit or the spacing is uniform; default
                                    PF_BASIS_DEFAULT_MAX_KERNELS, negative: no budget */
     bool force_mfs;             /* harmonic MFS also for tets and parallelepipeds (tests, study) */
-    bool no_check_stats;        /* true: skip the check-point statistics of pf_basis_elem_stats
-                                   (boundary, linear and unity errors, min_value stay 0; counts
-                                   and setup_ms are kept): they cost about as much as the MFS
-                                   solves and the simulator does not read them */
+    bool no_check_stats;        /* true: of the check-point statistics of pf_basis_elem_stats
+                                   only the boundary error (linear and unity errors, min_value
+                                   stay 0; counts and setup_ms are kept): the others cost about
+                                   as much as the MFS solves and the simulator reads only the
+                                   boundary error (its error indicator) */
 } pf_basis_params;
 
 pf_basis_params pf_basis_params_default(void);

@@ -334,15 +334,17 @@ static void report(const char *name, cell_report r, const pf_basis_elem_stats *s
  * - cells of a coarsely sliced sphere (8 x 16 facets, 3 cells across, up to 37 nodes, 5 of
  *   them inside the surface patch), with pf_basis_params_accurate: up to 1.9 % and 0.10 per
  *   node, 0.023 between the two sides of a shared face (at the defaults: 19 %, 0.11 and 0.19);
- * - every harmonic cell of that sphere sliced 6 across, pf_basis_params_accurate (the accuracy
- *   target of pf/basis.h): median 0.68 %, worst decile from 1.6 %, largest 2.4 %; at the
- *   defaults median 12 % (test_sliced_sphere_res6).
+ * - every harmonic cell of that sphere sliced 6 across (the accuracy target of pf/basis.h): at
+ *   the defaults (sliced-cell settings on patch cells, 400 kernels at most) median 0.76 %,
+ *   worst decile from 1.78 %, largest 2.63 %; pf_basis_params_accurate (no budget) 0.68 %,
+ *   1.6 % and 2.4 %; the uniform functions median 12 % (test_sliced_sphere_res6).
  * The sliced-sphere bounds are the measured values plus about 10 %. */
 static const double CORNER_DELTA = 0.017, CORNER_BOUNDARY = 0.017;
 static const double OCTREE_DELTA = 0.075, OCTREE_BOUNDARY = 0.04;
 static const double L_DELTA = 0.085, L_BOUNDARY = 0.06, L_SHARED = 0.23;
 static const double SPHERE_DELTA = 0.11, SPHERE_BOUNDARY = 0.021, SPHERE_SHARED = 0.025;
-static const double RES6_MEDIAN = 0.0075, RES6_DECILE = 0.018, RES6_MAX = 0.027;
+static const double RES6_MEDIAN = 0.0084, RES6_DECILE = 0.0196, RES6_MAX = 0.029;
+static const double ACC6_MEDIAN = 0.0075, ACC6_DECILE = 0.018, ACC6_MAX = 0.027;
 static const double LAPLACE_BOUND = 2e-7;
 /* C0 across a face: the two sides differ by at most both their boundary errors (pointwise: the
  * node errors), so the larger of the cells' node bounds. */
@@ -492,9 +494,25 @@ static int cmp_dbl(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Boundary errors of the harmonic cells of b, sorted, in be (at most cap); checks linear
+ * reproduction and partition of unity on every cell. Returns their number. */
+static int32_t sorted_errors(const pf_basis *b, double *be, int32_t cap)
+{
+    int32_t n = 0;
+    for (int32_t e = 0; e < b->n_elems && n < cap; ++e)
+        if (pf_basis_elem_kind(b, e) == PF_BASIS_HARMONIC) {
+            be[n++] = b->stats[e].boundary_error;
+            assert_true(b->stats[e].linear_error < 1e-12 && b->stats[e].unity_error < 1e-12);
+        }
+    qsort(be, (size_t)n, sizeof *be, cmp_dbl);
+    return n;
+}
+
 /* The accuracy target: every harmonic cell of the 8 x 16 sphere sliced 6 across (what
- * `pf-slice sphere.obj --res 6 | pf-basis` reports): median boundary error under 1 %, and the
- * surface-patch data keep linear reproduction and partition of unity exact. */
+ * `pf-slice sphere.obj --res 6 | pf-basis` reports) at the defaults: median boundary error
+ * under 1 % and worst decile under 2 % within the kernel budget, and the surface-patch data keep
+ * linear reproduction and partition of unity exact. The accurate preset keeps its own bounds
+ * (no budget); the uniform functions are what the sliced-cell settings remove. */
 static void test_sliced_sphere_res6(void **state)
 {
     (void)state;
@@ -502,33 +520,41 @@ static void test_sliced_sphere_res6(void **state)
     pf_error err = {0};
     pf_mesh m = {0};
     make_sphere_mesh_res(&m, 6);
-    pf_basis_params acc = pf_basis_params_accurate();
     pf_basis b;
-    assert_int_equal(pf_basis_create(&b, &m, &acc, &err), PF_OK);
+    assert_int_equal(pf_basis_create(&b, &m, NULL, &err), PF_OK);
     double be[1024];
-    int32_t n = 0;
-    for (int32_t e = 0; e < m.n_elems && n < 1024; ++e)
-        if (pf_basis_elem_kind(&b, e) == PF_BASIS_HARMONIC) {
-            be[n++] = b.stats[e].boundary_error;
-            assert_true(b.stats[e].linear_error < 1e-12 && b.stats[e].unity_error < 1e-12);
-        }
-    qsort(be, (size_t)n, sizeof *be, cmp_dbl);
-    printf("  sphere res 6: %d harmonic cells, boundary error median %.4f, worst decile from "
-           "%.4f, largest %.4f\n",
-           (int)n, be[n / 2], be[(9 * n) / 10], be[n - 1]);
+    int32_t n = sorted_errors(&b, be, 1024);
+    int32_t kmax = 0;
+    for (int32_t e = 0; e < m.n_elems; ++e)
+        kmax = b.stats[e].n_kernels > kmax ? b.stats[e].n_kernels : kmax;
+    printf("  sphere res 6, defaults: %d harmonic cells, boundary error median %.4f, worst decile "
+           "from %.4f, largest %.4f; kernels at most %d\n",
+           (int)n, be[n / 2], be[(9 * n) / 10], be[n - 1], (int)kmax);
     assert_true(n >= 100);
     assert_true(be[n / 2] < RES6_MEDIAN);
     assert_true(be[(9 * n) / 10] < RES6_DECILE);
     assert_true(be[n - 1] < RES6_MAX);
-    /* The defaults (per-facet data, uniform samples): the error the two settings remove. */
+    assert_true(kmax <= PF_BASIS_DEFAULT_MAX_KERNELS);
+    pf_basis_release(&b);
+
+    pf_basis_params acc = pf_basis_params_accurate();
+    assert_int_equal(pf_basis_create(&b, &m, &acc, &err), PF_OK);
+    n = sorted_errors(&b, be, 1024);
+    printf("  accurate: median %.4f, worst decile from %.4f, largest %.4f\n", be[n / 2],
+           be[(9 * n) / 10], be[n - 1]);
+    assert_true(be[n / 2] < ACC6_MEDIAN);
+    assert_true(be[(9 * n) / 10] < ACC6_DECILE);
+    assert_true(be[n - 1] < ACC6_MAX);
+    pf_basis_release(&b);
+
+    pf_basis_params up = pf_basis_params_uniform();
     pf_basis old;
-    assert_int_equal(pf_basis_create(&old, &m, NULL, &err), PF_OK);
+    assert_int_equal(pf_basis_create(&old, &m, &up, &err), PF_OK);
     pf_basis_summary so;
     assert_int_equal(pf_basis_summarize(&old, &so, &err), PF_OK);
-    printf("  defaults: median %.4f\n", so.median_boundary_error);
-    assert_true(so.median_boundary_error > 5 * be[n / 2]);
+    printf("  uniform: median %.4f\n", so.median_boundary_error);
+    assert_true(so.median_boundary_error > 10 * RES6_MEDIAN);
     pf_basis_release(&old);
-    pf_basis_release(&b);
     pf_mesh_release(&m);
     assert_int_equal(pf_alloc_live_bytes(), live);
 }
@@ -562,7 +588,9 @@ static void test_block_eval_matches_pointwise(void **state)
     int32_t harmonic = 0;
     for (int32_t e = 0; e < m.n_elems; ++e) {
         harmonic += pf_basis_elem_kind(&b, e) == PF_BASIS_HARMONIC;
-        assert_true(quick.stats[e].boundary_error == 0 && quick.stats[e].linear_error == 0);
+        /* skipped: all but the boundary error, which is the full statistics' */
+        assert_true(quick.stats[e].boundary_error == b.stats[e].boundary_error &&
+                    quick.stats[e].linear_error == 0);
         assert_int_equal(quick.stats[e].n_kernels, b.stats[e].n_kernels);
         const int32_t *nodes;
         int32_t k = pf_basis_elem_nodes(&b, e, &nodes);

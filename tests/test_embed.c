@@ -19,6 +19,7 @@
 #include "test_random.h"
 #include <pf/basis.h>
 #include <pf/embed.h>
+#include <pf/fem.h>
 #include <pf/mesh.h>
 
 /* ---- meshes and surfaces -------------------------------------------------------------------- */
@@ -294,7 +295,8 @@ static void harmonic_weights_are_the_cg_shape_functions(void **state)
     assert_int_equal(pf_embed_compute(&m, &s, &p, &w, &st, &err), PF_OK);
     assert_true(st.n_harmonic > 0);
     pf_basis b;
-    assert_int_equal(pf_basis_create(&b, &m, NULL, &err), PF_OK);
+    pf_basis_params bp = pf_cg_params_default().basis; /* the uniform functions of both */
+    assert_int_equal(pf_basis_create(&b, &m, &bp, &err), PF_OK);
     double *n = malloc(sizeof(double) * PF_BASIS_MAX_NODES);
     int32_t checked = 0;
     for (int32_t v = 0; v < s.n_verts; ++v) {

@@ -9,8 +9,9 @@
 #include "cli.h"
 
 static const char USAGE[] =
-    "Usage: pf-basis [--json] [--accurate] [--xi X] [--edge-samples N] [--grading G]\n"
-    "                [--patch-angle DEG] [--force-mfs] [FILE | -]\n"
+    "Usage: pf-basis [--json] [--sliced auto|all|off] [--accurate] [--xi X] [--edge-samples N]\n"
+    "                [--grading G] [--patch-angle DEG] [--max-kernels N] [--force-mfs]\n"
+    "                [FILE | -]\n"
     "\n"
     "Builds the CG shape functions of every MESH in a pf stream (default: stdin) and reports per\n"
     "element: kind (tet / hex closed forms, harmonic by the method of fundamental solutions),\n"
@@ -21,12 +22,17 @@ static const char USAGE[] =
     "  --json             one JSON object per line and element, the summary last\n"
     "  --xi X             kernel offset as a fraction of the element size (default 0.1)\n"
     "  --edge-samples N   kernel samples inside each edge (default 2)\n"
-    "  --accurate         the settings for sliced cells (pf_basis_params_accurate): xi 0.2,\n"
-    "                     grading 0.2, patch angle 60; the flags below override them\n"
-    "  --grading G        samples graded by feature size, spacing growing at rate G away\n"
-    "                     from short edges and small facets (default 0: uniform)\n"
-    "  --patch-angle DEG  smooth data on an element's mesh-boundary faces as one patch when\n"
-    "                     their normals lie within DEG degrees of their mean (default 0: off)\n"
+    "  --sliced WHERE     which cells get the sliced-cell settings (graded samples, smooth\n"
+    "                     data on the surface patch, kernel offset 0.2): auto (default) the\n"
+    "                     cells whose mesh-boundary faces form a patch, all, or off (uniform\n"
+    "                     samples and per-facet data everywhere, what pf-sim uses)\n"
+    "  --accurate         sliced-cell settings on every harmonic cell, xi 0.2, no kernel\n"
+    "                     budget (pf_basis_params_accurate); the flags below override them\n"
+    "  --grading G        growth rate of the graded spacing away from small features\n"
+    "                     (default 0.2)\n"
+    "  --patch-angle DEG  mesh-boundary faces of an element whose normals lie within DEG\n"
+    "                     degrees of their mean form its patch (default 60)\n"
+    "  --max-kernels N    kernel budget of a graded cell; 0: none (default 400)\n"
     "  --force-mfs        harmonic functions also for tets and parallelepipeds\n"
     "  --quiet            no progress on stderr\n"
     "  --help, --version\n"
@@ -36,6 +42,8 @@ static const char USAGE[] =
 
 enum {
     OPT_JSON = 1,
+    OPT_SLICED,
+    OPT_MAXK,
     OPT_XI,
     OPT_EDGES,
     OPT_FORCE,
@@ -162,6 +170,8 @@ int main(int argc, char **argv)
                                             {"accurate", false, OPT_ACCURATE},
                                             {"grading", true, OPT_GRADING},
                                             {"patch-angle", true, OPT_PATCH},
+                                            {"sliced", true, OPT_SLICED},
+                                            {"max-kernels", true, OPT_MAXK},
                                             {NULL, false, 0}};
     pf_cli cli;
     pf_cli_init(&cli, "pf-basis", USAGE, argc, argv);
@@ -169,19 +179,29 @@ int main(int argc, char **argv)
     const char *path = NULL, *value;
     bool accurate = false;
     double xi = 0, grading = -1, patch = -1;
-    int32_t edges = 0;
+    int32_t edges = 0, sliced = -1;
+    long maxk = -1;
     for (int id; (id = pf_cli_next(&cli, options, &value)) != PF_CLI_END;) {
         if (id == OPT_ACCURATE)
             accurate = true;
         else if (id == OPT_GRADING) {
             grading = pf_cli_parse_double(&cli, "grading", value);
-            if (!(grading >= 0 && grading <= 10))
-                pf_cli_usage_error(&cli, "--grading must be in [0, 10]");
+            if (!(grading > 0 && grading <= 10))
+                pf_cli_usage_error(&cli, "--grading must be in (0, 10]");
         } else if (id == OPT_PATCH) {
             patch = pf_cli_parse_double(&cli, "patch-angle", value);
-            if (!(patch >= 0 && patch < 90))
-                pf_cli_usage_error(&cli, "--patch-angle must be in [0, 90)");
-        } else if (id == OPT_JSON)
+            if (!(patch > 0 && patch < 90))
+                pf_cli_usage_error(&cli, "--patch-angle must be in (0, 90)");
+        } else if (id == OPT_SLICED) {
+            sliced = strcmp(value, "auto") == 0  ? PF_BASIS_SLICED_AUTO
+                     : strcmp(value, "all") == 0 ? PF_BASIS_SLICED_ALL
+                     : strcmp(value, "off") == 0 ? PF_BASIS_SLICED_OFF
+                                                 : -1;
+            if (sliced < 0)
+                pf_cli_usage_error(&cli, "--sliced must be auto, all or off (got '%s')", value);
+        } else if (id == OPT_MAXK)
+            maxk = pf_cli_parse_long(&cli, "max-kernels", value, 0, 1000000);
+        else if (id == OPT_JSON)
             t.json = true;
         else if (id == OPT_QUIET)
             t.quiet = true;
@@ -206,10 +226,14 @@ int main(int argc, char **argv)
         t.params.xi = xi;
     if (edges > 0)
         t.params.edge_samples = edges;
-    if (grading >= 0)
+    if (grading > 0)
         t.params.grading = grading;
-    if (patch >= 0)
+    if (patch > 0)
         t.params.patch_angle = patch;
+    if (sliced >= 0)
+        t.params.sliced = (pf_basis_sliced)sliced;
+    if (maxk >= 0)
+        t.params.max_kernels = maxk > 0 ? (int32_t)maxk : -1;
     pf_error err = {0};
     FILE *f;
     const char *name;

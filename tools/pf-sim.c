@@ -436,6 +436,16 @@ static void print_summary(const run *r, const pf_sim *sim)
             (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
             r->embedded ? "surface vertices" : "nodes", samples, (long long)st->contacts,
             st->contact_seconds, st->embed_seconds);
+    if (r->scene.method == PF_METHOD_CG)
+        fprintf(stderr,
+                "pf-sim: error indicator %.3g (largest boundary error of the shape functions, "
+                "docs/basis.md)\n",
+                pf_sim_error_indicator(sim));
+    else
+        fprintf(stderr,
+                "pf-sim: error indicator %.3g (largest jump between elements at a node over the "
+                "largest displacement)\n",
+                pf_sim_error_indicator(sim));
     if (st->refinements > 0)
         fprintf(stderr,
                 "pf-sim: mesh changes: %d (%lld elements split, %lld groups merged back; %d -> "

@@ -36,15 +36,27 @@ pf_basis_params pf_basis_params_default(void)
     p.parallel_tol = 1e-9;
     p.merge_tol = 1e-9;
     p.rank_rcond = 1e-13;
+    p.sliced = PF_BASIS_SLICED_AUTO;
+    p.sliced_xi = 0.2;
+    p.grading = 0.2;
+    p.patch_angle = 60;
+    p.max_kernels = PF_BASIS_DEFAULT_MAX_KERNELS;
     return p;
 }
 
 pf_basis_params pf_basis_params_accurate(void)
 {
     pf_basis_params p = pf_basis_params_default();
+    p.sliced = PF_BASIS_SLICED_ALL;
     p.xi = 0.2;
-    p.grading = 0.2;
-    p.patch_angle = 60;
+    p.max_kernels = -1;
+    return p;
+}
+
+pf_basis_params pf_basis_params_uniform(void)
+{
+    pf_basis_params p = pf_basis_params_default();
+    p.sliced = PF_BASIS_SLICED_OFF;
     return p;
 }
 
@@ -65,10 +77,16 @@ static pf_basis_params fill_defaults(const pf_basis_params *in)
         p.merge_tol = d.merge_tol;
     if (!(p.rank_rcond > 0))
         p.rank_rcond = d.rank_rcond;
+    if (p.sliced != PF_BASIS_SLICED_ALL && p.sliced != PF_BASIS_SLICED_OFF)
+        p.sliced = PF_BASIS_SLICED_AUTO;
+    if (!(p.sliced_xi > 0))
+        p.sliced_xi = d.sliced_xi;
     if (!(p.grading > 0))
-        p.grading = 0;
+        p.grading = d.grading;
     if (!(p.patch_angle > 0))
-        p.patch_angle = 0;
+        p.patch_angle = d.patch_angle;
+    if (p.max_kernels == 0)
+        p.max_kernels = d.max_kernels;
     return p;
 }
 
@@ -327,74 +345,6 @@ static bool closed_hex(const elem_ctx *c, double tol, double *d, int32_t *slot)
     return true;
 }
 
-/* ---- boundary samples (paper sec. 5: nodes, points on edges, a uniform sampling of faces) -------
- */
-
-/* Nodes (one per group); on each edge of length L, n = max(edge_min, ceil(L / edge_spacing) - 1)
- * points
- * (edge_phase 0: t = j / (n + 1), j = 1..n; 0.5: t = (j + 0.5) / (n + 1), j = 0..n); and on each
- * face the points of a square grid of the given spacing (offset by grid_phase cells) inside the
- * face and at least margin from its boundary. One spacing for all edges and faces: the samples
- * are uniform over the boundary (paper sec. 5), short edges do not crowd the system. */
-static pf_status elem_samples(const elem_ctx *c, double edge_spacing, int32_t edge_min,
-                              double edge_phase, double spacing, double grid_phase, double margin,
-                              pt_list *out, pf_error *err)
-{
-    out->n = 0;
-    for (int32_t g = 0; g < c->ng; ++g) {
-        int32_t i = c->grep[g];
-        pf_vec3 nn = c->nnrm[i];
-        double l = pf_v3_norm(nn);
-        PF_TRY(
-            pf_basis_pts_push(out,
-                              (pt3){c->pos[i], l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0),
-                                    i, i, 0, -1, c->nlen[i]},
-                              err));
-    }
-    for (int32_t s = 0; s < c->ne; ++s) {
-        const edge3 *ed = &c->edges[s];
-        pf_vec3 nn = pf_v3_add(face_out_normal(c, ed->f1), face_out_normal(c, ed->f2));
-        double l = pf_v3_norm(nn);
-        nn = l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0);
-        double cnt = ceil(pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / edge_spacing - 1e-9) - 1;
-        int32_t n = cnt > edge_min ? (int32_t)cnt : edge_min; /* every edge's kink is sampled */
-        int32_t j0 = edge_phase > 0 ? 0 : 1, j1 = edge_phase > 0 ? n : n;
-        for (int32_t j = j0; j <= j1; ++j) {
-            double t = (j + edge_phase) / (n + 1);
-            pf_vec3 x =
-                pf_v3_add(c->pos[ed->a], pf_v3_scale(pf_v3_sub(c->pos[ed->b], c->pos[ed->a]), t));
-            PF_TRY(pf_basis_pts_push(out,
-                                     (pt3){x, nn, ed->a, ed->b, t, -1,
-                                           pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / (n + 1)},
-                                     err));
-        }
-    }
-    for (int32_t lf = 0; lf < c->nf; ++lf) {
-        const face_fn *f = &c->faces[c->face_id[lf]];
-        /* Small faces get a grid of their own scale (about 2 points across) so that every face
-         * carries samples: the data has a kink at each of its edges. */
-        double own = fmin(1, f->diam / (2 * spacing));
-        double sp = own * spacing / f->s, mg = own * margin / f->s;
-        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-        for (int32_t a = 0; a < f->n; ++a)
-            for (int d = 0; d < 2; ++d) {
-                lo[d] = fmin(lo[d], f->p2[2 * a + d]);
-                hi[d] = fmax(hi[d], f->p2[2 * a + d]);
-            }
-        pf_vec3 nn = face_out_normal(c, lf);
-        for (double pu = lo[0] + grid_phase * sp; pu < hi[0]; pu += sp)
-            for (double pv = lo[1] + grid_phase * sp; pv < hi[1]; pv += sp) {
-                if (!pf_polygon_contains(f->p2, f->n, pu, pv) ||
-                    pf_polygon_boundary_distance(f->p2, f->n, pu, pv) < mg)
-                    continue;
-                pf_vec3 x = pf_v3_add(
-                    f->o, pf_v3_add(pf_v3_scale(f->u, pu * f->s), pf_v3_scale(f->v, pv * f->s)));
-                PF_TRY(pf_basis_pts_push(out, (pt3){x, nn, -1, -1, 0, lf, own * spacing}, err));
-            }
-    }
-    return PF_OK;
-}
-
 /* Boundary data b_g at a sample (paper sec. 4): delta at nodes, linear on edges, the face
  * functions on faces; summed over merged groups. B is a row with stride ldb. */
 static void boundary_values(const elem_ctx *c, const pt3 *pt, double *faceval, double *B,
@@ -441,6 +391,25 @@ static pf_status grow_data(double **data, int64_t *cap, int64_t need, pf_error *
     return PF_OK;
 }
 
+/* Graded kernel samples of element c (pf_basis_graded_samples) within the kernel budget: while
+ * they exceed p->max_kernels, the grading rate is raised by one factor over the cell
+ * (c->grade_scale; away from the features a surface's sample count goes as the inverse square
+ * of the rate), keeping the spacing at every feature, until they fit or their count stops
+ * falling (the features alone exceed the budget). The collocation points use the same rate. */
+static pf_status graded_within_budget(elem_ctx *c, const pf_basis_params *p, double spacing,
+                                      double fsp, pt_list *pts, pf_error *err)
+{
+    int32_t last = INT32_MAX;
+    for (int it = 0;; ++it) {
+        PF_TRY(pf_basis_graded_samples(c, spacing, fsp, p->grading, 1, 1, 1, 0.5, pts, err));
+        int32_t n = pts->n;
+        if (p->max_kernels < 0 || n <= p->max_kernels || it == 16 || n > 0.99 * last)
+            return PF_OK;
+        last = n;
+        c->grade_scale *= 1.1 * sqrt((double)n / p->max_kernels);
+    }
+}
+
 static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt_list *pts,
                           double **data, int64_t *cap, int64_t at, mfs_out *st, pf_error *err)
 {
@@ -455,7 +424,17 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
         pf_v3_store(pf_v3_scale(pf_v3_sub(c->pos[c->grep[g]], c->c), 1 / c->h), c->gpos + 3 * g);
     PF_CHECK(pf_exactness_projection(3, c->ng, c->gpos, c->gq) == PF_OK, err, PF_ERR_INVALID,
              "element %d: nodes are coplanar", (int)e);
-    PF_TRY(pf_basis_patch_build(c, p->patch_angle, p, w, err));
+    bool sliced_on = p->sliced != PF_BASIS_SLICED_OFF;
+    PF_TRY(pf_basis_patch_build(c, sliced_on ? p->patch_angle : 0, p, w, err));
+    bool graded = sliced_on;
+    double xi =
+        p->sliced == PF_BASIS_SLICED_ALL || (sliced_on && c->has_patch) ? p->sliced_xi : p->xi;
+    /* AUTO: the patch's data are smooth over its facets, so only its loop edges and its inner
+     * nodes' bump widths set the feature sizes (pf_basis_patch_features). */
+    c->patch_grading = p->sliced == PF_BASIS_SLICED_AUTO && c->has_patch;
+    if (c->patch_grading)
+        pf_basis_patch_features(c);
+    c->grade_scale = 1;
     double rho = p->collocation_density;
     double spacing = c->max_edge / (p->edge_samples + 1), fsp = spacing * p->face_spacing;
     /* Kernels (eq. 12): samples moved outward by xi * size, size the element's diameter, scaled
@@ -463,20 +442,20 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
      * surface) is finer than the element's: a kernel resolves boundary data on the scale of its
      * distance. Kept only outside the element and at least 0.2 offsets clear of its boundary
      * (non-convex cells), else moved back by halves, else dropped. The samples are graded by
-     * feature size (pf_basis_graded_samples) unless grading < 0 (uniform: every edge and face
-     * at one spacing). */
-    bool graded = p->grading > 0;
+     * feature size (pf_basis_graded_samples) on the cells with the sliced-cell settings, within
+     * the kernel budget (graded_within_budget); elsewhere uniform: every edge and face at one
+     * spacing. */
     if (graded)
-        PF_TRY(pf_basis_graded_samples(c, spacing, fsp, p->grading, 1, 1, 1, 0.5, pts, err));
+        PF_TRY(graded_within_budget(c, p, spacing, fsp, pts, err));
     else
-        PF_TRY(elem_samples(c, spacing, 1, 0, fsp, 0.5, 0.5 * fsp, pts, err));
+        PF_TRY(pf_basis_uniform_samples(c, spacing, 1, 0, fsp, 0.5, 0.5 * fsp, pts, err));
     int32_t ns = pts->n, ng = c->ng;
     PF_TRY(grow_data(data, cap, at + HDR + 3 * (int64_t)ns, err));
     double *kern = *data + at + HDR;
     int32_t nk = 0;
     for (int32_t s = 0; s < ns; ++s) {
         const pt3 *pt = &pts->p[s];
-        double off = p->xi * c->diam * fmin(1, pt->len / fsp);
+        double off = xi * c->diam * fmin(1, pt->len / fsp);
         bool placed = false;
         if (pf_v3_norm(pt->nrm) > 0)
             for (double shrink = 1; shrink > 0.2 && !placed; shrink *= 0.5) {
@@ -499,7 +478,8 @@ static pf_status elem_mfs(elem_ctx *c, const pf_basis_params *p, basis_ws *w, pt
         PF_TRY(pf_basis_graded_samples(c, spacing, fsp, p->grading, rho, sqrt(rho),
                                        (int32_t)ceil(rho), 0.5, pts, err));
     else
-        PF_TRY(elem_samples(c, spacing / rho, (int32_t)ceil(rho), 0, sc, 0.5, 0.5 * sc, pts, err));
+        PF_TRY(pf_basis_uniform_samples(c, spacing / rho, (int32_t)ceil(rho), 0, sc, 0.5, 0.5 * sc,
+                                        pts, err));
     int32_t m = pts->n, cols = nk + N_POLY;
     size_t ldb = (size_t)(m > cols ? m : cols);
     st->m = m;
@@ -599,11 +579,15 @@ static pf_status elem_stats(const pf_basis *b, elem_ctx *c, const pf_basis_param
                             pf_basis_elem_stats *st, pf_error *err)
 {
     int32_t e = c->e;
-    st->min_value = INFINITY;
+    bool full = !p->no_check_stats; /* else the boundary error only */
+    st->min_value = full ? INFINITY : 0;
     st->linear_error = st->unity_error = 0;
-    for (int32_t i = 0; i < c->k; ++i)
+    for (int32_t i = 0; i < c->k && full; ++i)
         check_point(b, e, c, c->pos[i], st);
     if (b->kind[e] != PF_BASIS_HARMONIC) {
+        st->boundary_error = 0;
+        if (!full)
+            return PF_OK;
         /* Convex: the centroid, the midpoints of node pairs and the centroid-node midpoints. */
         check_point(b, e, c, c->c, st);
         for (int32_t i = 0; i < c->k; ++i) {
@@ -620,13 +604,15 @@ static pf_status elem_stats(const pf_basis *b, elem_ctx *c, const pf_basis_param
      * enter the unity / linear checks. */
     double spacing = c->max_edge / (p->edge_samples + 1) * p->face_spacing;
     double sc = 0.5 * spacing / sqrt(p->collocation_density);
-    PF_TRY(elem_samples(c, c->max_edge / (p->edge_samples + 1) / p->collocation_density,
-                        (int32_t)ceil(p->collocation_density), 0.5, sc, 0, 0, pts, err));
+    PF_TRY(pf_basis_uniform_samples(c, c->max_edge / (p->edge_samples + 1) / p->collocation_density,
+                                    (int32_t)ceil(p->collocation_density), 0.5, sc, 0, 0, pts,
+                                    err));
     double fv[PF_BASIS_MAX_NODES], bv[PF_BASIS_MAX_NODES], n[PF_BASIS_MAX_NODES];
     double num = 0, den = 0;
     for (int32_t r = 0; r < pts->n; ++r) {
         const pt3 *pt = &pts->p[r];
-        check_point(b, e, c, pt->x, st);
+        if (full)
+            check_point(b, e, c, pt->x, st);
         if (pt->face < 0)
             continue;
         boundary_values(c, pt, fv, bv, 1);
@@ -638,6 +624,8 @@ static pf_status elem_stats(const pf_basis *b, elem_ctx *c, const pf_basis_param
         }
     }
     st->boundary_error = den > 0 ? sqrt(num / den) : 0;
+    if (!full)
+        return PF_OK;
     /* Interior: a 5 x 5 x 5 grid over the bounding box, points inside only. */
     pf_vec3 lo = c->pos[0], hi = c->pos[0];
     for (int32_t i = 1; i < c->k; ++i) {
@@ -747,7 +735,7 @@ static pf_status build_elem(pf_basis *b, create_state *cs, const pf_mesh *m, int
     b->data_offsets[e + 1] = end;
     b->kind[e] = (uint8_t)kind;
     st->setup_ms = 1e3 * (pf_time_seconds() - t0);
-    pf_status sst = p->no_check_stats ? PF_OK : elem_stats(b, c, p, &cs->pts, st, err);
+    pf_status sst = elem_stats(b, c, p, &cs->pts, st, err);
     if (c->has_patch)
         pf_face_release(&c->patch);
     c->has_patch = false;
@@ -760,8 +748,9 @@ static bool same_params(const pf_basis_params *a, const pf_basis_params *b)
            a->face_spacing == b->face_spacing && a->collocation_density == b->collocation_density &&
            a->parallel_tol == b->parallel_tol && a->merge_tol == b->merge_tol &&
            a->rank_rcond == b->rank_rcond && a->grading == b->grading &&
-           a->patch_angle == b->patch_angle && a->force_mfs == b->force_mfs &&
-           a->no_check_stats == b->no_check_stats;
+           a->patch_angle == b->patch_angle && a->sliced == b->sliced &&
+           a->sliced_xi == b->sliced_xi && a->max_kernels == b->max_kernels &&
+           a->force_mfs == b->force_mfs && a->no_check_stats == b->no_check_stats;
 }
 
 /* Element e takes old element o's functions: its data, node slots and statistics as they are

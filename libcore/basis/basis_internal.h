@@ -231,6 +231,9 @@ typedef struct elem_ctx {
     double gcount[PF_BASIS_MAX_NODES];
     int32_t grep[PF_BASIS_MAX_NODES]; /* representative node of each group */
     edge3 *edges;
+    double grade_scale; /* factor of the grading rate (1; more when over the kernel budget) */
+    bool patch_grading; /* feature sizes from the patch (pf_basis_patch_features): edges inside
+                           the patch need no samples of their own */
     pf_vec3 c;
     double h, diam, max_edge;
     /* group positions (scaled) and their exactness projection (pf_exactness_projection) */
@@ -256,11 +259,21 @@ static inline pf_vec3 face_out_normal(const elem_ctx *c, int32_t lf)
 
 pf_status pf_basis_pts_push(pt_list *l, pt3 v, pf_error *err);
 
+/* Uniform boundary samples (sample.c): nodes (one per group); on each edge of length L,
+ * n = max(edge_min, ceil(L / edge_spacing) - 1) points (edge_phase 0: t = j / (n + 1), j = 1..n;
+ * 0.5: t = (j + 0.5) / (n + 1), j = 0..n); on each face a square grid of the given spacing
+ * (offset by grid_phase cells) inside the face and at least margin from its boundary. */
+pf_status pf_basis_uniform_samples(const elem_ctx *c, double edge_spacing, int32_t edge_min,
+                                   double edge_phase, double spacing, double grid_phase,
+                                   double margin, pt_list *out, pf_error *err);
+
 /* Boundary samples graded by feature size (sample.c): nodes, points on every edge and a
  * quadtree sampling of every face, with the local spacing
- *   h(x) = min(h0, feat_i + grading |x - x_i|) over the nodes i, divided by div_edge on edges
+ *   h(x) = min(h0, feat_i + s grading |x - x_i|) over the nodes i (s: c->grade_scale),
+ * divided by div_edge on edges
  * and div_face on faces (h0 = h0_edge on edges, h0_face on faces); at least edge_min points
- * inside every edge; face points at least margin * (their cell size) inside the face. */
+ * inside every edge (none needed inside a patch when c->patch_grading); face points at least
+ * margin * (their cell size) inside the face. */
 pf_status pf_basis_graded_samples(const elem_ctx *c, double h0_edge, double h0_face, double grading,
                                   double div_edge, double div_face, int32_t edge_min, double margin,
                                   pt_list *out, pf_error *err);
@@ -270,6 +283,10 @@ pf_status pf_basis_graded_samples(const elem_ctx *c, double h0_edge, double h0_f
  * PATCH_MAX_INNER nodes off the loop; needs c->gpos / c->gq. Statuses of pf_face_solve. */
 pf_status pf_basis_patch_build(elem_ctx *c, double angle_deg, const pf_basis_params *p, basis_ws *w,
                                pf_error *err);
+/* Feature sizes (c->nfeat) of the patch's nodes from what its data resolve: at a loop node the
+ * shortest edge at it outside the patch's interior (a loop edge or an edge of a neighbour face)
+ * and its distance to the edges of its non-patch faces; at an inner node its bump width. */
+void pf_basis_patch_features(elem_ctx *c);
 /* Whether sample pt lies on the patch (a patch face, or an edge between two patch faces). */
 bool pf_basis_patch_has(const elem_ctx *c, const pt3 *pt);
 /* Patch data at pt (a row of c->ng group values, stride ldb). faceval: PF_BASIS_MAX_NODES

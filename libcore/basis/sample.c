@@ -1,11 +1,12 @@
-/* Boundary samples graded by feature size, and the surface patch of a sliced cell: its
- * mesh-boundary facets as one curved face with smooth data (see pf/basis.h, "Sliced cells").
+/* Boundary samples (uniform, and graded by feature size), and the surface patch of a sliced
+ * cell: its mesh-boundary facets as one curved face with smooth data (see pf/basis.h, "Sliced
+ * cells").
  *
  * Why: a sliced cell's boundary is many small, nearly coplanar facets. One linear hat per facet
  * has a kink across every facet edge; across an edge whose faces meet at 180 - theta degrees,
  * the harmonic extension of such a kink needs a gradient of order kink / sin(theta) normal to
  * the surface, which the kernels resolve only at a high count (sliced sphere: 12 % median
- * boundary error at the defaults, 3 % at 4x the kernels). On the mesh boundary the data are
+ * boundary error with uniform samples, 3 % at 4x the kernels). On the mesh boundary the data are
  * free (no neighbour shares them), so pf gives them without kinks; the faces shared with
  * neighbours keep their face functions, so conformity is as before. */
 #include <math.h>
@@ -26,18 +27,93 @@ pf_status pf_basis_pts_push(pt_list *l, pt3 v, pf_error *err)
     return PF_OK;
 }
 
+/* ---- boundary samples (paper sec. 5: nodes, points on edges, a uniform sampling of faces) -------
+ */
+
+/* Nodes (one per group); on each edge of length L, n = max(edge_min, ceil(L / edge_spacing) - 1)
+ * points
+ * (edge_phase 0: t = j / (n + 1), j = 1..n; 0.5: t = (j + 0.5) / (n + 1), j = 0..n); and on each
+ * face the points of a square grid of the given spacing (offset by grid_phase cells) inside the
+ * face and at least margin from its boundary. One spacing for all edges and faces: the samples
+ * are uniform over the boundary (paper sec. 5), short edges do not crowd the system. */
+pf_status pf_basis_uniform_samples(const elem_ctx *c, double edge_spacing, int32_t edge_min,
+                                   double edge_phase, double spacing, double grid_phase,
+                                   double margin, pt_list *out, pf_error *err)
+{
+    out->n = 0;
+    for (int32_t g = 0; g < c->ng; ++g) {
+        int32_t i = c->grep[g];
+        pf_vec3 nn = c->nnrm[i];
+        double l = pf_v3_norm(nn);
+        PF_TRY(
+            pf_basis_pts_push(out,
+                              (pt3){c->pos[i], l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0),
+                                    i, i, 0, -1, c->nlen[i]},
+                              err));
+    }
+    for (int32_t s = 0; s < c->ne; ++s) {
+        const edge3 *ed = &c->edges[s];
+        pf_vec3 nn = pf_v3_add(face_out_normal(c, ed->f1), face_out_normal(c, ed->f2));
+        double l = pf_v3_norm(nn);
+        nn = l > 1e-6 ? pf_v3_scale(nn, 1 / l) : pf_v3(0, 0, 0);
+        double cnt = ceil(pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / edge_spacing - 1e-9) - 1;
+        int32_t n = cnt > edge_min ? (int32_t)cnt : edge_min; /* every edge's kink is sampled */
+        int32_t j0 = edge_phase > 0 ? 0 : 1, j1 = edge_phase > 0 ? n : n;
+        for (int32_t j = j0; j <= j1; ++j) {
+            double t = (j + edge_phase) / (n + 1);
+            pf_vec3 x =
+                pf_v3_add(c->pos[ed->a], pf_v3_scale(pf_v3_sub(c->pos[ed->b], c->pos[ed->a]), t));
+            PF_TRY(pf_basis_pts_push(out,
+                                     (pt3){x, nn, ed->a, ed->b, t, -1,
+                                           pf_v3_dist(c->pos[ed->a], c->pos[ed->b]) / (n + 1)},
+                                     err));
+        }
+    }
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        const face_fn *f = &c->faces[c->face_id[lf]];
+        /* Small faces get a grid of their own scale (about 2 points across) so that every face
+         * carries samples: the data has a kink at each of its edges. */
+        double own = fmin(1, f->diam / (2 * spacing));
+        double sp = own * spacing / f->s, mg = own * margin / f->s;
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int32_t a = 0; a < f->n; ++a)
+            for (int d = 0; d < 2; ++d) {
+                lo[d] = fmin(lo[d], f->p2[2 * a + d]);
+                hi[d] = fmax(hi[d], f->p2[2 * a + d]);
+            }
+        pf_vec3 nn = face_out_normal(c, lf);
+        for (double pu = lo[0] + grid_phase * sp; pu < hi[0]; pu += sp)
+            for (double pv = lo[1] + grid_phase * sp; pv < hi[1]; pv += sp) {
+                if (!pf_polygon_contains(f->p2, f->n, pu, pv) ||
+                    pf_polygon_boundary_distance(f->p2, f->n, pu, pv) < mg)
+                    continue;
+                pf_vec3 x = pf_v3_add(
+                    f->o, pf_v3_add(pf_v3_scale(f->u, pu * f->s), pf_v3_scale(f->v, pv * f->s)));
+                PF_TRY(pf_basis_pts_push(out, (pt3){x, nn, -1, -1, 0, lf, own * spacing}, err));
+            }
+    }
+    return PF_OK;
+}
+
 /* ---- graded samples ------------------------------------------------------------------------ */
 
-/* The sizing field min(h0, feat_i + alpha |x - x_i|): a Lipschitz spacing that is the feature
- * size at every node and grows away from it at the rate alpha. */
+/* The sizing field min(h0, feat_i + s alpha |x - x_i|): a Lipschitz spacing that is the
+ * feature size at every node and grows away from it at the rate s alpha; s (c->grade_scale,
+ * 1 unless the cell is above its kernel budget) makes it grow faster. */
 static double local_size(const elem_ctx *c, pf_vec3 x, double h0, double alpha)
 {
     double h = h0;
     for (int32_t g = 0; g < c->ng; ++g) {
         int32_t i = c->grep[g];
-        h = fmin(h, c->nfeat[i] + alpha * pf_v3_dist(x, c->pos[i]));
+        h = fmin(h, c->nfeat[i] + c->grade_scale * alpha * pf_v3_dist(x, c->pos[i]));
     }
     return h;
+}
+
+/* Whether edge s lies inside the patch (both its faces are patch faces). */
+static bool edge_in_patch(const elem_ctx *c, const edge3 *ed)
+{
+    return c->has_patch && ed->f1 != ed->f2 && c->in_patch[ed->f1] && c->in_patch[ed->f2];
 }
 
 pf_status pf_basis_graded_samples(const elem_ctx *c, double h0e, double h0f, double alpha,
@@ -70,8 +146,9 @@ pf_status pf_basis_graded_samples(const elem_ctx *c, double h0e, double h0f, dou
         }
         double tot = cum[NSUB];
         int32_t n = (int32_t)(ceil(tot - 1e-9) - 1);
-        if (n < edge_min)
-            n = edge_min;
+        int32_t emin = c->patch_grading && edge_in_patch(c, ed) ? 0 : edge_min;
+        if (n < emin)
+            n = emin;
         int q = 0;
         for (int32_t j = 1; j <= n; ++j) {
             double target = tot * j / (n + 1);
@@ -357,6 +434,55 @@ pf_status pf_basis_patch_build(elem_ctx *c, double maxdev, const pf_basis_params
     }
     c->has_patch = true;
     return PF_OK;
+}
+
+void pf_basis_patch_features(elem_ctx *c)
+{
+    bool on[PF_BASIS_MAX_NODES] = {0};
+    for (int32_t s = 0; s < c->ne; ++s) {
+        const edge3 *ed = &c->edges[s];
+        if (c->in_patch[ed->f1] || c->in_patch[ed->f2])
+            on[ed->a] = on[ed->b] = true;
+    }
+    for (int32_t i = 0; i < c->k; ++i)
+        if (on[i])
+            c->nfeat[i] = INFINITY;
+    for (int32_t s = 0; s < c->ne; ++s) {
+        const edge3 *ed = &c->edges[s];
+        if (edge_in_patch(c, ed))
+            continue;
+        double len = pf_v3_dist(c->pos[ed->a], c->pos[ed->b]);
+        if (on[ed->a])
+            c->nfeat[ed->a] = fmin(c->nfeat[ed->a], len);
+        if (on[ed->b])
+            c->nfeat[ed->b] = fmin(c->nfeat[ed->b], len);
+    }
+    for (int32_t lf = 0; lf < c->nf; ++lf) {
+        if (c->in_patch[lf])
+            continue;
+        int64_t a = c->floc_off[lf], n = c->floc_off[lf + 1] - a;
+        for (int64_t q = 0; q < n; ++q) {
+            int32_t i = c->floc[a + q];
+            if (!on[i])
+                continue;
+            for (int64_t r = 0; r < n; ++r) {
+                int32_t u = c->floc[a + r], v = c->floc[a + (r + 1) % n];
+                if (c->slot[u] == c->slot[i] || c->slot[v] == c->slot[i] ||
+                    c->slot[u] == c->slot[v])
+                    continue;
+                pf_vec3 ev = pf_v3_sub(c->pos[v], c->pos[u]), dv = pf_v3_sub(c->pos[i], c->pos[u]);
+                double t = pf_v3_dot(dv, ev) / pf_v3_dot(ev, ev);
+                t = t < 0 ? 0 : t > 1 ? 1 : t;
+                double d = pf_v3_dist(c->pos[i], pf_v3_add(c->pos[u], pf_v3_scale(ev, t)));
+                c->nfeat[i] = fmin(c->nfeat[i], d);
+            }
+        }
+    }
+    for (int32_t j = 0; j < c->n_inner; ++j)
+        c->nfeat[c->inner[j]] = c->inner_sig[j] * c->patch.s;
+    for (int32_t i = 0; i < c->k; ++i)
+        if (!(c->nfeat[i] < INFINITY))
+            c->nfeat[i] = c->nlen[i];
 }
 
 bool pf_basis_patch_has(const elem_ctx *c, const pt3 *pt)

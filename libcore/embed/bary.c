@@ -358,7 +358,10 @@ static pf_status harmonic_build(const pf_mesh *m, const locator *L, const int32_
         st = pf_mesh_select_elements(&sub, m, keep, map, err);
     }
     if (st >= 0) {
-        st = pf_basis_create(&h->basis, &sub, NULL, err);
+        /* Uniform: the sub-mesh's boundary is not the mesh's, so its surface patches would be
+         * wrong (docs/basis.md). */
+        pf_basis_params bp = pf_basis_params_uniform();
+        st = pf_basis_create(&h->basis, &sub, &bp, err);
         if (st < 0)
             pf_error_prefix(err,
                             "harmonic weights of the %d polyhedra holding surface vertices "

@@ -20,7 +20,9 @@
 pf_cg_params pf_cg_params_default(void)
 {
     pf_cg_params p = {0};
-    p.basis = pf_basis_params_default();
+    /* Uniform samples: the degree-2 rule's error on graded kernels (8-12 % of K_e on sliced
+     * cells) would exceed what the sliced-cell settings gain (docs/basis.md). */
+    p.basis = pf_basis_params_uniform();
     p.quadrature_degree = PF_CG_DEFAULT_QUADRATURE;
     return p;
 }

@@ -439,7 +439,8 @@ static pf_status transfer(const void *m, const void *old, const pf_mesh_change *
     return PF_OK;
 }
 
-/* Elements with closed-form functions (MFS skipped), harmonic elements, their MFS kernels,
+/* Elements with closed-form functions (MFS skipped), harmonic elements, their MFS kernels, the
+ * largest boundary error of their functions,
  * seconds spent building the shape functions, and the element functions and matrices taken over
  * from the mesh before a change and computed (the last three added over changes). */
 static void setup_stats(const void *m, pf_sim_stats *st)
@@ -452,8 +453,11 @@ static void setup_stats(const void *m, pf_sim_stats *st)
     st->closed_form_elems = c->cg.n_closed_form;
     st->harmonic_elems = c->cg.n_elems - c->cg.n_closed_form;
     st->kernels = 0;
-    for (int32_t e = 0; e < c->cg.basis.n_elems; ++e)
+    st->basis_error = 0;
+    for (int32_t e = 0; e < c->cg.basis.n_elems; ++e) {
         st->kernels += c->cg.basis.stats[e].n_kernels;
+        st->basis_error = fmax(st->basis_error, c->cg.basis.stats[e].boundary_error);
+    }
     st->basis_seconds += c->cg.basis_seconds;
 }
 

@@ -93,21 +93,26 @@ check "pf-octree --refine 4 and 5 give different boundaries (got '$a' and '$b')"
   bash -c "[ -n '$a' ] && [ -n '$b' ] && [ '$a' != '$b' ]"
 expect 2 "--refine" "$bin/pf-octree" --refine 9 "$tmp/tet.obj"
 
-# pf-basis: each accuracy option lowers the median boundary error of sliced cells, and
-# --accurate is --xi 0.2 --grading 0.2 --patch-angle 60
+# pf-basis: the sliced-cell settings (the default) lower the median boundary error of sliced
+# cells below the uniform functions' (--sliced off), whichever of their options is varied, and
+# --accurate is --sliced all --xi 0.2 --max-kernels 0
 "$bin/pf-shape" sphere --segments 6 | "$bin/pf-slice" --res 2 --quiet >"$tmp/cells.pfs"
 median() { "$bin/pf-basis" "$@" "$tmp/cells.pfs" | sed -n 's/.*boundary error median \([0-9.e-]*\) .*/\1/p'; }
-base=$(median)
-for o in "--accurate" "--grading 0.2" "--patch-angle 60"; do
+base=$(median --sliced off)
+for o in "" "--accurate" "--sliced all" "--sliced auto --grading 0.3" "--patch-angle 45" "--max-kernels 100"; do
   m=$(median $o)
-  check "pf-basis $o: median boundary error $m below the default's $base" \
+  check "pf-basis $o: median boundary error $m below the uniform functions' $base" \
     awk -v a="$m" -v b="$base" 'BEGIN { exit !(a > 0 && a < b) }'
 done
 "$bin/pf-basis" --json --accurate "$tmp/cells.pfs" | sed 's/"[a-z_]*setup_ms":[0-9.e+-]*//g' >"$tmp/acc.json"
-"$bin/pf-basis" --json --xi 0.2 --grading 0.2 --patch-angle 60 "$tmp/cells.pfs" |
+"$bin/pf-basis" --json --sliced all --xi 0.2 --max-kernels 0 "$tmp/cells.pfs" |
   sed 's/"[a-z_]*setup_ms":[0-9.e+-]*//g' >"$tmp/explicit.json"
-check "pf-basis --accurate = --xi 0.2 --grading 0.2 --patch-angle 60" cmp "$tmp/acc.json" "$tmp/explicit.json"
+check "pf-basis --accurate = --sliced all --xi 0.2 --max-kernels 0" cmp "$tmp/acc.json" "$tmp/explicit.json"
 check "pf-basis --json reported the 8 cells" test "$(wc -l <"$tmp/acc.json")" -ge 8
+# --max-kernels: every cell within the budget here (its features alone need fewer)
+kmax=$("$bin/pf-basis" --json --max-kernels 60 "$tmp/cells.pfs" | grep '"element"' | grep -o '"kernels":[0-9]*' | cut -d: -f2 | sort -n | tail -n 1)
+check "pf-basis --max-kernels 60: at most 60 kernels per cell (got $kmax)" test "$kmax" -le 60
+expect 2 "--sliced" "$bin/pf-basis" --sliced some "$tmp/cells.pfs"
 
 # pf-shape --r: the tube radius (torus volume 2 pi^2 R r^2 within the polygon's 2 %)
 check "pf-shape torus --R 1 --r 0.5: volume 4.93" \

@@ -40,19 +40,18 @@
  * Accuracy (measured, edge_samples 2, xi 0.1): boundary L2 error 0 (round-off) on a box with MFS
  * forced, 1.1 % on a corner-cut cube, 2.6 % on an octree cell with a split face, 4 % on an
  * L-shaped cell (its reflex edge makes the exact functions singular); 10-17 % on cells of a
- * sliced faceted sphere, whose many small facets make boundary data (hats of the facets' size)
- * the kernels do not resolve at these settings. More edge_samples lower all of these at a cost
- * (corner-cut cube: 0.38 % at 4, 0.18 % at 6, with 2.3x and 5x the kernels). Linear reproduction
- * and partition of unity are exact to round-off whatever the error.
+ * sliced faceted sphere with uniform samples and per-facet data (pf_basis_params_uniform),
+ * whose many small facets make boundary data (hats of the facets' size) the kernels do not
+ * resolve: the sliced-cell settings below bring these under 1 %. More edge_samples lower all of
+ * these at a cost (corner-cut cube: 0.38 % at 4, 0.18 % at 6, with 2.3x and 5x the kernels). Linear
+ * reproduction and partition of unity are exact to round-off whatever the error.
  *
- * Sliced cells (pf_basis_params_accurate). A sliced cell's boundary is partly the cut surface:
- * many small, nearly coplanar facets. Per-facet data (one hat per facet) have a kink across each
- * facet edge, and across an edge whose faces meet at 180 - theta degrees the harmonic extension
- * of a kink needs a gradient of order kink / sin(theta) into the cell, which the kernels resolve
- * only at a high count; short edges (where the surface crosses the grid) make hats of their own
- * small size. Two settings, both off by default:
- *   - grading: samples (kernels and collocation points) graded by feature size, dense and close
- *     to the boundary at short edges and small facets, at the uniform spacing away from them;
+ * Sliced cells (the default, PF_BASIS_SLICED_AUTO). A sliced cell's boundary is partly the cut
+ * surface: many small, nearly coplanar facets. Per-facet data (one hat per facet) have a kink
+ * across each facet edge, and across an edge whose faces meet at 180 - theta degrees the
+ * harmonic extension of a kink needs a gradient of order kink / sin(theta) into the cell, which
+ * the kernels resolve only at a high count; short edges (where the surface crosses the grid)
+ * make hats of their own small size. Three settings, on by default:
  *   - patch_angle: the element's faces on the mesh boundary (used by no other element) become
  *     one curved patch when their normals lie within patch_angle of their mean. Its data: the 2D
  *     harmonic coordinates of its boundary loop projected on the mean plane (the loop nodes),
@@ -61,14 +60,25 @@
  *     others), then the exactness projection below, so that the data sum to 1 and reproduce x
  *     exactly on the facets. No kinks inside the patch; faces shared with a neighbour keep their
  *     face functions, so conformity is unchanged. A patch with a crease (patch_angle exceeded),
- *     more than one loop or more than 32 inner nodes keeps per-facet data.
+ *     more than one loop or more than 32 inner nodes keeps per-facet data. Cells with a patch
+ *     get the kernel offset sliced_xi (0.2) instead of xi;
+ *   - grading: samples (kernels and collocation points) of every harmonic cell graded by
+ *     feature size, dense and close to the boundary at short edges and small facets, at the
+ *     uniform spacing away from them (cells without small features keep about the uniform
+ *     count: corner-cut cube 56 kernels either way). On a patch only the loop edges and the
+ *     inner nodes' bump widths are features (the facets inside carry no kinks);
+ *   - max_kernels: a cell whose graded samples exceed the budget (400) gets a faster grading
+ *     rate, the spacing at its features kept, until they fit. Without it a cell of a finely
+ *     faceted surface can take minutes (thousands of kernels).
  * Measured on every harmonic cell of the 8 x 16 sphere sliced 6 across (pf-slice --res 6, 128
- * cells; bench/bench_sliced.c): median boundary error 12 % at the defaults; 0.68 % (worst decile
- * from 1.6 %, largest 2.4 %) with pf_basis_params_accurate, at 6x the kernels and 10x the CPU
- * time of the basis (grading 0.3: 0.91 %, 2.6 % and 2.9 % at 5x the CPU time). The CG
- * simulator keeps the defaults for now: its quadrature degree was chosen so that the
- * quadrature error stays below the basis error of the default functions, which the accurate
- * functions are well below (tests/test_cg.c, quadrature_order_converges).
+ * cells; bench/bench_sliced.c): median boundary error 0.76 %, worst decile from 1.8 %, largest
+ * 2.6 %, at most 385 kernels per cell; the uniform functions (pf_basis_params_uniform) 12 %;
+ * pf_basis_params_accurate (grading on every cell at xi 0.2, no budget) 0.68 %, 1.6 %, 2.4 %.
+ * The default 32 x 64 sphere sliced 6 across: 4.5 % median, 11 % worst decile (uniform: 13 %
+ * and 19 %): its cells have 50-90 nodes, most with more than 32 inside the patch (per-facet
+ * data). The CG simulator keeps the uniform functions: its quadrature degree was chosen so
+ * that the quadrature error stays below the basis error of the uniform functions, which the
+ * sliced-cell settings are well below (tests/test_cg.c, quadrature_order_converges).
  *
  * Exact partition of unity and linear reproduction. In exact arithmetic the least-squares
  * solution already has both (the data b_i sum to 1 and reproduce x on the boundary, and 1 and x
@@ -116,6 +126,18 @@ typedef enum pf_basis_kind {
 
 const char *pf_basis_kind_name(pf_basis_kind k); /* "tet", "hex", "harmonic" */
 
+/* Which harmonic cells get the sliced-cell settings (graded samples, smooth surface-patch data,
+ * sliced_xi; "Sliced cells" above). */
+typedef enum pf_basis_sliced {
+    PF_BASIS_SLICED_AUTO = 0, /* cells whose mesh-boundary faces form a surface patch (the
+                                 default) */
+    PF_BASIS_SLICED_ALL = 1,  /* every harmonic cell graded; patch data where a patch forms */
+    PF_BASIS_SLICED_OFF = 2   /* none: uniform samples and per-facet data on every cell */
+} pf_basis_sliced;
+
+/* Default kernel budget of a graded cell (pf_basis_params.max_kernels). */
+#define PF_BASIS_DEFAULT_MAX_KERNELS 400
+
 /* Zero values mean "default". */
 typedef struct pf_basis_params {
     double xi;                  /* kernel offset as a fraction of the element (face) diameter,
@@ -133,27 +155,42 @@ typedef struct pf_basis_params {
                                    1e-9 */
     double rank_rcond;          /* switch from QR to SVD when the reciprocal condition of the QR
                                    factor falls below this; also the SVD cut-off; default 1e-13 */
-    double grading;             /* > 0: boundary samples graded by feature size, the spacing
-                                   at x being min(uniform, feat_i + grading |x - x_i|) over the
-                                   nodes i (feat_i: the shortest edge at node i, or its distance
-                                   to an edge of one of its faces when shorter); 0: one uniform
-                                   spacing (the default) */
-    double patch_angle;         /* > 0: an element's mesh-boundary faces whose normals lie
-                                   within this many degrees of their mean get smooth data as one
-                                   curved patch ("Sliced cells" above); 0: per-face data (the
-                                   default) */
+    pf_basis_sliced sliced;     /* which cells get the sliced-cell settings below ("Sliced
+                                   cells" above); default PF_BASIS_SLICED_AUTO */
+    double sliced_xi;           /* kernel offset (as xi) on the cells with the sliced-cell
+                                   settings: the graded spacing lets kernels lie farther out;
+                                   default 0.2 */
+    double grading;             /* graded samples: the spacing at x is
+                                   min(uniform, feat_i + grading |x - x_i|) over the nodes i
+                                   (feat_i: the shortest edge at node i, or its distance to an
+                                   edge of one of its faces when shorter; on a surface patch
+                                   only the patch's loop edges and its inner nodes' bump widths
+                                   count); default 0.2 */
+    double patch_angle;         /* an element's mesh-boundary faces whose normals lie within
+                                   this many degrees of their mean get smooth data as one
+                                   curved patch; default 60 */
+    int32_t max_kernels;        /* kernel budget of a graded cell: when its graded samples
+                                   exceed it, the graded spacing is widened (by one factor over
+                                   the cell) until they fit or the spacing is uniform; default
+                                   PF_BASIS_DEFAULT_MAX_KERNELS, negative: no budget */
     bool force_mfs;             /* harmonic MFS also for tets and parallelepipeds (tests, study) */
-    bool no_check_stats;        /* true: skip the check-point statistics of pf_basis_elem_stats
-                                   (boundary, linear and unity errors, min_value stay 0; counts
-                                   and setup_ms are kept): they cost about as much as the MFS
-                                   solves and the simulator does not read them */
+    bool no_check_stats;        /* true: of the check-point statistics of pf_basis_elem_stats
+                                   only the boundary error (linear and unity errors, min_value
+                                   stay 0; counts and setup_ms are kept): the others cost about
+                                   as much as the MFS solves and the simulator reads only the
+                                   boundary error (its error indicator) */
     pf_progress_hook progress;  /* the phase "basis functions" (elements, taken ones counted),
                                    borrowed during pf_basis_create only; zero: none */
 } pf_basis_params;
 
 pf_basis_params pf_basis_params_default(void);
-/* The defaults with the settings of "Sliced cells" above: xi 0.2, grading 0.2, patch_angle 60. */
+/* The defaults with the sliced-cell settings on every harmonic cell (PF_BASIS_SLICED_ALL), xi
+ * 0.2 everywhere and no kernel budget: the settings "Sliced cells" above was first measured at
+ * (a cell of a finely faceted surface can take minutes). */
 pf_basis_params pf_basis_params_accurate(void);
+/* The defaults without the sliced-cell settings (PF_BASIS_SLICED_OFF): uniform samples and
+ * per-facet data everywhere. The CG simulator and the embedding weights use them. */
+pf_basis_params pf_basis_params_uniform(void);
 
 /* Numerical health of one element's functions. Errors are measured at check points distinct from
  * the collocation points: the nodes, boundary points (half-way between collocation points on

@@ -347,7 +347,9 @@ pf_status pf_dg_l2_error(const pf_dg *dg, const pf_mesh *m, const double *u,
 #define PF_CG_DEFAULT_QUADRATURE 2
 
 typedef struct pf_cg_params {
-    pf_basis_params basis;     /* zero fields: basis defaults */
+    pf_basis_params basis;     /* pf_cg_params_default: pf_basis_params_uniform (this
+                                  quadrature is too coarse for the graded kernels of sliced
+                                  cells, docs/basis.md); zero fields: basis defaults */
     int32_t quadrature_degree; /* harmonic elements, 1..29; 0 = PF_CG_DEFAULT_QUADRATURE */
     bool no_consistency_correction; /* true: the paper's K_e as is (above; studies) */
     pf_progress_hook progress; /* the phases "basis functions" (unless basis.progress is set)

@@ -348,6 +348,8 @@ typedef struct pf_sim_stats {
     int32_t harmonic_elems;    /* elements with MFS harmonic functions */
     int64_t kernels;           /* MFS kernels of all harmonic elements (edge_samples sets them) */
     double basis_seconds;      /* shape-function set-up (part of setup_seconds) */
+    double basis_error;        /* largest boundary error of the current elements' shape
+                                  functions (pf_sim_error_indicator) */
     /* the linear solves: method, factorisations and why, PCG iterations (factorisations,
      * factor_seconds, solve_seconds, matrix_nnz and factor_nnz above repeat its counts) */
     pf_solver_stats solver;
@@ -473,6 +475,15 @@ void pf_sim_set_affine_displacement(pf_sim *sim, const double a[9], const double
  * an element's own displacement at one of its nodes and the stitched (averaged) value there,
  * model units. It shrinks as the penalty grows (DG paper, fig. 1). 0 for cg (conforming). */
 double pf_sim_max_node_jump(const pf_sim *sim);
+
+/* An a-posteriori error indicator of the current state, a fraction (0.01: 1 %), for a user
+ * asking how accurate a run is. dg: the largest jump between elements at a node
+ * (pf_sim_max_node_jump) relative to the largest stitched nodal displacement (0 when nothing
+ * moves): round-off (~1e-12) where the discrete solution is exact (affine fields), larger as the
+ * mesh under-resolves the field. cg: the largest relative L2 boundary error of the shape
+ * functions of the current elements (pf/basis.h; 0 when every element has closed forms): how
+ * far the method is from conforming; it does not depend on the state. */
+double pf_sim_error_indicator(const pf_sim *sim);
 
 /* Volume of the deformed body: the mesh's elements with the stitched displacement applied to
  * their nodes, model units cubed. */

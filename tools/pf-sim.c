@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "scene_files.h"
+#include "sim_distrib_out.h"
 #include "sim_resume.h"
 
 static const char USAGE[] =
@@ -538,6 +539,19 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
     return st;
 }
 
+/* A static DG scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
+static pf_status simulate_distributed(run *r, pf_error *err)
+{
+    pf_sim_distrib_result res;
+    pf_status st = pf_sim_distrib_static(&r->scene, &r->mesh, &res, err);
+    if (st >= 0 && r->first_written == 0)
+        st = pf_cli_distrib_frame(r->out, &r->mesh, &res, err);
+    if (st >= 0 && !r->quiet)
+        pf_cli_distrib_summary(&res, r->mesh.n_elems);
+    pf_sim_distrib_result_release(&res);
+    return st;
+}
+
 /* The frames: one for a static scene, the rest state and scene->frames more otherwise; when
  * resuming, those after the checkpoint's frame (restore: the CKPT payload). */
 static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
@@ -552,6 +566,8 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_mesh = r->mesh.id;
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
+    if (!restore && pf_sim_distrib_applies(&r->scene))
+        return simulate_distributed(r, err);
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,
                                   embedded ? w : NULL, err));
@@ -691,6 +707,7 @@ static void start_mpi(int *argc, char ***argv)
     }
     if (rank > 0) {
         int code = PF_EXIT_INPUT;
+        pf_petsc_set_task(pf_sim_distrib_serve);
         if (pf_petsc_serve(&code, &err) < 0)
             fprintf(stderr, "pf-sim: rank %d: %s\n", rank, err.msg);
         exit(code);

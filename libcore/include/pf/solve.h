@@ -273,6 +273,13 @@ pf_status pf_petsc_serve(int *exit_code, pf_error *err);
  * initialised. */
 void pf_petsc_finalize(int exit_code);
 
+/* A collective task besides the solvers (the distributed assembly, pf_sim_distrib_static): the
+ * serving ranks run fn when rank 0 calls pf_petsc_start_task, then serve on. fn's status is
+ * rank 0's to report (the task must fail alike on every rank). Nothing without PETSc. */
+typedef pf_status (*pf_petsc_task_fn)(pf_error *err);
+void pf_petsc_set_task(pf_petsc_task_fn fn);
+void pf_petsc_start_task(void);
+
 #ifdef __cplusplus
 }
 #endif

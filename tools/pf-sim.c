@@ -566,7 +566,8 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_mesh = r->mesh.id;
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
-    if (!restore && pf_sim_distrib_applies(&r->scene))
+    /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
+    if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY"))
         return simulate_distributed(r, err);
     pf_sim *sim = NULL;
     PF_TRY(pf_sim_create_embedded(&sim, &r->scene, &r->mesh, embedded ? &r->input.surface : NULL,

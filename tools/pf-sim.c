@@ -708,8 +708,7 @@ static void start_mpi(int *argc, char ***argv)
     }
     if (rank > 0) {
         int code = PF_EXIT_INPUT;
-        pf_petsc_set_task(pf_sim_distrib_serve);
-        if (pf_petsc_serve(&code, &err) < 0)
+        if (pf_petsc_serve(pf_sim_distrib_serve, &code, &err) < 0)
             fprintf(stderr, "pf-sim: rank %d: %s\n", rank, err.msg);
         exit(code);
     }

@@ -520,13 +520,6 @@ bool pf_petsc_available(void)
     return true;
 }
 
-static pf_petsc_task_fn task_fn;
-
-void pf_petsc_set_task(pf_petsc_task_fn fn)
-{
-    task_fn = fn;
-}
-
 void pf_petsc_start_task(void)
 {
     announce((message){.command = CMD_TASK});
@@ -571,7 +564,7 @@ pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_
     return PF_OK;
 }
 
-pf_status pf_petsc_serve(int *exit_code, pf_error *err)
+pf_status pf_petsc_serve(pf_petsc_task_fn task, int *exit_code, pf_error *err)
 {
     *exit_code = 1;
     PF_CHECK(PetscInitializeCalled && !PetscFinalizeCalled, err, PF_ERR_INVALID,
@@ -591,8 +584,8 @@ pf_status pf_petsc_serve(int *exit_code, pf_error *err)
         }
         pf_error ignored = {0};
         if (m.command == CMD_TASK) { /* its failure is rank 0's to report, like a body's */
-            if (task_fn)
-                task_fn(&ignored);
+            if (task)
+                task(&ignored);
             continue;
         }
         engine **at = &list;
@@ -670,15 +663,11 @@ static pf_status not_built(pf_error *err)
                         "scripts/setup --petsc");
 }
 
-pf_status pf_petsc_serve(int *exit_code, pf_error *err)
+pf_status pf_petsc_serve(pf_petsc_task_fn task, int *exit_code, pf_error *err)
 {
+    (void)task;
     *exit_code = 1;
     return not_built(err);
-}
-
-void pf_petsc_set_task(pf_petsc_task_fn fn)
-{
-    (void)fn;
 }
 
 void pf_petsc_start_task(void) {}

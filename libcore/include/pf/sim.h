@@ -430,7 +430,7 @@ bool pf_sim_distrib_applies(const pf_scene *scene);
  * ranks. Every rank fails alike (no fixed face, a PETSc failure). */
 pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
                                 pf_sim_distrib_result *out, pf_error *err);
-/* Ranks > 0: their half, as the task of pf_petsc_set_task. */
+/* Ranks > 0: their half, the task of pf_petsc_serve. */
 pf_status pf_sim_distrib_serve(pf_error *err);
 void pf_sim_distrib_result_release(pf_sim_distrib_result *r);
 

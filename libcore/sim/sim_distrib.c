@@ -46,10 +46,10 @@
 /* What the header of a part's message holds. */
 typedef struct part_header {
     int64_t mesh_bytes, groups_bytes;
-    int32_t n_elems, n_nodes;             /* the part's */
-    int32_t all_elems, all_nodes;         /* the whole mesh's */
+    int32_t n_elems, n_nodes;     /* the part's */
+    int32_t all_elems, all_nodes; /* the whole mesh's */
     int64_t scene_bytes;
-    double lo[3], hi[3];                  /* the whole mesh's bounds */
+    double lo[3], hi[3]; /* the whole mesh's bounds */
 } part_header;
 
 /* One rank's part and what it computes. */
@@ -225,10 +225,9 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
     return st;
 }
 
-/* Rank 0 makes every part and sends it (its own last, kept in mine); a part it failed to make
- * goes out as a size of -1. */
-static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *mine,
-                            pf_error *err)
+/* Rank 0 makes every part and sends it (its own last, kept in mine); after a part it failed to
+ * make, that part and the rest go out as a size of -1. */
+static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *mine, pf_error *err)
 {
     int32_t n = ranks();
     int64_t *owner = pf_alloc_array((size_t)m->n_elems + 1, sizeof *owner);
@@ -241,20 +240,18 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
         st = partition(m, n, owner, pelem, err);
     if (st >= 0)
         st = pf_scene_to_json(scene, &json, err);
-    st = agree(st, err);
-    for (int32_t r = n - 1; r >= 0 && st >= 0; --r) {
-        st = pack_part(m, json, owner, pelem, r, mine, err);
+    st = agree(st, err); /* a failed partition: no parts, every rank knows */
+    bool made = st >= 0;
+    for (int32_t r = n - 1; r >= 0 && made; --r) {
+        if (st >= 0)
+            st = pack_part(m, json, owner, pelem, r, mine, err);
         if (r == 0)
             break;
         int64_t size = st >= 0 ? (int64_t)mine->size : -1;
         MPI_Send(&size, 1, MPI_INT64_T, r, 0, PETSC_COMM_WORLD);
         for (int64_t at = 0; at < size; at += 1 << 30) /* MPI counts are int */
-            MPI_Send(mine->data + at, (int)(size - at < (1 << 30) ? size - at : 1 << 30),
-                     MPI_BYTE, r, 1, PETSC_COMM_WORLD);
-    }
-    for (int32_t r = 1; r < n && st < 0 && n > 1; ++r) { /* the parts not sent: none */
-        int64_t none = -1;
-        MPI_Send(&none, 1, MPI_INT64_T, r, 0, PETSC_COMM_WORLD);
+            MPI_Send(mine->data + at, (int)(size - at < (1 << 30) ? size - at : 1 << 30), MPI_BYTE,
+                     r, 1, PETSC_COMM_WORLD);
     }
     pf_free(owner), pf_free(pelem), pf_free(json);
     return st;
@@ -336,8 +333,8 @@ static pf_status setup_part(part *p, pf_error *err)
     PF_CHECK(faces > 0, err, PF_ERR_INVALID,
              "a static scene needs fixed faces: no boundary face centroid lies in any 'fixed' "
              "region");
-    p->penalty = p->scene.penalty > 0 ? p->scene.penalty
-                                      : pf_sim_bz_default_penalty(p->scene.degree);
+    p->penalty =
+        p->scene.penalty > 0 ? p->scene.penalty : pf_sim_bz_default_penalty(p->scene.degree);
     if (!p->method)
         return PF_OK;
     pf_sim_dg_set_body_length(p->method, cbrt(total));
@@ -587,11 +584,24 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_dist
     return st;
 }
 
+/* Whether a region is a node or element list (indices of the whole mesh, not of a part). */
+static bool is_list(const pf_region *r)
+{
+    return r->kind == PF_REGION_NODES || r->kind == PF_REGION_ELEMENTS;
+}
+
 bool pf_sim_distrib_applies(const pf_scene *scene)
 {
+    bool lists = false;
+    for (int32_t k = 0; k < scene->n_fixed; ++k)
+        lists |= is_list(&scene->fixed[k].region);
+    for (int32_t k = 0; k < scene->n_loads; ++k)
+        lists |= is_list(&scene->loads[k].region);
+    for (int32_t k = 0; k < scene->n_materials; ++k)
+        lists |= is_list(&scene->materials[k].region);
     return scene->solver.method == PF_SOLVER_PETSC && scene->is_static &&
            scene->method == PF_METHOD_DG && (scene->penalty > 0 || scene->flux == PF_FLUX_BZ) &&
-           scene->n_cuts == 0;
+           scene->n_cuts == 0 && !lists;
 }
 
 pf_status pf_sim_distrib_serve(pf_error *err)
@@ -601,7 +611,7 @@ pf_status pf_sim_distrib_serve(pf_error *err)
     pf_buffer msg = {0};
     if (st >= 0)
         st = receive_part(&msg, err);
-    return st >= 0 || msg.data ? run_part(st, &msg, cpu0, NULL, NULL, err) : st;
+    return run_part(st, &msg, cpu0, NULL, NULL, err);
 }
 
 pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,

@@ -404,8 +404,9 @@ void pf_sim_destroy(pf_sim **sim);
  * Rank 0 partitions the elements and sends each rank its own with their face neighbours; each
  * rank sets up the DG method on them, assembles its rows into PETSc's distributed matrix and
  * evaluates its elements' outputs, which rank 0 receives. For static DG scenes with the petsc
- * solver and a given penalty (or the BZ flux, whose default needs no definiteness test); other
- * scenes keep rank 0 assembling everything (pf_sim_create). Built with PETSc only. */
+ * solver and a given penalty (or the BZ flux, whose default needs no definiteness test), without
+ * node or element list files (their indices are the whole mesh's); other scenes keep rank 0
+ * assembling everything (pf_sim_create). Built with PETSc only. */
 typedef struct pf_sim_distrib_rank {
     int32_t elements;         /* the elements it owned and assembled */
     double setup_cpu_seconds; /* its part's arrival, set-up, assembly and PETSc's matrix */

@@ -1,8 +1,9 @@
 # pf-sim --solver petsc under mpirun with 1, 2 and 4 ranks (4 oversubscribed on a small machine)
 # against the one-process direct solve: the static cantilever (DG degree 2, CG) to 1e-8 relative,
 # a corotated drop to 1e-6 of the largest displacement, the same stream from two runs on 2 ranks,
-# PETSc's options passed through, and an error on rank 0 ending every rank with one message and
-# exit 1. Built with -DPF_PETSC=ON.
+# PETSc's options passed through, static DG with every rank assembling its own elements (IP and
+# BZ on 1 and 2 ranks, each rank's share, no fixed face), and an error on rank 0 ending every rank
+# with one message and exit 1. Built with -DPF_PETSC=ON.
 . "$(dirname "$0")/../tools/lib.sh"
 scenes=$data/scenes
 # CI and this machine run as root; Open MPI's mpirun refuses root without these.

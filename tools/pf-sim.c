@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "scene_files.h"
+#include "sim_distrib_out.h"
 #include "sim_resume.h"
 
 static const char USAGE[] =
@@ -553,6 +554,19 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
     return st;
 }
 
+/* A static DG scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
+static pf_status simulate_distributed(run *r, pf_error *err)
+{
+    pf_sim_distrib_result res;
+    pf_status st = pf_sim_distrib_static(&r->scene, &r->mesh, &res, err);
+    if (st >= 0 && r->first_written == 0)
+        st = pf_cli_distrib_frame(r->out, &r->mesh, &res, err);
+    if (st >= 0 && !r->quiet)
+        pf_cli_distrib_summary(&res, r->mesh.n_elems);
+    pf_sim_distrib_result_release(&res);
+    return st;
+}
+
 /* The frames: one for a static scene, the rest state and scene->frames more otherwise; when
  * resuming, those after the checkpoint's frame (restore: the CKPT payload). */
 static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
@@ -567,6 +581,9 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_mesh = r->mesh.id;
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
+    /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
+    if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY"))
+        return simulate_distributed(r, err);
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);
     r->bar.phase_lines = true;
     pf_sim_options opt = {.surface = embedded ? &r->input.surface : NULL,
@@ -713,7 +730,7 @@ static void start_mpi(int *argc, char ***argv)
     }
     if (rank > 0) {
         int code = PF_EXIT_INPUT;
-        if (pf_petsc_serve(&code, &err) < 0)
+        if (pf_petsc_serve(pf_sim_distrib_serve, &code, &err) < 0)
             fprintf(stderr, "pf-sim: rank %d: %s\n", rank, err.msg);
         exit(code);
     }

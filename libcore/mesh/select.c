@@ -85,8 +85,7 @@ static int32_t find_root(int32_t *parent, int32_t e)
     return e;
 }
 
-/* Drops the nodes no face uses, renumbering the rest in order. */
-static void compact_nodes(pf_mesh *m, int32_t *node_id)
+void pf_mesh_compact_nodes(pf_mesh *m, int32_t *node_id)
 {
     for (int32_t i = 0; i < m->n_nodes; ++i)
         node_id[i] = -1;
@@ -149,7 +148,7 @@ pf_status pf_mesh_keep_largest_part(pf_mesh *m, int32_t *parts, int32_t *dropped
         st = pf_mesh_select_elements(&kept, m, keep, NULL, err);
         if (st < 0)
             goto done;
-        compact_nodes(&kept, node_id);
+        pf_mesh_compact_nodes(&kept, node_id);
         pf_mesh_release(m);
         *m = kept;
         st = pf_mesh_derive(m, err);

@@ -195,6 +195,14 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                            const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
                            int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
 
+/* DG on one rank's part of a mesh (sim_distrib.c): the mesh's elements with owned[e] != 0 and
+ * their face neighbours. The volume of the owned elements; the boundary faces of owned elements
+ * the scene fixes; and the body length that BZ's penalty growth is measured with set to the
+ * whole mesh's (the faces' growth rescaled). */
+double pf_sim_dg_owned_volume(const void *m, const uint8_t *owned);
+int32_t pf_sim_dg_owned_fixed_faces(const void *m, const uint8_t *owned);
+void pf_sim_dg_set_body_length(void *m, double length);
+
 pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
                            const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
                            int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);

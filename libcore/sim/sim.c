@@ -81,7 +81,7 @@ void pf_sim_sync_solver_stats(pf_sim *s)
  * docs/scene.md), where the error falls at every refinement: degree 1 +50, +15, +3.8 % at 3/16
  * (+0.7 % at 64 x 16 x 16; at 1/4 it crosses zero between the second and third mesh), degree 2
  * +11, +1.4, -0.1 % at 1/2 (at 1 it crosses between the first and second). */
-static double bz_default_penalty(int32_t degree)
+double pf_sim_bz_default_penalty(int32_t degree)
 {
     return degree >= 2 ? 0.5 : 0.1875;
 }
@@ -113,7 +113,7 @@ static pf_status choose_penalty(pf_sim *s, double given, pf_error *err)
     if (given <= 0)
         given = s->scene->penalty;
     if (given <= 0 && s->scene->flux == PF_FLUX_BZ)
-        given = bz_default_penalty(s->scene->degree);
+        given = pf_sim_bz_default_penalty(s->scene->degree);
     if (given > 0) {
         s->ops->set_penalty(s->method, given);
         s->stats.penalty = given;

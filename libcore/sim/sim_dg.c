@@ -494,3 +494,31 @@ pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
     *ctx = d;
     return PF_OK;
 }
+
+double pf_sim_dg_owned_volume(const void *m, const uint8_t *owned)
+{
+    const pf_dg *dg = &((const dg_method *)m)->dg;
+    double v = 0;
+    for (int32_t e = 0; e < dg->n_elems; ++e)
+        v += owned[e] ? dg->volume[e] : 0;
+    return v;
+}
+
+int32_t pf_sim_dg_owned_fixed_faces(const void *m, const uint8_t *owned)
+{
+    const dg_method *d = m;
+    int32_t n = 0;
+    for (int32_t q = d->dg.n_interior; q < d->dg.n_faces; ++q)
+        n += owned[d->dg.faces[q].elem[0]] && d->face_fixed[d->dg.faces[q].face] >= 0;
+    return n;
+}
+
+void pf_sim_dg_set_body_length(void *m, double length)
+{
+    dg_method *d = m;
+    double scale = pow(length / d->dg.body_length, d->dg.degree);
+    for (int32_t q = 0; q < d->dg.n_faces; ++q)
+        d->dg.faces[q].bz_growth *= scale;
+    d->dg.body_length = length;
+    d->penalty_current = false;
+}

@@ -74,6 +74,9 @@ struct pf_sim {
 pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *reuse, double penalty,
                        pf_error *err);
 
+/* The BZ flux's penalty when the scene gives none (sim.c). */
+double pf_sim_bz_default_penalty(int32_t degree);
+
 /* Frees what pf_sim_build made and the owned mesh and weights, but not s. */
 void pf_sim_release(pf_sim *s);
 

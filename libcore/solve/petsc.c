@@ -42,7 +42,7 @@ void SCOTCH_randomReset(void);
                                 (int)pe_, #call);                                                  \
     } while (0)
 
-enum command { CMD_EXIT = 0, CMD_CREATE, CMD_NULL_SPACE, CMD_SOLVE, CMD_DESTROY };
+enum command { CMD_EXIT = 0, CMD_CREATE, CMD_NULL_SPACE, CMD_SOLVE, CMD_DESTROY, CMD_TASK };
 
 /* What rank 0 broadcasts before each collective body. */
 typedef struct message {
@@ -124,17 +124,22 @@ static pf_status create_body(engine *e, PetscInt n, const int64_t *count, double
     PETSC_TRY(MatSetPreallocationCOO(e->a, n_coo, coo_i, coo_j));
     PETSC_TRY(MatCreateVecs(e->a, &e->x, &e->b));
     PETSC_TRY(VecScatterCreateToZero(e->x, &e->to_zero, &e->whole));
-    PETSC_TRY(KSPCreate(PETSC_COMM_WORLD, &e->ksp));
-    PETSC_TRY(KSPSetOperators(e->ksp, e->a, e->a));
-    PETSC_TRY(KSPSetType(e->ksp, KSPCG));
+    return pf_petsc_create_ksp(e->a, tolerance, &e->ksp, err);
+}
+
+pf_status pf_petsc_create_ksp(Mat a, double tolerance, KSP *ksp, pf_error *err)
+{
+    PETSC_TRY(KSPCreate(PETSC_COMM_WORLD, ksp));
+    PETSC_TRY(KSPSetOperators(*ksp, a, a));
+    PETSC_TRY(KSPSetType(*ksp, KSPCG));
     PC pc;
-    PETSC_TRY(KSPGetPC(e->ksp, &pc));
+    PETSC_TRY(KSPGetPC(*ksp, &pc));
     PETSC_TRY(PCSetType(pc, PCGAMG));
     /* the true residual, as the pcg method judges it; no absolute floor */
-    PETSC_TRY(KSPSetNormType(e->ksp, KSP_NORM_UNPRECONDITIONED));
-    PETSC_TRY(KSPSetTolerances(e->ksp, tolerance, 0.0, PETSC_DEFAULT, 10000));
-    PETSC_TRY(KSPSetInitialGuessNonzero(e->ksp, PETSC_TRUE));
-    PETSC_TRY(KSPSetFromOptions(e->ksp));
+    PETSC_TRY(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
+    PETSC_TRY(KSPSetTolerances(*ksp, tolerance, 0.0, PETSC_DEFAULT, 10000));
+    PETSC_TRY(KSPSetInitialGuessNonzero(*ksp, PETSC_TRUE));
+    PETSC_TRY(KSPSetFromOptions(*ksp));
     return PF_OK;
 }
 
@@ -179,7 +184,7 @@ static pf_status gather(engine *e, Vec src, double *dst, pf_error *err)
 }
 
 /* Modified Gram-Schmidt; a vector that loses all but 1e-10 of its norm is dependent. */
-static pf_status orthonormalise(Vec *v, int32_t k, pf_error *err)
+pf_status pf_petsc_orthonormalise(Vec *v, int32_t k, pf_error *err)
 {
     for (int32_t i = 0; i < k; ++i) {
         PetscReal before, after;
@@ -211,7 +216,7 @@ static pf_status null_space_body(engine *e, int32_t k, const double *vectors, pf
                 scatter_in(e, vectors ? vectors + (size_t)made * (size_t)e->n : NULL, v[made], err);
     }
     if (st >= 0)
-        st = orthonormalise(v, k, err);
+        st = pf_petsc_orthonormalise(v, k, err);
     MatNullSpace space = NULL;
     if (st >= 0 && MatNullSpaceCreate(PETSC_COMM_WORLD, PETSC_FALSE, k, v, &space))
         st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc: MatNullSpaceCreate");
@@ -274,18 +279,18 @@ static pf_status block_graph(const pf_block_matrix *a, PetscInt **ia, PetscInt *
     return PF_OK;
 }
 
-/* part[b] in [0, parts) for every block: MatPartitioning on this process alone, PT-Scotch unless
- * PETSc's options (-mat_partitioning_type) say otherwise. Scotch's random generator is reset
- * first, so the same matrix and part count give the same partition, whatever ran before. */
-static pf_status block_parts(const pf_block_matrix *a, PetscInt parts, int64_t *part, pf_error *err)
+/* part[b] in [0, parts) for every vertex of the graph ia, ja (n vertices, PetscMalloc'd arrays
+ * that this takes over): MatPartitioning on this process alone, PT-Scotch unless PETSc's options
+ * (-mat_partitioning_type) say otherwise. Scotch's random generator is reset first, so the same
+ * graph and part count give the same partition, whatever ran before. */
+static pf_status graph_parts(PetscInt n, PetscInt *ia, PetscInt *ja, PetscInt parts, int64_t *part,
+                             pf_error *err)
 {
-    PetscInt *ia = NULL, *ja = NULL;
-    PF_TRY(block_graph(a, &ia, &ja, err));
     Mat adj;
     MatPartitioning mp;
     IS is;
     const PetscInt *p;
-    PETSC_TRY(MatCreateMPIAdj(PETSC_COMM_SELF, a->n_blocks, a->n_blocks, ia, ja, NULL, &adj));
+    PETSC_TRY(MatCreateMPIAdj(PETSC_COMM_SELF, n, n, ia, ja, NULL, &adj));
     PETSC_TRY(MatPartitioningCreate(PETSC_COMM_SELF, &mp));
     PETSC_TRY(MatPartitioningSetAdjacency(mp, adj));
     PETSC_TRY(MatPartitioningSetNParts(mp, parts));
@@ -295,11 +300,11 @@ static pf_status block_parts(const pf_block_matrix *a, PetscInt parts, int64_t *
     PETSC_TRY(MatPartitioningApply(mp, &is));
     PETSC_TRY(ISGetIndices(is, &p));
     pf_status st = PF_OK;
-    for (int32_t b = 0; b < a->n_blocks && st >= 0; ++b) {
+    for (PetscInt b = 0; b < n && st >= 0; ++b) {
         part[b] = p[b];
         if (p[b] < 0 || p[b] >= parts)
             st = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
-                              "the partitioner put block %d in part %d of %d", (int)b, (int)p[b],
+                              "the partitioner put vertex %d in part %d of %d", (int)b, (int)p[b],
                               (int)parts);
     }
     PETSC_TRY(ISRestoreIndices(is, &p));
@@ -307,6 +312,34 @@ static pf_status block_parts(const pf_block_matrix *a, PetscInt parts, int64_t *
     PETSC_TRY(MatPartitioningDestroy(&mp));
     PETSC_TRY(MatDestroy(&adj)); /* frees ia and ja */
     return st;
+}
+
+static pf_status block_parts(const pf_block_matrix *a, PetscInt parts, int64_t *part, pf_error *err)
+{
+    PetscInt *ia = NULL, *ja = NULL;
+    PF_TRY(block_graph(a, &ia, &ja, err));
+    return graph_parts(a->n_blocks, ia, ja, parts, part, err);
+}
+
+pf_status pf_petsc_partition_graph(int32_t n, const int64_t *offsets, const int32_t *adj,
+                                   int32_t parts, int64_t *part, pf_error *err)
+{
+    PF_CHECK(parts >= 1, err, PF_ERR_INVALID, "%d parts", (int)parts);
+    if (parts == 1 || n == 0) {
+        memset(part, 0, (size_t)n * sizeof *part);
+        return PF_OK;
+    }
+    PF_CHECK(offsets[n] < PETSC_MAX_INT, err, PF_ERR_TOO_LARGE,
+             "%lld graph edges exceed PETSc's %d-bit indices", (long long)offsets[n],
+             (int)(8 * sizeof(PetscInt)));
+    PetscInt *ia, *ja;
+    PETSC_TRY(PetscMalloc1(n + 1, &ia));
+    PETSC_TRY(PetscMalloc1(offsets[n] + 1, &ja));
+    for (int32_t v = 0; v <= n; ++v)
+        ia[v] = (PetscInt)offsets[v];
+    for (int64_t q = 0; q < offsets[n]; ++q)
+        ja[q] = adj[q];
+    return graph_parts(n, ia, ja, parts, part, err);
 }
 
 pf_status pf_petsc_partition_rows(const pf_block_matrix *a, int32_t parts, int64_t *row,
@@ -487,6 +520,11 @@ bool pf_petsc_available(void)
     return true;
 }
 
+void pf_petsc_start_task(void)
+{
+    announce((message){.command = CMD_TASK});
+}
+
 /* Rank 0 left without pf_petsc_finalize (an error ended the program): the others stop too, with
  * rank 0's exit code where the C library tells it (glibc's on_exit), else 1. */
 #ifdef __GLIBC__
@@ -526,7 +564,7 @@ pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_
     return PF_OK;
 }
 
-pf_status pf_petsc_serve(int *exit_code, pf_error *err)
+pf_status pf_petsc_serve(pf_petsc_task_fn task, int *exit_code, pf_error *err)
 {
     *exit_code = 1;
     PF_CHECK(PetscInitializeCalled && !PetscFinalizeCalled, err, PF_ERR_INVALID,
@@ -544,13 +582,18 @@ pf_status pf_petsc_serve(int *exit_code, pf_error *err)
             *exit_code = (int)m.n;
             break;
         }
+        pf_error ignored = {0};
+        if (m.command == CMD_TASK) { /* its failure is rank 0's to report, like a body's */
+            if (task)
+                task(&ignored);
+            continue;
+        }
         engine **at = &list;
         while (*at && (*at)->id != m.id)
             at = &(*at)->next;
         engine *e = *at;
         /* A body that fails here fails alike on rank 0 (the same collective calls on the same
          * data), which reports it; this rank keeps serving. */
-        pf_error ignored = {0};
         if (m.command == CMD_CREATE) {
             e = calloc(1, sizeof *e);
             if (!e) {
@@ -620,9 +663,19 @@ static pf_status not_built(pf_error *err)
                         "scripts/setup --petsc");
 }
 
-pf_status pf_petsc_serve(int *exit_code, pf_error *err)
+pf_status pf_petsc_serve(pf_petsc_task_fn task, int *exit_code, pf_error *err)
 {
+    (void)task;
     *exit_code = 1;
+    return not_built(err);
+}
+
+void pf_petsc_start_task(void) {}
+
+pf_status pf_petsc_partition_graph(int32_t n, const int64_t *offsets, const int32_t *adj,
+                                   int32_t parts, int64_t *part, pf_error *err)
+{
+    (void)n, (void)offsets, (void)adj, (void)parts, (void)part;
     return not_built(err);
 }
 

@@ -22,6 +22,21 @@ void pf_petsc_solver_destroy(pf_petsc_solver **p);
 pf_status pf_petsc_partition_rows(const pf_block_matrix *a, int32_t parts, int64_t *row,
                                   int64_t *count, pf_error *err);
 
+/* part[v] in [0, parts) for each of the n vertices of a graph (adjacency offsets [n + 1], adj:
+ * both directions, no self loops), as pf_petsc_partition_rows partitions blocks: PT-Scotch on
+ * this process alone, deterministic. */
+pf_status pf_petsc_partition_graph(int32_t n, const int64_t *offsets, const int32_t *adj,
+                                   int32_t parts, int64_t *part, pf_error *err);
+
+#ifdef PF_HAVE_PETSC
+#include <petscksp.h>
+/* The KSP every petsc solve uses on matrix a (collective): CG on the true residual to
+ * tolerance, GAMG, nonzero initial guess, then PETSc's options. */
+pf_status pf_petsc_create_ksp(Mat a, double tolerance, KSP *ksp, pf_error *err);
+/* Modified Gram-Schmidt on k vectors (collective); PF_ERR_INVALID for a dependent one. */
+pf_status pf_petsc_orthonormalise(Vec *v, int32_t k, pf_error *err);
+#endif
+
 /* GAMG's near-null space: k vectors [k][n], orthonormalised on the way. */
 pf_status pf_petsc_solver_near_null_space(pf_petsc_solver *p, int32_t k, const double *vectors,
                                           pf_error *err);

@@ -1,8 +1,9 @@
 # pf-sim --solver petsc under mpirun with 1, 2 and 4 ranks (4 oversubscribed on a small machine)
 # against the one-process direct solve: the static cantilever (DG degree 2, CG) to 1e-8 relative,
 # a corotated drop to 1e-6 of the largest displacement, the same stream from two runs on 2 ranks,
-# PETSc's options passed through, and an error on rank 0 ending every rank with one message and
-# exit 1. Built with -DPF_PETSC=ON.
+# PETSc's options passed through, static DG with every rank assembling its own elements (IP and
+# BZ on 1 and 2 ranks, each rank's share, no fixed face), and an error on rank 0 ending every rank
+# with one message and exit 1. Built with -DPF_PETSC=ON.
 . "$(dirname "$0")/../tools/lib.sh"
 scenes=$data/scenes
 # CI and this machine run as root; Open MPI's mpirun refuses root without these.
@@ -68,6 +69,54 @@ expect 0 "solver petsc" mpi 2 "$bin/pf-sim" --frames 8 --solver petsc --input "$
 check "nine frames of the drop in both" test "$(wc -l <"$tmp/ud")" = 9 -a "$(wc -l <"$tmp/up")" = 9
 check "the drop on 2 ranks follows direct's frames to 1e-6 of the largest displacement" \
   bash -c "paste -d, '$tmp/ud' '$tmp/up' | tr -d 'u\":[]' | awk -F, '{ for (k = 1; k <= 3; ++k) { d = \$k - \$(k + 3); if (d < 0) d = -d; if (d > dm) dm = d; a = \$k < 0 ? -\$k : \$k; if (a > am) am = a } } END { exit !(am > 0.01 && dm <= 1e-6 * am) }'"
+
+# Static DG with every rank assembling its own elements (pf_sim_distrib_static): taken when the
+# penalty is given (IP: 8, what the automatic search finds on this beam) or the flux is BZ (its
+# default needs no definiteness test). Each rank's share of the elements is in its summary line.
+# The tip against CHOLMOD to 1e-11 relative: round-off is the floor. Measured on 1, 2, 3 and 4
+# ranks: IP 1.0e-12, 6.6e-13, 7.8e-13, 9.8e-13; BZ 3.8e-13, 1.6e-12, 4.2e-13, 9.9e-13; the same at
+# solver tolerances 1e-10 and 1e-13 (the iterations have converged), and rank 0 assembling the
+# whole system (below) is 1.0e-12 from CHOLMOD on 1 rank too.
+sed 's/"flux": "ip"/"flux": "ip", "penalty": 8/' "$scenes/cantilever.json" >"$tmp/ip8.json"
+sed 's/"flux": "ip"/"flux": "bz"/' "$scenes/cantilever.json" >"$tmp/bz.json"
+# the share lines' elements: each rank's count on one line
+shares() { sed -n 's/^pf-sim: rank [0-9]*: \([0-9]*\) elements assembled.*/\1/p' "$1"; }
+for case in ip8:1e-11 bz:1e-11; do
+  name=${case%%:*} tol=${case#*:}
+  "$bin/pf-sim" "$tmp/$name.json" --solver direct --quiet <"$tmp/beam.pfs" >"$tmp/direct.pfs"
+  ref=$(tip "$tmp/direct.pfs" 4,0.5,0.5)
+  for n in 1 2; do
+    expect 0 "assembled on $n ranks" mpi "$n" "$bin/pf-sim" "$tmp/$name.json" --solver petsc \
+      --input "$tmp/beam.pfs" --output "$tmp/own$n.pfs"
+    got=$(tip "$tmp/own$n.pfs" 4,0.5,0.5)
+    check "$name assembled on $n ranks: tip $got equals direct's $ref to $tol" close "$got" "$ref" "$tol"
+    check "$name on $n ranks: $n shares, each rank some of the 32 elements, all of them once" \
+      test "$(shares "$tmp/err" | wc -l)" = "$n" -a "$(shares "$tmp/err" | awk '$1 > 0' | wc -l)" = "$n" \
+      -a "$(shares "$tmp/err" | awk '{ s += $1 } END { print s }')" = 32
+  done
+done
+# against rank 0 assembling the same system (the automatic penalty takes that path and finds 8):
+# the same partition and solve, so the same tip but for the order of the sums (5e-16 measured)
+expect 0 "solver petsc on 2 ranks" mpi 2 "$bin/pf-sim" "$scenes/cantilever.json" --solver petsc \
+  --input "$tmp/beam.pfs" --output "$tmp/rank0.pfs"
+"$bin/pf-sim" "$tmp/ip8.json" --solver direct --quiet <"$tmp/beam.pfs" >"$tmp/direct.pfs"
+expect 0 "assembled on 2 ranks" mpi 2 "$bin/pf-sim" "$tmp/ip8.json" --solver petsc \
+  --input "$tmp/beam.pfs" --output "$tmp/own2.pfs"
+check "each rank's assembly equals rank 0's to 1e-14" \
+  close "$(tip "$tmp/own2.pfs" 4,0.5,0.5)" "$(tip "$tmp/rank0.pfs" 4,0.5,0.5)" 1e-14
+# more ranks than elements: ranks without elements take part in the collective calls
+expect 0 "rank 3: 1 elements assembled" mpi 4 "$bin/pf-sim" "$tmp/bz.json" --solver petsc \
+  --input "$tmp/two.pfs" --output "$tmp/two_own.pfs"
+"$bin/pf-sim" "$tmp/bz.json" --solver direct --quiet <"$tmp/two.pfs" >"$tmp/two_direct.pfs"
+check "2 elements on 4 ranks, each assembling its own" \
+  close "$(tip "$tmp/two_own.pfs" 4,0.5,0.5)" "$(tip "$tmp/two_direct.pfs" 4,0.5,0.5)" 1e-11
+# no fixed face: every rank finds it (their counts summed), all exit 1, the message once
+sed 's/\[\[-0.001, -1, -1\], \[0.001, 2, 2\]\]/[[-9, -1, -1], [-8, 2, 2]]/' "$tmp/bz.json" >"$tmp/free.json"
+for n in 1 2; do
+  expect 1 "needs fixed faces" mpi "$n" "$bin/pf-sim" "$tmp/free.json" --solver petsc \
+    --input "$tmp/beam.pfs" --output "$tmp/never.pfs"
+  check "the message is printed once on $n ranks" test "$(grep -c 'needs fixed faces' "$tmp/err")" = 1
+done
 
 # An error on rank 0 (a missing scene file) ends all ranks: exit 1, the message once, no hang.
 expect 1 "missing.json: cannot open" mpi 2 "$bin/pf-sim" "$tmp/missing.json" --solver petsc \

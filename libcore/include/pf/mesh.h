@@ -163,6 +163,10 @@ pf_status pf_mesh_validate(const pf_mesh *m, const pf_mesh_validate_params *para
 pf_status pf_mesh_select_elements(pf_mesh *dst, const pf_mesh *src, const uint8_t *keep,
                                   int32_t *elem_map, pf_error *err);
 
+/* Drops the nodes no face of m uses, renumbering the rest in order: node_id[old n_nodes]
+ * receives each old node's new index, -1 for a dropped one. */
+void pf_mesh_compact_nodes(pf_mesh *m, int32_t *node_id);
+
 /* Keeps only the largest (by volume) set of elements connected through shared faces, in place:
  * the others' elements, faces and nodes are dropped (nodes renumbered in order), m derived.
  * *parts receives the number of such sets, *dropped the elements dropped. PF_ERR_NOMEM, and

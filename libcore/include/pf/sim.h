@@ -427,6 +427,41 @@ pf_status pf_sim_create_with(pf_sim **sim, const pf_scene *scene, const pf_mesh 
                              const pf_sim_options *options, pf_error *err);
 void pf_sim_destroy(pf_sim **sim);
 
+/* ---- the static solve with every MPI rank assembling its own elements (sim_distrib.c) ----
+ * Rank 0 partitions the elements and sends each rank its own with their face neighbours; each
+ * rank sets up the DG method on them, assembles its rows into PETSc's distributed matrix and
+ * evaluates its elements' outputs, which rank 0 receives. For static DG scenes with the petsc
+ * solver and a given penalty (or the BZ flux, whose default needs no definiteness test), without
+ * node or element list files (their indices are the whole mesh's); other scenes keep rank 0
+ * assembling everything (pf_sim_create). Built with PETSc only. */
+typedef struct pf_sim_distrib_rank {
+    int32_t elements;         /* the elements it owned and assembled */
+    double setup_cpu_seconds; /* its part's arrival, set-up, assembly and PETSc's matrix */
+    double cpu_seconds;       /* all of its share */
+    double peak_rss_mb;       /* its process's peak resident memory */
+} pf_sim_distrib_rank;
+
+typedef struct pf_sim_distrib_result {
+    double *u;         /* [3 n_nodes] nodal displacements (the stitched field, eq. 30) */
+    double *von_mises; /* [n_elems] at each element's centre */
+    int64_t dofs;
+    double penalty;
+    int32_t iterations;
+    double residual; /* relative to the right-hand side */
+    int32_t ranks;
+    pf_sim_distrib_rank *rank; /* [ranks] */
+} pf_sim_distrib_result;
+
+/* Whether pf_sim_distrib_static takes the scene. */
+bool pf_sim_distrib_applies(const pf_scene *scene);
+/* Rank 0, collective: the static solve of scene (resolved for mesh, which must be derived) on all
+ * ranks. Every rank fails alike (no fixed face, a PETSc failure). */
+pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
+                                pf_sim_distrib_result *out, pf_error *err);
+/* Ranks > 0: their half, the task of pf_petsc_serve. */
+pf_status pf_sim_distrib_serve(pf_error *err);
+void pf_sim_distrib_result_release(pf_sim_distrib_result *r);
+
 /* Static solve: the displacement under the scene's loads, gravity and fixed regions (linear
  * elasticity: no corotation, no contact). */
 pf_status pf_sim_solve_static(pf_sim *sim, pf_error *err);

@@ -269,15 +269,23 @@ bool pf_petsc_available(void);
  * cannot start. */
 pf_status pf_petsc_initialize(int *argc, char ***argv, int *rank, int *size, pf_error *err);
 
-/* Ranks > 0: serves rank 0's petsc solvers until rank 0 calls pf_petsc_finalize (or exits),
- * then finalises PETSc and returns with *exit_code the code rank 0 gave. PF_ERR_INVALID on
- * rank 0, or without PETSc. */
-pf_status pf_petsc_serve(int *exit_code, pf_error *err);
+/* A collective task besides the solvers (the distributed assembly, pf_sim_distrib_static), run
+ * by the serving ranks when rank 0 calls pf_petsc_start_task. Its status is rank 0's to report:
+ * the task must fail alike on every rank. */
+typedef pf_status (*pf_petsc_task_fn)(pf_error *err);
+
+/* Ranks > 0: serves rank 0's petsc solvers and tasks (task: NULL for none) until rank 0 calls
+ * pf_petsc_finalize (or exits), then finalises PETSc and returns with *exit_code the code rank 0
+ * gave. PF_ERR_INVALID on rank 0, or without PETSc. */
+pf_status pf_petsc_serve(pf_petsc_task_fn task, int *exit_code, pf_error *err);
 
 /* Rank 0 (or a one-process run): tells the serving ranks to stop with exit_code and finalises
  * PETSc and MPI. Every petsc solver must be destroyed first. Nothing when PETSc was not
  * initialised. */
 void pf_petsc_finalize(int exit_code);
+
+/* Rank 0: the serving ranks run their task (pf_petsc_serve) now. Nothing without PETSc. */
+void pf_petsc_start_task(void);
 
 #ifdef __cplusplus
 }

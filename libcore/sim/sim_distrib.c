@@ -1,0 +1,681 @@
+/* The static DG solve with each MPI rank assembling its own elements (pf/sim.h,
+ * pf_sim_distrib_static).
+ *
+ * Rank 0 partitions the elements (PT-Scotch on their face adjacency, pf_petsc_partition_graph)
+ * and sends each rank its part: its elements and their face neighbours (the halo) as a mesh of
+ * their own (pf_mesh_select_elements, nodes compacted), with each element's PETSc number and
+ * owner, each node's number in the whole mesh, and the scene as JSON. Every rank, rank 0
+ * included, then runs the same code on its part: the DG method's set-up (sim_dg.c, the code a
+ * one-process run uses) and its stiffness and forces, assembled into a block matrix of the part.
+ *
+ * Which entries a rank sends (MatSetValuesCOO, duplicates summed by PETSc): the diagonal block of
+ * an element holds its volume term and the own-side terms of all its faces, which the part has
+ * whole, so the owner sends it; the block coupling two elements holds the terms of their common
+ * face, which both parts have when the two have different owners, so only the owner of the one
+ * with the lower PETSc number sends it. Blocks between halo elements are not sent (a halo
+ * element's faces to elements outside the part look like boundary faces here: their terms land
+ * in halo rows only). The right-hand side's rows are the owned elements'.
+ *
+ * PETSc numbers the elements part by part (part 0's first, in mesh order), so each rank's rows
+ * are one contiguous range. The solution stays distributed: each rank evaluates its elements'
+ * fields at their nodes (sums and counts, the stitching of eq. 30 split by owner) and their von
+ * Mises stress, and rank 0 receives the sums. */
+#include <pf/io.h>
+#include <pf/sim.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../solve/solve_petsc.h"
+#include "sim_internal.h"
+#include <pf/integrate.h>
+
+#ifdef PF_HAVE_PETSC
+
+#include <sys/resource.h>
+
+#define PETSC_TRY(call)                                                                            \
+    do {                                                                                           \
+        PetscErrorCode pe_ = (call);                                                               \
+        if (pe_)                                                                                   \
+            return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc error %d in %s",   \
+                                (int)pe_, #call);                                                  \
+    } while (0)
+
+/* What the header of a part's message holds. */
+typedef struct part_header {
+    int64_t mesh_bytes, groups_bytes;
+    int32_t n_elems, n_nodes;     /* the part's */
+    int32_t all_elems, all_nodes; /* the whole mesh's */
+    int64_t scene_bytes;
+    double lo[3], hi[3]; /* the whole mesh's bounds */
+} part_header;
+
+/* One rank's part and what it computes. */
+typedef struct part {
+    part_header h;
+    pf_scene scene;
+    pf_mesh mesh;
+    int64_t *pelem; /* [n_elems] PETSc number of each element */
+    int32_t *gelem; /* [n_elems] its index in the whole mesh */
+    int32_t *gnode; /* [n_nodes] each node's index in the whole mesh */
+    uint8_t *owned; /* [n_elems] */
+    int32_t n_owned;
+    const pf_method_ops *ops;
+    void *method;
+    pf_block_matrix k;
+    double *f, *u; /* [part unknowns] */
+    int32_t nb3;   /* unknowns per element */
+    double penalty;
+} part;
+
+static int rank_of(void)
+{
+    int r = 0;
+    MPI_Comm_rank(PETSC_COMM_WORLD, &r);
+    return r;
+}
+
+static int ranks(void)
+{
+    int s = 1;
+    MPI_Comm_size(PETSC_COMM_WORLD, &s);
+    return s;
+}
+
+/* Every rank learns whether any failed: its own error stays, the others get one naming the task
+ * (rank 0 reports its own error when it has one). */
+static pf_status agree(pf_status st, pf_error *err)
+{
+    int bad = st < 0, any = 0;
+    MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
+    if (any && !bad)
+        return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                            "another rank failed in the distributed assembly");
+    return st;
+}
+
+/* ---- rank 0: the partition and the parts ------------------------------------------------ */
+
+/* The elements' face adjacency (both directions) of a derived mesh. */
+static pf_status element_graph(const pf_mesh *m, int64_t **offsets, int32_t **adj, pf_error *err)
+{
+    *offsets = pf_calloc((size_t)m->n_elems + 2, sizeof **offsets);
+    int64_t edges = 0;
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        edges += 2 * (m->face_elems[2 * f] >= 0 && m->face_elems[2 * f + 1] >= 0);
+    *adj = pf_alloc_array((size_t)edges + 1, sizeof **adj);
+    PF_CHECK(*offsets && *adj, err, PF_ERR_NOMEM, "cannot allocate the graph of %d elements",
+             (int)m->n_elems);
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        if (m->face_elems[2 * f] >= 0 && m->face_elems[2 * f + 1] >= 0) {
+            (*offsets)[m->face_elems[2 * f] + 2]++;
+            (*offsets)[m->face_elems[2 * f + 1] + 2]++;
+        }
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        (*offsets)[e + 2] += (*offsets)[e + 1];
+    for (int32_t f = 0; f < m->n_faces; ++f) {
+        int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
+        if (a >= 0 && b >= 0) {
+            (*adj)[(*offsets)[a + 1]++] = b;
+            (*adj)[(*offsets)[b + 1]++] = a;
+        }
+    }
+    return PF_OK;
+}
+
+/* part[e] for every element and pelem[e], its PETSc number. */
+static pf_status partition(const pf_mesh *m, int32_t parts, int64_t *owner, int64_t *pelem,
+                           pf_error *err)
+{
+    int64_t *offsets = NULL;
+    int32_t *adj = NULL;
+    pf_status st = element_graph(m, &offsets, &adj, err);
+    if (st >= 0)
+        st = pf_petsc_partition_graph(m->n_elems, offsets, adj, parts, owner, err);
+    pf_free(offsets);
+    pf_free(adj);
+    PF_TRY(st);
+    int64_t *next = pf_calloc((size_t)parts + 1, sizeof *next);
+    PF_CHECK(next, err, PF_ERR_NOMEM, "cannot allocate %d parts", (int)parts);
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        next[owner[e] + 1]++;
+    for (int32_t r = 0; r < parts; ++r)
+        next[r + 1] += next[r];
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        pelem[e] = next[owner[e]]++;
+    pf_free(next);
+    return PF_OK;
+}
+
+static pf_status append(pf_buffer *b, const void *bytes, size_t n, pf_error *err)
+{
+    return n ? pf_buffer_append(b, bytes, n, err) : PF_OK;
+}
+
+/* Part r of the mesh as one message: header, scene JSON, MESH and GRPS payloads, then per
+ * element its PETSc number, whole-mesh index and ownership, and per node its whole-mesh index. */
+static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *owner,
+                           const int64_t *pelem, int32_t r, pf_buffer *out, pf_error *err)
+{
+    int32_t ne = m->n_elems;
+    uint8_t *keep = pf_calloc((size_t)ne + 1, 1);
+    int32_t *emap = pf_alloc_array((size_t)ne + 1, sizeof *emap);
+    int32_t *node_id = pf_alloc_array((size_t)m->n_nodes + 1, sizeof *node_id);
+    pf_mesh sub = {0};
+    pf_buffer mesh_bytes = {0}, groups = {0};
+    pf_status st = keep && emap && node_id ? PF_OK
+                                           : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                                          "cannot allocate part %d", (int)r);
+    bool any = false; /* a part without elements (more ranks than elements) sends no mesh */
+    for (int32_t e = 0; st >= 0 && e < ne; ++e)
+        any |= owner[e] == r;
+    for (int32_t f = 0; st >= 0 && f < m->n_faces; ++f) {
+        int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
+        if (a >= 0 && owner[a] == r)
+            keep[a] = 1, keep[b >= 0 ? b : a] = 1;
+        if (b >= 0 && owner[b] == r)
+            keep[b] = 1, keep[a >= 0 ? a : b] = 1;
+    }
+    if (st >= 0 && any)
+        st = pf_mesh_select_elements(&sub, m, keep, emap, err);
+    if (st >= 0 && any) {
+        pf_mesh_compact_nodes(&sub, node_id);
+        st = pf_stream_encode_mesh(&sub, &mesh_bytes, err);
+    }
+    if (st >= 0 && sub.elem_group)
+        st = pf_stream_encode_groups(&sub, &groups, err);
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(m, &lo, &hi);
+    part_header h = {.mesh_bytes = (int64_t)mesh_bytes.size,
+                     .groups_bytes = (int64_t)groups.size,
+                     .n_elems = sub.n_elems,
+                     .n_nodes = sub.n_nodes,
+                     .all_elems = m->n_elems,
+                     .all_nodes = m->n_nodes,
+                     .scene_bytes = (int64_t)strlen(json),
+                     .lo = {lo.x, lo.y, lo.z},
+                     .hi = {hi.x, hi.y, hi.z}};
+    out->size = 0;
+    if (st >= 0)
+        st = append(out, &h, sizeof h, err);
+    if (st >= 0)
+        st = append(out, json, (size_t)h.scene_bytes, err);
+    if (st >= 0)
+        st = append(out, mesh_bytes.data, mesh_bytes.size, err);
+    if (st >= 0)
+        st = append(out, groups.data, groups.size, err);
+    for (int32_t e = 0; st >= 0 && e < sub.n_elems; ++e) {
+        int64_t p = pelem[emap[e]];
+        uint8_t own = owner[emap[e]] == r;
+        st = append(out, &p, sizeof p, err);
+        if (st >= 0)
+            st = append(out, &emap[e], sizeof emap[e], err);
+        if (st >= 0)
+            st = append(out, &own, 1, err);
+    }
+    for (int32_t i = 0; st >= 0 && any && i < m->n_nodes; ++i)
+        if (node_id[i] >= 0)
+            st = append(out, &i, sizeof i, err);
+    pf_mesh_release(&sub);
+    pf_buffer_release(&mesh_bytes);
+    pf_buffer_release(&groups);
+    pf_free(keep), pf_free(emap), pf_free(node_id);
+    return st;
+}
+
+/* Rank 0 makes every part and sends it (its own last, kept in mine); after a part it failed to
+ * make, that part and the rest go out as a size of -1. */
+static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *mine, pf_error *err)
+{
+    int32_t n = ranks();
+    int64_t *owner = pf_alloc_array((size_t)m->n_elems + 1, sizeof *owner);
+    int64_t *pelem = pf_alloc_array((size_t)m->n_elems + 1, sizeof *pelem);
+    char *json = NULL;
+    pf_status st = owner && pelem ? PF_OK
+                                  : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                                 "cannot partition %d elements", (int)m->n_elems);
+    if (st >= 0)
+        st = partition(m, n, owner, pelem, err);
+    if (st >= 0)
+        st = pf_scene_to_json(scene, &json, err);
+    st = agree(st, err); /* a failed partition: no parts, every rank knows */
+    bool made = st >= 0;
+    for (int32_t r = n - 1; r >= 0 && made; --r) {
+        if (st >= 0)
+            st = pack_part(m, json, owner, pelem, r, mine, err);
+        if (r == 0)
+            break;
+        int64_t size = st >= 0 ? (int64_t)mine->size : -1;
+        MPI_Send(&size, 1, MPI_INT64_T, r, 0, PETSC_COMM_WORLD);
+        for (int64_t at = 0; at < size; at += 1 << 30) /* MPI counts are int */
+            MPI_Send(mine->data + at, (int)(size - at < (1 << 30) ? size - at : 1 << 30), MPI_BYTE,
+                     r, 1, PETSC_COMM_WORLD);
+    }
+    pf_free(owner), pf_free(pelem), pf_free(json);
+    return st;
+}
+
+static pf_status receive_part(pf_buffer *b, pf_error *err)
+{
+    int64_t size = 0;
+    MPI_Recv(&size, 1, MPI_INT64_T, 0, 0, PETSC_COMM_WORLD, MPI_STATUS_IGNORE);
+    PF_CHECK(size >= 0, err, PF_ERR_INVALID, "rank 0 could not make this rank's part");
+    PF_TRY(pf_buffer_reserve(b, (size_t)size + 1, err));
+    for (int64_t at = 0; at < size; at += 1 << 30)
+        MPI_Recv(b->data + at, (int)(size - at < (1 << 30) ? size - at : 1 << 30), MPI_BYTE, 0, 1,
+                 PETSC_COMM_WORLD, MPI_STATUS_IGNORE);
+    b->size = (size_t)size;
+    return PF_OK;
+}
+
+/* ---- every rank: the part's set-up and assembly ------------------------------------------ */
+
+static pf_status decode_chunk(const char *tag, unsigned char *bytes, int64_t size, pf_mesh *m,
+                              pf_error *err)
+{
+    pf_chunk c = {.version = pf_stream_tag_version(tag), .size = (uint64_t)size, .payload = bytes};
+    memcpy(c.tag, tag, 5);
+    return tag[0] == 'M' ? pf_stream_decode_mesh(&c, m, err) : pf_stream_decode_groups(&c, m, err);
+}
+
+static pf_status unpack_part(part *p, pf_buffer *b, pf_error *err)
+{
+    unsigned char *at = b->data;
+    memcpy(&p->h, at, sizeof p->h);
+    at += sizeof p->h;
+    PF_TRY(pf_scene_parse(&p->scene, (const char *)at, (size_t)p->h.scene_bytes, "scene", err));
+    pf_scene_resolve(&p->scene, pf_v3_load(p->h.lo), pf_v3_load(p->h.hi));
+    at += p->h.scene_bytes;
+    if (p->h.n_elems == 0)
+        return PF_OK;
+    PF_TRY(decode_chunk("MESH", at, p->h.mesh_bytes, &p->mesh, err));
+    at += p->h.mesh_bytes;
+    if (p->h.groups_bytes)
+        PF_TRY(decode_chunk("GRPS", at, p->h.groups_bytes, &p->mesh, err));
+    at += p->h.groups_bytes;
+    size_t ne = (size_t)p->h.n_elems, nn = (size_t)p->h.n_nodes;
+    p->pelem = pf_alloc_array(ne + 1, sizeof *p->pelem);
+    p->gelem = pf_alloc_array(ne + 1, sizeof *p->gelem);
+    p->owned = pf_alloc_array(ne + 1, 1);
+    p->gnode = pf_alloc_array(nn + 1, sizeof *p->gnode);
+    PF_CHECK(p->pelem && p->gelem && p->owned && p->gnode, err, PF_ERR_NOMEM,
+             "cannot allocate a part of %zu elements", ne);
+    for (size_t e = 0; e < ne; ++e) {
+        memcpy(&p->pelem[e], at, sizeof *p->pelem);
+        memcpy(&p->gelem[e], at + 8, sizeof *p->gelem);
+        p->owned[e] = at[12];
+        p->n_owned += p->owned[e];
+        at += 13;
+    }
+    memcpy(p->gnode, at, nn * sizeof *p->gnode);
+    return pf_mesh_derive(&p->mesh, err);
+}
+
+/* The DG method on the part (none on a rank without elements). */
+static pf_status create_part(part *p, pf_error *err)
+{
+    int32_t fixed = 0, loaded = 0;
+    p->nb3 = 3 * pf_moment_count(p->scene.degree);
+    if (p->h.n_elems == 0)
+        return PF_OK;
+    return pf_sim_dg_create(&p->scene, &p->mesh, NULL, &p->ops, &p->method, &fixed, &loaded, err);
+}
+
+/* Its penalty, and BZ's body length that of the whole mesh; the stiffness and forces. */
+static pf_status setup_part(part *p, pf_error *err)
+{
+    double volume = p->method ? pf_sim_dg_owned_volume(p->method, p->owned) : 0, total = 0;
+    int mine = p->method ? pf_sim_dg_owned_fixed_faces(p->method, p->owned) : 0, faces = 0;
+    MPI_Allreduce(&volume, &total, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+    MPI_Allreduce(&mine, &faces, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
+    PF_CHECK(faces > 0, err, PF_ERR_INVALID,
+             "a static scene needs fixed faces: no boundary face centroid lies in any 'fixed' "
+             "region");
+    p->penalty =
+        p->scene.penalty > 0 ? p->scene.penalty : pf_sim_bz_default_penalty(p->scene.degree);
+    if (!p->method)
+        return PF_OK;
+    pf_sim_dg_set_body_length(p->method, cbrt(total));
+    p->ops->set_penalty(p->method, p->penalty);
+    size_t n = (size_t)p->h.n_elems * (size_t)p->nb3;
+    p->f = pf_calloc(n + 1, sizeof *p->f);
+    p->u = pf_calloc(n + 1, sizeof *p->u);
+    PF_CHECK(p->f && p->u, err, PF_ERR_NOMEM, "cannot allocate %zu unknowns", n);
+    PF_TRY(p->ops->pattern(p->method, &p->k, err));
+    p->ops->stiffness(p->method, p->u, false, &p->k, p->f);
+    p->ops->external_forces(p->method, p->f);
+    return PF_OK;
+}
+
+/* Whether this rank sends the stored entry coupling elements a and b (see the top). */
+static bool sends(const part *p, int32_t a, int32_t b)
+{
+    if (p->owned[a] && p->owned[b])
+        return true;
+    if (!p->owned[a] && !p->owned[b])
+        return false;
+    return p->owned[a] ? p->pelem[a] < p->pelem[b] : p->pelem[b] < p->pelem[a];
+}
+
+static PetscInt petsc_row(const part *p, int64_t i)
+{
+    int64_t e = i / p->nb3;
+    return (PetscInt)(p->pelem[e] * p->nb3 + i % p->nb3);
+}
+
+/* This rank's COO entries: i and j NULL counts them. */
+static PetscCount coo_entries(const part *p, PetscInt *ci, PetscInt *cj, PetscScalar *v)
+{
+    const pf_block_matrix *k = &p->k;
+    PetscCount q = 0;
+    for (int64_t c = 0; c < k->n; ++c)
+        for (int64_t s = k->col_ptr[c]; s < k->col_ptr[c + 1]; ++s) {
+            int64_t r = k->row_idx[s];
+            if (!sends(p, (int32_t)(r / p->nb3), (int32_t)(c / p->nb3)))
+                continue;
+            for (int t = 0; t < (r == c ? 1 : 2); ++t, ++q)
+                if (ci) {
+                    ci[q] = petsc_row(p, t ? c : r);
+                    cj[q] = petsc_row(p, t ? r : c);
+                    v[q] = k->val[s];
+                }
+        }
+    return q;
+}
+
+/* dst's owned rows from src [part unknowns]. */
+static pf_status set_owned(const part *p, const double *src, Vec dst, pf_error *err)
+{
+    for (int32_t e = 0; e < p->h.n_elems; ++e)
+        if (p->owned[e])
+            for (int32_t o = 0; o < p->nb3; ++o)
+                PETSC_TRY(VecSetValue(dst, petsc_row(p, (int64_t)e * p->nb3 + o),
+                                      src[(size_t)e * p->nb3 + o], INSERT_VALUES));
+    PETSC_TRY(VecAssemblyBegin(dst));
+    PETSC_TRY(VecAssemblyEnd(dst));
+    return PF_OK;
+}
+
+/* The six rigid modes (about the whole mesh's centre) as GAMG's near-null space. */
+static pf_status rigid_modes(part *p, Mat a, pf_error *err)
+{
+    double c[3];
+    for (int k = 0; k < 3; ++k)
+        c[k] = 0.5 * (p->h.lo[k] + p->h.hi[k]);
+    Vec v[6];
+    for (int k = 0; k < 6; ++k) {
+        double m[9] = {0}, t[3] = {0};
+        if (k < 3) {
+            t[k] = 1;
+        } else { /* u = e_k x (x - c) */
+            int i = (k + 1) % 3, j = (k + 2) % 3;
+            m[3 * j + i] = 1;
+            m[3 * i + j] = -1;
+            for (int r = 0; r < 3; ++r)
+                t[r] = -(m[3 * r] * c[0] + m[3 * r + 1] * c[1] + m[3 * r + 2] * c[2]);
+        }
+        if (p->method)
+            p->ops->affine(p->method, m, t, p->u);
+        PETSC_TRY(MatCreateVecs(a, &v[k], NULL));
+        PF_TRY(set_owned(p, p->u, v[k], err));
+    }
+    PF_TRY(pf_petsc_orthonormalise(v, 6, err));
+    MatNullSpace space;
+    PETSC_TRY(MatNullSpaceCreate(PETSC_COMM_WORLD, PETSC_FALSE, 6, v, &space));
+    PETSC_TRY(MatSetNearNullSpace(a, space));
+    PETSC_TRY(MatNullSpaceDestroy(&space));
+    for (int k = 0; k < 6; ++k)
+        PETSC_TRY(VecDestroy(&v[k]));
+    return PF_OK;
+}
+
+/* What a rank reports to rank 0: its owned elements, CPU seconds of its set-up (receiving the
+ * part, the method, assembly and matrix) and of all, peak RSS in MB, and the solve's outcome. */
+typedef struct rank_stats {
+    double owned, setup_cpu, cpu, rss_mb, iterations, residual, reason;
+} rank_stats;
+
+static double peak_rss_mb(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return (double)ru.ru_maxrss / 1024.0;
+}
+
+/* The matrix, the solve, and the part's solution in p->u (owned elements; zero elsewhere). */
+static pf_status solve_part(part *p, rank_stats *rs, double cpu0, pf_error *err)
+{
+    PetscCount n_coo = coo_entries(p, NULL, NULL, NULL);
+    PetscInt *ci = pf_alloc_array((size_t)n_coo + 1, sizeof *ci);
+    PetscInt *cj = pf_alloc_array((size_t)n_coo + 1, sizeof *cj);
+    PetscScalar *v = pf_alloc_array((size_t)n_coo + 1, sizeof *v);
+    PF_CHECK(ci && cj && v, err, PF_ERR_NOMEM, "cannot allocate %lld entries", (long long)n_coo);
+    coo_entries(p, ci, cj, v);
+    PetscInt local = (PetscInt)p->n_owned * p->nb3, all = (PetscInt)p->h.all_elems * p->nb3;
+    Mat a;
+    Vec x, b;
+    KSP ksp;
+    PETSC_TRY(MatCreate(PETSC_COMM_WORLD, &a));
+    PETSC_TRY(MatSetSizes(a, local, local, all, all));
+    PETSC_TRY(MatSetType(a, MATAIJ));
+    PETSC_TRY(MatSetBlockSize(a, 3));
+    PETSC_TRY(MatSetFromOptions(a));
+    PETSC_TRY(MatSetPreallocationCOO(a, n_coo, ci, cj));
+    pf_free(ci), pf_free(cj);
+    PETSC_TRY(MatSetValuesCOO(a, v, INSERT_VALUES));
+    pf_free(v);
+    pf_block_matrix_release(&p->k);
+    PETSC_TRY(MatCreateVecs(a, &x, &b));
+    PF_TRY(set_owned(p, p->f, b, err));
+    PF_TRY(rigid_modes(p, a, err));
+    PF_TRY(pf_petsc_create_ksp(a, p->scene.solver.tolerance, &ksp, err));
+    rs->setup_cpu = pf_cpu_seconds() - cpu0;
+    KSPConvergedReason reason;
+    PetscInt its;
+    PetscReal rnorm, bnorm;
+    PETSC_TRY(KSPSolve(ksp, b, x));
+    PETSC_TRY(KSPGetConvergedReason(ksp, &reason));
+    PETSC_TRY(KSPGetIterationNumber(ksp, &its));
+    PETSC_TRY(KSPGetResidualNorm(ksp, &rnorm));
+    PETSC_TRY(VecNorm(b, NORM_2, &bnorm));
+    rs->iterations = its, rs->reason = reason, rs->residual = bnorm > 0 ? rnorm / bnorm : 0;
+    PetscInt first, end;
+    const PetscScalar *xs;
+    PETSC_TRY(VecGetOwnershipRange(x, &first, &end));
+    PETSC_TRY(VecGetArrayRead(x, &xs));
+    if (p->u)
+        memset(p->u, 0, (size_t)p->h.n_elems * p->nb3 * sizeof *p->u);
+    for (int32_t e = 0; e < p->h.n_elems; ++e)
+        for (int32_t o = 0; p->owned[e] && o < p->nb3; ++o)
+            p->u[(size_t)e * p->nb3 + o] = xs[petsc_row(p, (int64_t)e * p->nb3 + o) - first];
+    PETSC_TRY(VecRestoreArrayRead(x, &xs));
+    KSPDestroy(&ksp), MatDestroy(&a), VecDestroy(&x), VecDestroy(&b);
+    PF_CHECK(reason > 0, err, PF_ERR_NUMERIC,
+             "PETSc's KSP stopped without converging (reason %d) after %d iterations, residual "
+             "%.3g relative to the right-hand side",
+             (int)reason, (int)its, rs->residual);
+    return PF_OK;
+}
+
+/* Rank 0's arrays [4 all_nodes] (displacement sums, element counts) and [all_elems] von Mises
+ * get every rank's owned elements' shares. */
+static pf_status gather_outputs(part *p, double *nodes, double *vm, pf_error *err)
+{
+    size_t nn = (size_t)p->h.all_nodes, ne = (size_t)p->h.all_elems;
+    double *sum = pf_calloc(4 * nn + 1, sizeof *sum), *mises = pf_calloc(ne + 1, sizeof *mises);
+    double *local = pf_alloc_array((size_t)p->h.n_elems + 1, sizeof *local);
+    PF_CHECK(sum && mises && local, err, PF_ERR_NOMEM, "cannot allocate the outputs");
+    const int64_t *off = NULL, *triple = NULL;
+    const double *w = NULL;
+    if (p->method) {
+        p->ops->nodal_map(p->method, &off, &triple, &w);
+        p->ops->von_mises(p->method, p->u, local);
+    }
+    int32_t nb = p->nb3 / 3;
+    for (int32_t i = 0; p->method && i < p->h.n_nodes; ++i) {
+        double elems_here = (double)(off[i + 1] - off[i]) / nb; /* w holds phi / elems_here */
+        double *s = sum + 4 * (size_t)p->gnode[i];
+        for (int64_t q = off[i]; q < off[i + 1]; ++q) {
+            if (!p->owned[triple[q] / nb])
+                continue;
+            for (int c = 0; c < 3; ++c)
+                s[c] += w[q] * elems_here * p->u[3 * triple[q] + c];
+            s[3] += 1.0 / nb;
+        }
+    }
+    for (int32_t e = 0; e < p->h.n_elems; ++e)
+        if (p->owned[e])
+            mises[p->gelem[e]] = local[e];
+    MPI_Reduce(sum, nodes, (int)(4 * nn), MPI_DOUBLE, MPI_SUM, 0, PETSC_COMM_WORLD);
+    MPI_Reduce(mises, vm, (int)ne, MPI_DOUBLE, MPI_SUM, 0, PETSC_COMM_WORLD);
+    pf_free(sum), pf_free(mises), pf_free(local);
+    return PF_OK;
+}
+
+static void release_part(part *p)
+{
+    if (p->ops)
+        p->ops->destroy(p->method);
+    pf_block_matrix_release(&p->k);
+    pf_mesh_release(&p->mesh);
+    pf_scene_release(&p->scene);
+    pf_free(p->pelem), pf_free(p->gelem), pf_free(p->gnode), pf_free(p->owned);
+    pf_free(p->f), pf_free(p->u);
+}
+
+/* Every rank's half after the parts went out (st: whether they did): set-up, assembly, solve,
+ * outputs (into res on rank 0, NULL elsewhere) and every rank's statistics. */
+static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_distrib_result *res,
+                          double *nodes, pf_error *err)
+{
+    part p = {0};
+    rank_stats rs = {0};
+    st = agree(st >= 0 ? unpack_part(&p, msg, err) : st, err);
+    pf_buffer_release(msg);
+    if (st >= 0)
+        st = agree(create_part(&p, err), err);
+    if (st >= 0)
+        st = agree(setup_part(&p, err), err);
+    if (st >= 0)
+        st = agree(solve_part(&p, &rs, cpu0, err), err);
+    if (st >= 0)
+        st = agree(gather_outputs(&p, nodes, res ? res->von_mises : NULL, err), err);
+    rs.owned = p.n_owned;
+    rs.cpu = pf_cpu_seconds() - cpu0;
+    rs.rss_mb = peak_rss_mb();
+    rank_stats *all = res ? pf_alloc_array((size_t)res->ranks, sizeof *all) : NULL;
+    MPI_Gather(&rs, (int)(sizeof rs / sizeof(double)), MPI_DOUBLE, all,
+               (int)(sizeof rs / sizeof(double)), MPI_DOUBLE, 0, PETSC_COMM_WORLD);
+    for (int32_t r = 0; all && r < res->ranks; ++r)
+        res->rank[r] = (pf_sim_distrib_rank){.elements = (int32_t)all[r].owned,
+                                             .setup_cpu_seconds = all[r].setup_cpu,
+                                             .cpu_seconds = all[r].cpu,
+                                             .peak_rss_mb = all[r].rss_mb};
+    if (res) {
+        res->iterations = (int32_t)rs.iterations;
+        res->residual = rs.residual;
+        res->penalty = p.penalty;
+        res->dofs = (int64_t)p.h.all_elems * p.nb3;
+    }
+    pf_free(all);
+    release_part(&p);
+    return st;
+}
+
+/* Whether a region is a node or element list (indices of the whole mesh, not of a part). */
+static bool is_list(const pf_region *r)
+{
+    return r->kind == PF_REGION_NODES || r->kind == PF_REGION_ELEMENTS;
+}
+
+bool pf_sim_distrib_applies(const pf_scene *scene)
+{
+    bool lists = false;
+    for (int32_t k = 0; k < scene->n_fixed; ++k)
+        lists |= is_list(&scene->fixed[k].region);
+    for (int32_t k = 0; k < scene->n_loads; ++k)
+        lists |= is_list(&scene->loads[k].region);
+    for (int32_t k = 0; k < scene->n_materials; ++k)
+        lists |= is_list(&scene->materials[k].region);
+    return scene->solver.method == PF_SOLVER_PETSC && scene->is_static &&
+           scene->method == PF_METHOD_DG && (scene->penalty > 0 || scene->flux == PF_FLUX_BZ) &&
+           scene->n_cuts == 0 && !lists;
+}
+
+pf_status pf_sim_distrib_serve(pf_error *err)
+{
+    double cpu0 = pf_cpu_seconds();
+    pf_status st = agree(PF_OK, err); /* rank 0's partition */
+    pf_buffer msg = {0};
+    if (st >= 0)
+        st = receive_part(&msg, err);
+    return run_part(st, &msg, cpu0, NULL, NULL, err);
+}
+
+pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
+                                pf_sim_distrib_result *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    PetscBool up = PETSC_FALSE;
+    PetscInitialized(&up);
+    if (!up)
+        PF_TRY(pf_petsc_initialize(NULL, NULL, NULL, NULL, err));
+    PF_CHECK(rank_of() == 0, err, PF_ERR_INVALID, "the distributed solve is driven by rank 0");
+    PF_CHECK(pf_sim_distrib_applies(scene), err, PF_ERR_INVALID,
+             "the distributed assembly takes static DG scenes with the petsc solver and a given "
+             "penalty (or the BZ flux)");
+    double cpu0 = pf_cpu_seconds();
+    out->ranks = ranks();
+    size_t nn = (size_t)mesh->n_nodes;
+    double *nodes = pf_alloc_array(4 * nn + 1, sizeof *nodes);
+    out->u = pf_alloc_array(3 * nn + 1, sizeof *out->u);
+    out->von_mises = pf_alloc_array((size_t)mesh->n_elems + 1, sizeof *out->von_mises);
+    out->rank = pf_calloc((size_t)out->ranks, sizeof *out->rank);
+    if (!nodes || !out->u || !out->von_mises || !out->rank) {
+        pf_free(nodes);
+        pf_sim_distrib_result_release(out);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate the outputs of %zu nodes", nn);
+    }
+    pf_petsc_start_task();
+    pf_buffer mine = {0};
+    pf_status st = send_parts(mesh, scene, &mine, err);
+    st = run_part(st, &mine, cpu0, out, nodes, err);
+    for (size_t i = 0; st >= 0 && i < nn; ++i)
+        for (int c = 0; c < 3; ++c)
+            out->u[3 * i + c] = nodes[4 * i + 3] > 0 ? nodes[4 * i + c] / nodes[4 * i + 3] : 0;
+    pf_free(nodes);
+    return st;
+}
+
+#else /* without PETSc */
+
+bool pf_sim_distrib_applies(const pf_scene *scene)
+{
+    (void)scene;
+    return false;
+}
+
+pf_status pf_sim_distrib_serve(pf_error *err)
+{
+    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "built without PETSc");
+}
+
+pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
+                                pf_sim_distrib_result *out, pf_error *err)
+{
+    (void)scene, (void)mesh;
+    memset(out, 0, sizeof *out);
+    return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__,
+                        "this pf was built without PETSc: configure with -DPF_PETSC=ON");
+}
+
+#endif
+
+void pf_sim_distrib_result_release(pf_sim_distrib_result *r)
+{
+    pf_free(r->u), pf_free(r->von_mises), pf_free(r->rank);
+    memset(r, 0, sizeof *r);
+}

@@ -1,0 +1,43 @@
+/* pf-sim's output of a distributed static solve (sim_distrib_out.h). */
+#include "sim_distrib_out.h"
+
+#include <stdio.h>
+#include <string.h>
+
+pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
+                               const pf_sim_distrib_result *res, pf_error *err)
+{
+    pf_frame_data f = {0};
+    pf_stress_data s = {0};
+    pf_status st = pf_frame_data_alloc(&f, m->n_nodes, err);
+    if (st >= 0)
+        st = pf_stress_data_alloc(&s, m->n_elems, 1, err);
+    if (st >= 0) {
+        f.mesh_id = s.mesh_id = m->id;
+        f.index = s.frame = 0;
+        f.time = 0;
+        memcpy(f.u, res->u, 3 * (size_t)m->n_nodes * sizeof *f.u);
+        memcpy(s.values, res->von_mises, (size_t)m->n_elems * sizeof *s.values);
+        st = pf_stream_write_frame(out, &f, err);
+    }
+    if (st >= 0)
+        st = pf_stream_write_stress(out, &s, err);
+    pf_frame_data_release(&f);
+    pf_stress_data_release(&s);
+    return st;
+}
+
+void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements)
+{
+    fprintf(stderr,
+            "pf-sim: dg, %d elements, %lld unknowns, penalty %g, assembled on %d ranks; solver "
+            "petsc: %d iterations, residual %.3g\n",
+            (int)elements, (long long)res->dofs, res->penalty, (int)res->ranks,
+            (int)res->iterations, res->residual);
+    for (int32_t r = 0; r < res->ranks; ++r)
+        fprintf(stderr,
+                "pf-sim: rank %d: %d elements assembled, set-up %.3f s cpu, %.3f s cpu in all, "
+                "peak RSS %.1f MB\n",
+                (int)r, (int)res->rank[r].elements, res->rank[r].setup_cpu_seconds,
+                res->rank[r].cpu_seconds, res->rank[r].peak_rss_mb);
+}

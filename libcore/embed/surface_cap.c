@@ -90,19 +90,6 @@ static int inside_section(const sc_state *c, double u, double v)
     return inside;
 }
 
-static pf_status push_cap_normal(sc_state *c, pf_vec3 normal, pf_error *err)
-{
-    if (c->n_caps == c->cap_caps) {
-        int32_t cap = c->cap_caps ? 2 * c->cap_caps : 256;
-        double *n = pf_realloc_array(c->cap_normal, 3 * (size_t)cap, sizeof *n);
-        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for %d cap triangles", (int)cap);
-        c->cap_normal = n;
-        c->cap_caps = cap;
-    }
-    pf_v3_store(normal, c->cap_normal + 3 * (size_t)c->n_caps++);
-    return PF_OK;
-}
-
 /* Twice the area of (a, b, d) about normal (positive counter-clockwise). */
 static double turn(const double *x, uint32_t a, uint32_t b, uint32_t d, pf_vec3 normal)
 {
@@ -176,9 +163,7 @@ static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, p
     pf_free(left);
     for (int32_t t = 0; t < n - 2 && st >= 0; ++t) {
         uint32_t a = poly[tri[3 * t]], b = poly[tri[3 * t + 1]], d = poly[tri[3 * t + 2]];
-        st = pf_sc_add_tri(c->s, a, b, d, PF_SURFACE_CAP, -1, err);
-        if (st >= 0)
-            st = push_cap_normal(c, normal, err);
+        st = pf_sc_add_tri(c->s, a, b, d, PF_SURFACE_CAP, -1, normal, err);
         if (st >= 0) {
             pf_vec3 xa = pf_v3_load(c->s->x + 3 * (size_t)a);
             pf_vec3 ab = pf_v3_sub(pf_v3_load(c->s->x + 3 * (size_t)b), xa);

@@ -464,7 +464,8 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
                                s->tri[3 * (size_t)t + 2] = d;
                     first = false;
                 } else {
-                    st = pf_sc_add_tri(s, a, b, d, part, src, err);
+                    st = pf_sc_add_tri(s, a, b, d, part, src, pf_v3_load(s->normal + 3 * (size_t)t),
+                                       err);
                 }
             }
         }
@@ -573,7 +574,8 @@ static pf_status fan_triangle(split_ctx *k, int32_t t, const int32_t *line, int3
             s->tri[3 * (size_t)t + 1] = prev;
             s->tri[3 * (size_t)t + 2] = (uint32_t)id;
         } else {
-            PF_TRY(pf_sc_add_tri(s, apex, prev, (uint32_t)id, part, src, err));
+            PF_TRY(pf_sc_add_tri(s, apex, prev, (uint32_t)id, part, src,
+                                 pf_v3_load(s->normal + 3 * (size_t)t), err));
         }
         prev = (uint32_t)id;
     }

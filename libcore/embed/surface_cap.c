@@ -206,9 +206,10 @@ static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int3
     return pf_sc_cap_point(c, (int32_t)node, out, err);
 }
 
-/* The boundary pieces of face k on the edge from corner node a to node b, inside the surface. */
+/* The boundary pieces of face k on the edge from corner node a to node b, inside the surface
+ * (whole > 0: all of them, the face lying wholly inside; whole < 0: each piece tested). */
 static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint32_t na, uint32_t nb,
-                             int sigma, pf_error *err)
+                             int sigma, int whole, pf_error *err)
 {
     const sc_group *g = c->g;
     int32_t pa, pb;
@@ -260,7 +261,8 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
     for (int32_t i = 0; i + 1 < b->n_chain; ++i) {
         int32_t p = b->chain[i], q = b->chain[i + 1], u, v;
         pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[p].x, c->pt[q].x), 0.5);
-        if (p == q || inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1)
+        if (p == q || (whole < 0 &&
+                       inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1))
             continue;
         PF_TRY(cap_id(c, p, sigma, &u, err));
         PF_TRY(cap_id(c, q, sigma, &v, err));
@@ -268,6 +270,27 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
             PF_TRY(push_edge(b, u, v, err));
     }
     return PF_OK;
+}
+
+/* A face no section piece lies on is wholly inside the surface or wholly outside: 1 or 0 by the
+ * first centroid of a fan triangle of its corners that lies in the face and off the section (its
+ * edges may run along the section, where the test at their midpoints is undecided); -1 when
+ * none is found (then each edge is tested). */
+static int face_inside(const sc_state *c, int32_t k)
+{
+    const sc_group *g = c->g;
+    int64_t o = g->uv_offsets[k], n = g->uv_offsets[k + 1] - o;
+    const double *uv = g->uv + 2 * o;
+    for (int64_t j = 1; j + 1 < n; ++j) {
+        double u = (uv[0] + uv[2 * j] + uv[2 * j + 2]) / 3,
+               v = (uv[1] + uv[2 * j + 1] + uv[2 * j + 3]) / 3;
+        if (!pf_polygon2_contains(uv, n, u, v, 0))
+            continue;
+        int in = inside_section(c, u, v);
+        if (in >= 0)
+            return in;
+    }
+    return -1;
 }
 
 static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, pf_error *err)
@@ -320,10 +343,13 @@ static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, p
         pf_free(poly);
         return st;
     }
+    int whole = n_sec_edges == 0 ? face_inside(c, k) : -1;
+    if (whole == 0)
+        return PF_OK;
     for (int64_t j = 0; j < n; ++j) {
         int64_t a = reversed ? n - 1 - j : j, bb = reversed ? (2 * n - 2 - j) % n : (j + 1) % n;
         PF_TRY(edge_pieces(c, b, n_sec_edges, m->face_nodes[o + a], m->face_nodes[o + bb], sigma,
-                           err));
+                           whole, err));
     }
     if (b->n == 0)
         return PF_OK;

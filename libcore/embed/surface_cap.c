@@ -358,6 +358,10 @@ static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, p
     int32_t n_polys = 0;
     pf_status st =
         pf_split_cap_polygons(c->s->x, normal, b->e, b->n, &offsets, &nodes, &n_polys, err);
+    if (st == PF_ERR_NUMERIC) { /* a hole in the surface rather than no cut surface at all */
+        c->stats->n_uncapped++;
+        return PF_OK;
+    }
     if (st < 0)
         pf_error_prefix(err, "cap of opened face %d", (int)f);
     for (int32_t q = 0; q < n_polys && st >= 0; ++q)

@@ -312,6 +312,7 @@ static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, pf_error *err)
         r->surf_stats.n_duplicated += ss.n_duplicated;
         r->surf_stats.n_cap_tris += ss.n_cap_tris;
         r->surf_stats.cap_area += ss.cap_area;
+        r->surf_stats.n_uncapped += ss.n_uncapped;
     }
     r->split += res.n_split;
     r->snapped += res.n_snapped - missed;
@@ -400,6 +401,11 @@ static void report(const run *r)
                 (int)r->surf_stats.n_split_tris, (int)r->surf_stats.n_duplicated,
                 (int)r->surf_stats.n_cap_tris, r->surf_stats.cap_area, (int)r->surf.n_tris,
                 pf_embed_method_name(r->embed.method));
+    if (r->have_surf && r->surf_stats.n_uncapped > 0)
+        fprintf(stderr,
+                "pf-cut: warning: %d opened faces left without a cap (their boundary inside the "
+                "surface did not close): the embedded surface has holes there\n",
+                (int)r->surf_stats.n_uncapped);
     if (r->surf_dropped || r->dropped_chunks > 0)
         fprintf(stderr,
                 "pf-cut: dropped from the stream:%s%s%s (they belong to the mesh before the "

@@ -90,19 +90,6 @@ static int inside_section(const sc_state *c, double u, double v)
     return inside;
 }
 
-static pf_status push_cap_normal(sc_state *c, pf_vec3 normal, pf_error *err)
-{
-    if (c->n_caps == c->cap_caps) {
-        int32_t cap = c->cap_caps ? 2 * c->cap_caps : 256;
-        double *n = pf_realloc_array(c->cap_normal, 3 * (size_t)cap, sizeof *n);
-        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for %d cap triangles", (int)cap);
-        c->cap_normal = n;
-        c->cap_caps = cap;
-    }
-    pf_v3_store(normal, c->cap_normal + 3 * (size_t)c->n_caps++);
-    return PF_OK;
-}
-
 /* Twice the area of (a, b, d) about normal (positive counter-clockwise). */
 static double turn(const double *x, uint32_t a, uint32_t b, uint32_t d, pf_vec3 normal)
 {
@@ -176,9 +163,7 @@ static pf_status triangulate_cap(sc_state *c, const uint32_t *poly, int32_t n, p
     pf_free(left);
     for (int32_t t = 0; t < n - 2 && st >= 0; ++t) {
         uint32_t a = poly[tri[3 * t]], b = poly[tri[3 * t + 1]], d = poly[tri[3 * t + 2]];
-        st = pf_sc_add_tri(c->s, a, b, d, PF_SURFACE_CAP, -1, err);
-        if (st >= 0)
-            st = push_cap_normal(c, normal, err);
+        st = pf_sc_add_tri(c->s, a, b, d, PF_SURFACE_CAP, -1, normal, err);
         if (st >= 0) {
             pf_vec3 xa = pf_v3_load(c->s->x + 3 * (size_t)a);
             pf_vec3 ab = pf_v3_sub(pf_v3_load(c->s->x + 3 * (size_t)b), xa);
@@ -221,9 +206,10 @@ static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int3
     return pf_sc_cap_point(c, (int32_t)node, out, err);
 }
 
-/* The boundary pieces of face k on the edge from corner node a to node b, inside the surface. */
+/* The boundary pieces of face k on the edge from corner node a to node b, inside the surface
+ * (whole > 0: all of them, the face lying wholly inside; whole < 0: each piece tested). */
 static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint32_t na, uint32_t nb,
-                             int sigma, pf_error *err)
+                             int sigma, int whole, pf_error *err)
 {
     const sc_group *g = c->g;
     int32_t pa, pb;
@@ -275,7 +261,8 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
     for (int32_t i = 0; i + 1 < b->n_chain; ++i) {
         int32_t p = b->chain[i], q = b->chain[i + 1], u, v;
         pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[p].x, c->pt[q].x), 0.5);
-        if (p == q || inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1)
+        if (p == q || (whole < 0 &&
+                       inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1))
             continue;
         PF_TRY(cap_id(c, p, sigma, &u, err));
         PF_TRY(cap_id(c, q, sigma, &v, err));
@@ -283,6 +270,27 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
             PF_TRY(push_edge(b, u, v, err));
     }
     return PF_OK;
+}
+
+/* A face no section piece lies on is wholly inside the surface or wholly outside: 1 or 0 by the
+ * first centroid of a fan triangle of its corners that lies in the face and off the section (its
+ * edges may run along the section, where the test at their midpoints is undecided); -1 when
+ * none is found (then each edge is tested). */
+static int face_inside(const sc_state *c, int32_t k)
+{
+    const sc_group *g = c->g;
+    int64_t o = g->uv_offsets[k], n = g->uv_offsets[k + 1] - o;
+    const double *uv = g->uv + 2 * o;
+    for (int64_t j = 1; j + 1 < n; ++j) {
+        double u = (uv[0] + uv[2 * j] + uv[2 * j + 2]) / 3,
+               v = (uv[1] + uv[2 * j + 1] + uv[2 * j + 3]) / 3;
+        if (!pf_polygon2_contains(uv, n, u, v, 0))
+            continue;
+        int in = inside_section(c, u, v);
+        if (in >= 0)
+            return in;
+    }
+    return -1;
 }
 
 static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, pf_error *err)
@@ -335,10 +343,13 @@ static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, p
         pf_free(poly);
         return st;
     }
+    int whole = n_sec_edges == 0 ? face_inside(c, k) : -1;
+    if (whole == 0)
+        return PF_OK;
     for (int64_t j = 0; j < n; ++j) {
         int64_t a = reversed ? n - 1 - j : j, bb = reversed ? (2 * n - 2 - j) % n : (j + 1) % n;
         PF_TRY(edge_pieces(c, b, n_sec_edges, m->face_nodes[o + a], m->face_nodes[o + bb], sigma,
-                           err));
+                           whole, err));
     }
     if (b->n == 0)
         return PF_OK;
@@ -347,6 +358,10 @@ static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, p
     int32_t n_polys = 0;
     pf_status st =
         pf_split_cap_polygons(c->s->x, normal, b->e, b->n, &offsets, &nodes, &n_polys, err);
+    if (st == PF_ERR_NUMERIC) { /* a hole in the surface rather than no cut surface at all */
+        c->stats->n_uncapped++;
+        return PF_OK;
+    }
     if (st < 0)
         pf_error_prefix(err, "cap of opened face %d", (int)f);
     for (int32_t q = 0; q < n_polys && st >= 0; ++q)

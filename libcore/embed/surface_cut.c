@@ -21,6 +21,7 @@ static void sc_surface_release(sc_surface *s)
     pf_free(s->tri);
     pf_free(s->part);
     pf_free(s->src);
+    pf_free(s->normal);
     memset(s, 0, sizeof *s);
 }
 
@@ -46,7 +47,7 @@ pf_status pf_sc_add_vertex(sc_surface *s, pf_vec3 x, pf_vec3 side, int32_t *id, 
 }
 
 pf_status pf_sc_add_tri(sc_surface *s, uint32_t a, uint32_t b, uint32_t c, uint8_t part,
-                        int32_t src, pf_error *err)
+                        int32_t src, pf_vec3 normal, pf_error *err)
 {
     if (s->n_tris == s->cap_tris) {
         PF_CHECK(s->cap_tris < INT32_MAX / 2, err, PF_ERR_TOO_LARGE,
@@ -61,7 +62,10 @@ pf_status pf_sc_add_tri(sc_surface *s, uint32_t a, uint32_t b, uint32_t c, uint8
         int32_t *ns = np ? pf_realloc_array(s->src, (size_t)cap, sizeof *ns) : NULL;
         if (ns)
             s->src = ns;
-        PF_CHECK(ns, err, PF_ERR_NOMEM, "out of memory for %d surface triangles", (int)cap);
+        double *nn = ns ? pf_realloc_array(s->normal, 3 * (size_t)cap, sizeof *nn) : NULL;
+        if (nn)
+            s->normal = nn;
+        PF_CHECK(nn, err, PF_ERR_NOMEM, "out of memory for %d surface triangles", (int)cap);
         s->cap_tris = cap;
     }
     int32_t t = s->n_tris++;
@@ -70,6 +74,7 @@ pf_status pf_sc_add_tri(sc_surface *s, uint32_t a, uint32_t b, uint32_t c, uint8
     s->tri[3 * (size_t)t + 2] = c;
     s->part[t] = part;
     s->src[t] = src;
+    pf_v3_store(normal, s->normal + 3 * (size_t)t);
     return PF_OK;
 }
 
@@ -441,9 +446,9 @@ static pf_status copy_input(const pf_surface *s, sc_surface *w, pf_error *err)
         PF_TRY(pf_sc_add_vertex(w, pf_v3_load(s->x + 3 * (size_t)v), pf_v3(0, 0, 0), &id, err));
     }
     for (int32_t t = 0; t < s->n_tris; ++t)
-        PF_TRY(pf_sc_add_tri(w, s->tri[3 * (size_t)t], s->tri[3 * (size_t)t + 1],
-                             s->tri[3 * (size_t)t + 2],
-                             s->tri_part ? s->tri_part[t] : (uint8_t)PF_SURFACE_MODEL, t, err));
+        PF_TRY(pf_sc_add_tri(
+            w, s->tri[3 * (size_t)t], s->tri[3 * (size_t)t + 1], s->tri[3 * (size_t)t + 2],
+            s->tri_part ? s->tri_part[t] : (uint8_t)PF_SURFACE_MODEL, t, pf_v3(0, 0, 0), err));
     return PF_OK;
 }
 
@@ -591,7 +596,6 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     pf_free(c.cap_pt);
     pf_free(c.cap_vert);
     pf_free(c.slit);
-    pf_free(c.cap_normal);
     pf_free(c.pt);
     pf_free(c.sec);
     pf_free(c.seg);

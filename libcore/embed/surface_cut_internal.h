@@ -12,19 +12,21 @@
 /* The surface being built: grows by doubling. */
 typedef struct sc_surface {
     int32_t n_verts, cap_verts;
-    double *x;     /* [3 cap_verts] */
-    double *side;  /* [3 cap_verts] direction into the vertex's side of the cut (zero: none) */
+    double *x;    /* [3 cap_verts] */
+    double *side; /* [3 cap_verts] direction into the vertex's side of the cut (zero: none) */
     int32_t n_tris, cap_tris;
-    uint32_t *tri; /* [3 cap_tris] */
-    uint8_t *part; /* [cap_tris] */
-    int32_t *src;  /* [cap_tris] the triangle of the input a triangle is part of, -1 for caps */
+    uint32_t *tri;  /* [3 cap_tris] */
+    uint8_t *part;  /* [cap_tris] */
+    int32_t *src;   /* [cap_tris] the triangle of the input a triangle is part of, -1 for caps */
+    double *normal; /* [3 cap_tris] a cap's outward normal (that of the cap it is part of once a
+                       later plane splits it), zero for the others */
 } sc_surface;
 
 /* The opened faces on one plane. Sides are signs with respect to plane.n. */
 typedef struct sc_group {
     pf_plane plane;
-    double tol;           /* on-plane and coincidence tolerance, model units */
-    int ax[2];            /* the coordinates kept by the projection onto the plane */
+    double tol; /* on-plane and coincidence tolerance, model units */
+    int ax[2];  /* the coordinates kept by the projection onto the plane */
     int32_t n_faces;
     int32_t *face;        /* [n_faces] mesh faces, increasing */
     int8_t *side;         /* [n_faces] the side of the face's element */
@@ -43,19 +45,19 @@ typedef struct sc_group {
  * (made on first use; surface_dup.c later gives each side of a slit its own). */
 typedef struct sc_point {
     pf_vec3 x;
-    pf_vec3 side;      /* its side direction before this plane */
-    int32_t orig;      /* the surface vertex it is, or -1 */
+    pf_vec3 side; /* its side direction before this plane */
+    int32_t orig; /* the surface vertex it is, or -1 */
     int32_t id[2];
-    int32_t node[2];   /* corner of opened faces: the mesh node on each side, else -1 */
-    uint8_t used;      /* ends the section of a triangle with a slit: its other triangles are
-                          split there too */
+    int32_t node[2]; /* corner of opened faces: the mesh node on each side, else -1 */
+    uint8_t used;    /* ends the section of a triangle with a slit: its other triangles are
+                        split there too */
 } sc_point;
 
 /* A piece of the section of a triangle lying on opened faces. */
 typedef struct sc_section {
-    int32_t p, q;      /* points */
-    int32_t face[2];   /* the group's face holding it on each side, or -1 */
-    pf_vec3 normal;    /* the triangle's normal: the surface's inside lies against it */
+    int32_t p, q;    /* points */
+    int32_t face[2]; /* the group's face holding it on each side, or -1 */
+    pf_vec3 normal;  /* the triangle's normal: the surface's inside lies against it */
 } sc_section;
 
 typedef struct sc_state {
@@ -72,16 +74,14 @@ typedef struct sc_state {
     int32_t *cap_pt;   /* [m->n_nodes] point of a node as a cap corner, -1 */
     int32_t *cap_vert; /* [m->n_nodes] vertex of a node as a cap corner (all planes), -1 */
     int64_t n_slit, cap_slit;
-    uint64_t *slit;    /* the slits: surface edges (lo << 32 | hi) on opened faces */
-    int32_t n_caps, cap_caps;
-    double *cap_normal; /* [3 n_caps] outward normal of each cap triangle made, in order */
-    bool closed;       /* the input surface is closed */
+    uint64_t *slit; /* the slits: surface edges (lo << 32 | hi) on opened faces */
+    bool closed;    /* the input surface is closed */
     pf_surface_cut_stats *stats;
 } sc_state;
 
 pf_status pf_sc_add_vertex(sc_surface *s, pf_vec3 x, pf_vec3 side, int32_t *id, pf_error *err);
 pf_status pf_sc_add_tri(sc_surface *s, uint32_t a, uint32_t b, uint32_t c, uint8_t part,
-                        int32_t src, pf_error *err);
+                        int32_t src, pf_vec3 normal, pf_error *err);
 /* A new point (orig: the surface vertex it is, or -1). */
 pf_status pf_sc_new_point(sc_state *c, pf_vec3 x, pf_vec3 side, int32_t orig, int32_t *out,
                           pf_error *err);

@@ -45,7 +45,6 @@ typedef struct dup_work {
     int32_t *rec_id; /* copies */
     double *rec_dir; /* [3] their directions into their triangles */
     int32_t *parent, *root_comp;
-    int32_t *cap_index; /* [n_tris] the index of a cap triangle among the caps, -1 */
     int32_t cap_local;
 } dup_work;
 
@@ -59,7 +58,6 @@ static void dup_work_release(dup_work *d)
     pf_free(d->rec_dir);
     pf_free(d->parent);
     pf_free(d->root_comp);
-    pf_free(d->cap_index);
     memset(d, 0, sizeof *d);
 }
 
@@ -127,8 +125,7 @@ static int edge_dir(const sc_surface *s, int32_t t, uint32_t v, uint32_t w)
  * slit, a cap and a triangle of the surface traversing it the opposite ways (the cap closes that
  * triangle's side); across another edge, two triangles of the surface, or two caps facing the
  * same way, or a cap and a surface triangle traversing it the opposite ways. */
-static bool joined(const sc_state *c, const dup_work *d, int32_t a, int32_t b, uint32_t v,
-                   uint32_t w, bool slit)
+static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t w, bool slit)
 {
     const sc_surface *s = c->s;
     int da = edge_dir(s, a, v, w), db = edge_dir(s, b, v, w);
@@ -140,8 +137,8 @@ static bool joined(const sc_state *c, const dup_work *d, int32_t a, int32_t b, u
     if (!cap_a && !cap_b)
         return true;
     if (cap_a && cap_b)
-        return pf_v3_dot(pf_v3_load(c->cap_normal + 3 * (size_t)d->cap_index[a]),
-                         pf_v3_load(c->cap_normal + 3 * (size_t)d->cap_index[b])) > 0;
+        return pf_v3_dot(pf_v3_load(s->normal + 3 * (size_t)a),
+                         pf_v3_load(s->normal + 3 * (size_t)b)) > 0;
     return da == -db;
 }
 
@@ -171,7 +168,7 @@ static pf_status split_vertex(sc_state *c, dup_work *d, uint32_t v, pf_error *er
                 continue;
             bool slit = is_slit(c, v, w);
             for (int32_t j = 0; j < i; ++j)
-                if (joined(c, d, tris[i], tris[j], v, w, slit)) {
+                if (joined(c, tris[i], tris[j], v, w, slit)) {
                     int32_t a = find_root(d->parent, i), b = find_root(d->parent, j);
                     d->parent[a > b ? a : b] = a < b ? a : b;
                 }
@@ -191,11 +188,9 @@ static pf_status split_vertex(sc_state *c, dup_work *d, uint32_t v, pf_error *er
         pf_vec3 dir = pf_v3(0, 0, 0);
         for (int32_t i = 0; i < k; ++i)
             if (d->root_comp[find_root(d->parent, i)] == ci) {
-                pf_vec3 e =
-                    s->src[tris[i]] >= 0
-                        ? pf_v3_sub(tri_centroid(s, tris[i]), x)
-                        : pf_v3_scale(pf_v3_load(c->cap_normal + 3 * (size_t)d->cap_index[tris[i]]),
-                                      -1);
+                pf_vec3 e = s->src[tris[i]] >= 0
+                                ? pf_v3_sub(tri_centroid(s, tris[i]), x)
+                                : pf_v3_scale(pf_v3_load(s->normal + 3 * (size_t)tris[i]), -1);
                 double len = pf_v3_norm(e);
                 if (len > 0)
                     dir = pf_v3_add(dir, pf_v3_scale(e, 1.0 / len));
@@ -238,13 +233,11 @@ pf_status pf_sc_duplicate(sc_state *c, pf_error *err)
     memset(&d, 0, sizeof d);
     pf_status st = PF_OK;
     if (!PF_ALLOC_N(on_slit, (size_t)nv) || !PF_ALLOC_N(d.first, (size_t)nv) ||
-        !PF_ALLOC_N(d.count, (size_t)nv) || !PF_ALLOC_N(d.cap_index, (size_t)s->n_tris))
+        !PF_ALLOC_N(d.count, (size_t)nv))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "out of memory for %d vertices",
                           (int)nv);
     if (st >= 0) {
         memset(on_slit, 0, (size_t)nv);
-        for (int32_t t = 0, k = 0; t < s->n_tris; ++t)
-            d.cap_index[t] = s->src[t] < 0 ? k++ : -1;
         for (int32_t v = 0; v < nv; ++v)
             d.first[v] = -1, d.count[v] = 0;
         for (int64_t i = 0; i < c->n_slit; ++i)

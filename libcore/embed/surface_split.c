@@ -77,7 +77,52 @@ typedef struct split_ctx {
     uint8_t *split_src; /* [input triangles] split already */
     int32_t *tri_pq;    /* [2 triangles at the start] the plane points of crossing ones, -1 */
     uint8_t *tri_any;   /* [same] the section has a piece on an opened face */
+    int64_t n_old_slit; /* c->slit[0 .. n_old_slit) sorted: the slits of earlier planes */
+    int32_t n_sub, cap_sub;
+    int32_t *sub; /* [3 n_sub] slits of earlier planes split by this one: a, b, the point */
 } split_ctx;
+
+static int compare_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Whether a-b is a slit of an earlier plane. */
+static bool old_slit(const split_ctx *k, int32_t a, int32_t b)
+{
+    uint64_t key = (uint64_t)(a < b ? a : b) << 32 | (uint64_t)(a < b ? b : a);
+    return k->n_old_slit > 0 &&
+           bsearch(&key, k->c->slit, (size_t)k->n_old_slit, sizeof key, compare_u64) != NULL;
+}
+
+/* A slit a-b of an earlier plane is split at point p: a-p and p-b are slits (kept for the end
+ * of the plane, when p has its vertex). */
+static pf_status push_sub(split_ctx *k, int32_t a, int32_t b, int32_t p, pf_error *err)
+{
+    if (k->n_sub == k->cap_sub) {
+        int32_t cap = k->cap_sub ? 2 * k->cap_sub : 64;
+        int32_t *n = pf_realloc_array(k->sub, 3 * (size_t)cap, sizeof *n);
+        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for %d split slits", (int)cap);
+        k->sub = n;
+        k->cap_sub = cap;
+    }
+    int32_t *e = k->sub + 3 * (size_t)k->n_sub++;
+    e[0] = a, e[1] = b, e[2] = p;
+    return PF_OK;
+}
+
+static pf_status push_subs(split_ctx *k, pf_error *err)
+{
+    for (int32_t i = 0; i < k->n_sub; ++i) {
+        const int32_t *e = k->sub + 3 * (size_t)i;
+        int32_t id;
+        PF_TRY(pf_sc_point_id(k->c, e[2], 1, &id, err));
+        PF_TRY(pf_sc_push_slit(k->c, e[0], id, err));
+        PF_TRY(pf_sc_push_slit(k->c, id, e[1], err));
+    }
+    return PF_OK;
+}
 
 /* Triangles with a slit mark the ends of their sections; every crossing triangle with a marked
  * end is split too (with a slit or not), and marks its other end: along a section through
@@ -168,6 +213,8 @@ static pf_status edge_point(split_ctx *k, int32_t a, int32_t b, int32_t *out, pf
     pf_vec3 side = pf_v3_add(pf_v3_scale(sa, 1 - t), pf_v3_scale(sb, t));
     int32_t p;
     PF_TRY(pf_sc_new_point(c, x, side, -1, &p, err));
+    if (old_slit(k, a, b))
+        PF_TRY(push_sub(k, a, b, p, err));
     k->edges.n++;
     *edge_map_slot(&k->edges, (uint64_t)a << 32 | (uint64_t)b) = p;
     *out = p;
@@ -464,7 +511,8 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
                                s->tri[3 * (size_t)t + 2] = d;
                     first = false;
                 } else {
-                    st = pf_sc_add_tri(s, a, b, d, part, src, err);
+                    st = pf_sc_add_tri(s, a, b, d, part, src, pf_v3_load(s->normal + 3 * (size_t)t),
+                                       err);
                 }
             }
         }
@@ -573,7 +621,8 @@ static pf_status fan_triangle(split_ctx *k, int32_t t, const int32_t *line, int3
             s->tri[3 * (size_t)t + 1] = prev;
             s->tri[3 * (size_t)t + 2] = (uint32_t)id;
         } else {
-            PF_TRY(pf_sc_add_tri(s, apex, prev, (uint32_t)id, part, src, err));
+            PF_TRY(pf_sc_add_tri(s, apex, prev, (uint32_t)id, part, src,
+                                 pf_v3_load(s->normal + 3 * (size_t)t), err));
         }
         prev = (uint32_t)id;
     }
@@ -603,6 +652,15 @@ static pf_status plane_edge_section(split_ctx *k, uint32_t lo, uint32_t hi, int3
     bool any = false;
     for (int32_t i = 0; i + 1 < nl && st >= 0; ++i)
         st = push_piece(c, line[i], line[i + 1], normal, &any, err);
+    for (int32_t i = 0; i + 1 < nl && st >= 0 && nl > 2 && old_slit(k, (int32_t)lo, (int32_t)hi);
+         ++i) {
+        int32_t a, b;
+        st = pf_sc_point_id(c, line[i], 1, &a, err);
+        if (st >= 0)
+            st = pf_sc_point_id(c, line[i + 1], 1, &b, err);
+        if (st >= 0)
+            st = pf_sc_push_slit(c, a, b, err);
+    }
     if (st >= 0 && nl > 2) {
         st = fan_triangle(k, tm, line, nl, -1, err);
         if (st >= 0)
@@ -646,6 +704,15 @@ pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
         !PF_ALLOC_N(k.tri_pq, 2 * (size_t)nt) || !PF_ALLOC_N(k.tri_any, (size_t)nt))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                           "out of memory classifying %d surface vertices", (int)nv);
+    if (st >= 0 && c->n_slit > 1) {
+        qsort(c->slit, (size_t)c->n_slit, sizeof *c->slit, compare_u64);
+        int64_t n = 1;
+        for (int64_t i = 1; i < c->n_slit; ++i)
+            if (c->slit[i] != c->slit[n - 1])
+                c->slit[n++] = c->slit[i];
+        c->n_slit = n;
+    }
+    k.n_old_slit = c->n_slit;
     if (st >= 0) {
         memset(k.stamp, 0, (size_t)g->n_edges * sizeof *k.stamp);
         for (int64_t i = 0; i < 2 * (int64_t)nt; ++i)
@@ -696,7 +763,10 @@ pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
     }
     if (st >= 0)
         st = plane_edges(&k, pe, n_pe, err);
+    if (st >= 0)
+        st = push_subs(&k, err);
     pf_free(pe);
+    pf_free(k.sub);
     pf_free(k.cls);
     pf_free(k.dist);
     pf_free(k.vpt);

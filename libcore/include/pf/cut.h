@@ -173,6 +173,8 @@ typedef struct pf_surface_cut_stats {
     int32_t n_duplicated;  /* vertex copies made on the cut */
     int32_t n_cap_tris;    /* cap triangles added */
     double cap_area;       /* their area, model units */
+    int32_t n_uncapped;    /* opened faces left without a cap: the pieces of their boundary
+                              inside the surface did not close (the surface has a hole there) */
 } pf_surface_cut_stats;
 
 pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_result *cut,

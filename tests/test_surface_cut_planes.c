@@ -1,0 +1,277 @@
+/* surface_cut under several whole planes, as pf-cut --plane applies them: every element a plane
+ * crosses or touches and their neighbours are requested (the sliver rule may leave an element
+ * whole on one side, the crack then follows its faces), the cut faces carried from cut to cut,
+ * and the embedded surface cut after each plane.
+ *
+ * Models: a sliced sphere (its own boundary as the render surface) and the bunny
+ * (data/models/bunny.obj) sliced coarsely. Planes: random (a fixed generator and seeds), through
+ * the middle half of the model's box, any direction.
+ * Oracle: topology. A closed input cut by planes and capped stays closed and edge-manifold:
+ * every edge used by exactly two triangles, consistently oriented. The counts of open
+ * (boundary) and non-manifold edges after 1, 2 and 3 planes are printed per seed; they must be
+ * zero for the seeds listed as closing (the others are printed so that progress shows). When a
+ * cut surface is closed, its enclosed volume equals the cut mesh's: the render surface is the
+ * mesh's boundary (slicing makes exact polyhedra at the surface), so to round-off (1e-9
+ * relative: sums over ~10^4 triangles and polyhedra) plus the volume of pieces the cut
+ * reports dropped. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "test_check.h"
+#include <pf/cut.h>
+#include <pf/embed.h>
+#include <pf/io.h>
+#include <pf/mesh.h>
+
+#define MAX_PLANES 3
+
+typedef struct model {
+    pf_surface surf;
+    pf_mesh mesh;
+} model;
+
+typedef struct cut_count {
+    int64_t open, nonmanifold; /* -1: the cut failed */
+    double vol_err;            /* |surface volume - mesh volume - dropped| / mesh volume */
+} cut_count;
+
+static uint64_t next_random(uint64_t *s)
+{
+    *s ^= *s << 13;
+    *s ^= *s >> 7;
+    *s ^= *s << 17;
+    return *s;
+}
+
+static double uniform(uint64_t *s)
+{
+    return (double)(next_random(s) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static pf_plane random_plane(uint64_t *s, pf_vec3 lo, pf_vec3 hi)
+{
+    pf_vec3 c = pf_v3_scale(pf_v3_add(lo, hi), 0.5), d = pf_v3_sub(hi, lo);
+    pf_vec3 p = pf_v3(c.x + (uniform(s) - 0.5) * 0.5 * d.x, c.y + (uniform(s) - 0.5) * 0.5 * d.y,
+                      c.z + (uniform(s) - 0.5) * 0.5 * d.z);
+    pf_vec3 n;
+    do
+        n = pf_v3(2 * uniform(s) - 1, 2 * uniform(s) - 1, 2 * uniform(s) - 1);
+    while (pf_v3_norm(n) > 1 || pf_v3_norm(n) < 0.1);
+    return pf_plane_from_point_normal(p, n);
+}
+
+static void slice_model(model *md, int32_t res)
+{
+    pf_error err = {0};
+    pf_slice_params sp = pf_slice_params_default();
+    sp.grid.res = res;
+    CHECKF(pf_mesh_slice(&md->mesh, &md->surf, &sp, NULL, &err) == PF_OK, "slice: %s", err.msg);
+    CHECKF(pf_mesh_derive(&md->mesh, &err) == PF_OK, "derive: %s", err.msg);
+}
+
+static void make_sphere(model *md)
+{
+    pf_error err = {0};
+    memset(md, 0, sizeof *md);
+    assert_int_equal(pf_surface_make_sphere(&md->surf, 1, 12, 24, &err), PF_OK);
+    md->surf.id = 9;
+    slice_model(md, 8);
+}
+
+static bool make_bunny(model *md)
+{
+    pf_error err = {0};
+    memset(md, 0, sizeof *md);
+    if (pf_import_surface(PF_TEST_DATA_DIR "/../../data/models/bunny.obj", &md->surf, &err) !=
+        PF_OK)
+        return false;
+    md->surf.id = 9;
+    slice_model(md, 8);
+    return true;
+}
+
+static void model_release(model *md)
+{
+    pf_surface_release(&md->surf);
+    pf_mesh_release(&md->mesh);
+}
+
+static double mesh_volume(const pf_mesh *m)
+{
+    double v = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        v += pf_mesh_elem_volume(m, e);
+    return v;
+}
+
+/* One plane through the whole mesh as pf-cut applies it; m, s and *cut_face replaced. */
+static pf_status cut_plane(pf_mesh *m, pf_surface *s, uint8_t **cut_face, pf_plane pl,
+                           double *dropped, pf_error *err)
+{
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(m, &lo, &hi);
+    double tol = 1e-9 * pf_v3_norm(pf_v3_sub(hi, lo));
+    pf_cut_request *req = malloc(sizeof *req * ((size_t)m->n_elems + 1));
+    uint8_t *touch = calloc((size_t)m->n_elems + 1, 1);
+    for (int32_t e = 0; e < m->n_elems; ++e) {
+        double dlo = INFINITY, dhi = -INFINITY;
+        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            for (int64_t i = m->face_offsets[f]; i < m->face_offsets[f + 1]; ++i) {
+                double d =
+                    pf_plane_signed_distance(pl, pf_v3_load(m->x + 3 * (size_t)m->face_nodes[i]));
+                dlo = fmin(dlo, d), dhi = fmax(dhi, d);
+            }
+        }
+        touch[e] = dlo <= tol && dhi >= -tol;
+    }
+    int32_t n = 0;
+    for (int32_t e = 0; e < m->n_elems; ++e) {
+        bool near = touch[e];
+        for (int64_t q = m->elem_offsets[e]; !near && q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
+            near = (a >= 0 && touch[a]) || (b >= 0 && touch[b]);
+        }
+        if (near)
+            req[n++] = (pf_cut_request){e, pl};
+    }
+    free(touch);
+    pf_cut_params p = {.src_cut_face = *cut_face};
+    pf_mesh out = {0};
+    pf_cut_result res = {0};
+    pf_status st = pf_mesh_cut(m, req, n, &p, &out, &res, err);
+    free(req);
+    if (st < 0)
+        return st;
+    pf_surface cs = {0};
+    pf_weights cw = {0};
+    pf_surface_cut_stats ss;
+    st = pf_surface_cut(s, &out, &res, NULL, &cs, &cw, &ss, err);
+    *dropped += res.dropped_volume;
+    pf_weights_release(&cw);
+    pf_free(*cut_face);
+    *cut_face = res.cut_face;
+    res.cut_face = NULL;
+    pf_cut_result_release(&res);
+    pf_mesh_release(m);
+    *m = out;
+    if (st >= 0) {
+        pf_surface_release(s);
+        *s = cs;
+    }
+    return st;
+}
+
+/* The model cut by n_planes random planes of seed; counts after each plane in got[]. */
+static void cut_seed(const model *md, uint64_t seed, int n_planes, cut_count *got)
+{
+    pf_error err = {0};
+    pf_mesh m = {0};
+    pf_surface s = {0};
+    assert_int_equal(pf_mesh_copy(&m, &md->mesh, &err), PF_OK);
+    assert_int_equal(pf_surface_alloc(&s, md->surf.n_verts, md->surf.n_tris, &err), PF_OK);
+    memcpy(s.x, md->surf.x, 3 * (size_t)s.n_verts * sizeof *s.x);
+    memcpy(s.tri, md->surf.tri, 3 * (size_t)s.n_tris * sizeof *s.tri);
+    s.id = md->surf.id;
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(&m, &lo, &hi);
+    uint64_t rs = 0x9e3779b97f4a7c15ull * (seed + 1);
+    uint8_t *cut_face = NULL;
+    double dropped = 0;
+    bool failed = false;
+    for (int k = 0; k < n_planes; ++k) {
+        pf_plane pl = random_plane(&rs, lo, hi);
+        got[k] = (cut_count){-1, -1, INFINITY};
+        if (failed || cut_plane(&m, &s, &cut_face, pl, &dropped, &err) < 0) {
+            if (!failed)
+                print_message("seed %d plane %d: %s\n", (int)seed, k + 1, err.msg);
+            failed = true;
+            continue;
+        }
+        pf_surface_stats ss;
+        assert_int_equal(pf_surface_compute_stats(&s, &ss, &err), PF_OK);
+        double vol = mesh_volume(&m);
+        got[k] = (cut_count){ss.n_boundary_edges, ss.n_nonmanifold_edges + ss.n_flipped_edges,
+                             fabs(ss.volume - vol - dropped) / vol};
+    }
+    pf_free(cut_face);
+    pf_mesh_release(&m);
+    pf_surface_release(&s);
+}
+
+/* Cuts every seed with 1 .. MAX_PLANES planes, prints the counts; every seed has no open edge
+ * after open_planes planes; must[seed] planes close every seed (0: none asserted yet). */
+static void run_seeds(const char *name, const model *md, int n_seeds, const int *must,
+                      int open_planes)
+{
+    int closed[MAX_PLANES] = {0};
+    bool fail = false;
+    for (int seed = 0; seed < n_seeds; ++seed) {
+        cut_count got[MAX_PLANES];
+        cut_seed(md, (uint64_t)seed, MAX_PLANES, got);
+        print_message("%s seed %2d: open/non-manifold after 1, 2, 3 planes:", name, seed);
+        for (int k = 0; k < MAX_PLANES; ++k) {
+            print_message(" %4lld/%lld", (long long)got[k].open, (long long)got[k].nonmanifold);
+            if (got[k].open == 0 && got[k].nonmanifold == 0) {
+                closed[k]++;
+                CHECKF(got[k].vol_err <= 1e-9, "%s seed %d plane %d: closed, volume off by %.3g",
+                       name, seed, k + 1, got[k].vol_err);
+            }
+        }
+        print_message("\n");
+        for (int k = 0; k < open_planes; ++k)
+            if (got[k].open != 0) {
+                print_error("%s seed %d: open after %d planes\n", name, seed, k + 1);
+                fail = true;
+            }
+        for (int k = 0; k < must[seed]; ++k)
+            if (got[k].open != 0 || got[k].nonmanifold != 0) {
+                print_error("%s seed %d: not closed after %d planes\n", name, seed, k + 1);
+                fail = true;
+            }
+    }
+    print_message("%s: closed after 1, 2, 3 planes: %d, %d, %d of %d seeds\n", name, closed[0],
+                  closed[1], closed[2], n_seeds);
+    assert_false(fail);
+}
+
+static void test_sphere_planes(void **state)
+{
+    (void)state;
+    model md;
+    make_sphere(&md);
+    static const int must[24] = {0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
+                                 1, 0, 1, 1, 1, 0, 1, 1, 1, 1, 2, 1};
+    run_seeds("sphere", &md, 24, must, 1);
+    model_release(&md);
+}
+
+static void test_bunny_planes(void **state)
+{
+    (void)state;
+    model md;
+    if (!make_bunny(&md))
+        skip();
+    static const int must[12] = {1, 2, 1, 3, 1, 1, 1, 1, 1, 1, 1, 1};
+    run_seeds("bunny", &md, 12, must, 1);
+    model_release(&md);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sphere_planes),
+        cmocka_unit_test(test_bunny_planes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -14,6 +14,7 @@
 #include "scene_files.h"
 #include "sim_distrib_out.h"
 #include "sim_resume.h"
+#include "sim_summary.h"
 
 static const char USAGE[] =
     "Usage: pf-sim [SCENE.json] [options] < mesh.pfs > out.pfs\n"
@@ -373,42 +374,6 @@ static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error 
     return st;
 }
 
-/* The solver line: method, factorisations by reason, PCG iterations, CPU beside wall seconds. */
-static void print_solver_summary(const pf_solver_stats *ss)
-{
-    if (ss->method == PF_SOLVER_PETSC) {
-        int ranks = 1;
-        pf_error ignored = {0};
-        pf_petsc_initialize(NULL, NULL, NULL, &ranks, &ignored); /* initialised: the size */
-        fprintf(stderr,
-                "pf-sim: solver petsc on %d ranks: %lld solves, %.1f iterations mean, %d max; "
-                "solves %.3f s wall / %.3f s cpu (rank 0); %lld factorisations on rank 0 "
-                "(definiteness tests), %.3f s\n",
-                ranks, (long long)ss->solves,
-                ss->solves ? (double)ss->iterations / (double)ss->solves : 0.0,
-                (int)ss->max_iterations, ss->solve_seconds, ss->solve_cpu_seconds,
-                (long long)ss->factorisations, ss->factor_seconds);
-        return;
-    }
-    fprintf(stderr, "pf-sim: solver %s: %lld solves, %lld factorisations (",
-            pf_solver_method_name(ss->method), (long long)ss->solves,
-            (long long)ss->factorisations);
-    const char *sep = "";
-    for (int k = 0; k < PF_REFACTOR_REASONS; ++k)
-        if (ss->by_reason[k]) {
-            fprintf(stderr, "%s%lld %s", sep, (long long)ss->by_reason[k],
-                    pf_refactor_reason_name((pf_refactor_reason)k));
-            sep = ", ";
-        }
-    fprintf(stderr,
-            "), pcg %lld solves, %.1f iterations mean, %d max; factor %.3f s wall / %.3f s cpu, "
-            "solves %.3f s wall / %.3f s cpu; a factorisation costs %.0f iterations\n",
-            (long long)ss->pcg_solves,
-            ss->pcg_solves ? (double)ss->iterations / (double)ss->pcg_solves : 0.0,
-            (int)ss->max_iterations, ss->factor_seconds, ss->factor_cpu_seconds, ss->solve_seconds,
-            ss->solve_cpu_seconds, ss->factor_iterations);
-}
-
 static void print_summary(const run *r, const pf_sim *sim)
 {
     const pf_sim_stats *st = pf_sim_get_stats(sim);
@@ -465,7 +430,7 @@ static void print_summary(const run *r, const pf_sim *sim)
                 "%.3f s cpu\n",
                 (int)st->cuts, (long long)st->elements_cut, (int)st->bodies, st->dropped_mass,
                 st->dropped_volume, st->cut_seconds);
-    print_solver_summary(&st->solver);
+    pf_cli_solver_summary(&st->solver);
 }
 
 /* --stats FILE: the statistics as JSON, written atomically. */

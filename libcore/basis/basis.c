@@ -254,22 +254,27 @@ static pf_status elem_setup(elem_ctx *c, const pf_basis_params *p, basis_ws *w, 
         c->nfeat[i] = c->nlen[i];
     for (int32_t lf = 0; lf < c->nf; ++lf) {
         int64_t a = c->floc_off[lf], n = c->floc_off[lf + 1] - a;
-        for (int64_t q = 0; q < n; ++q) {
-            int32_t i = c->floc[a + q];
-            for (int64_t r = 0; r < n; ++r) {
-                int32_t u = c->floc[a + r], v = c->floc[a + (r + 1) % n];
-                if (c->slot[u] == c->slot[i] || c->slot[v] == c->slot[i] ||
-                    c->slot[u] == c->slot[v])
-                    continue;
-                pf_vec3 ev = pf_v3_sub(c->pos[v], c->pos[u]), dv = pf_v3_sub(c->pos[i], c->pos[u]);
-                double t = pf_v3_dot(dv, ev) / pf_v3_dot(ev, ev);
-                t = t < 0 ? 0 : t > 1 ? 1 : t;
-                double d = pf_v3_dist(c->pos[i], pf_v3_add(c->pos[u], pf_v3_scale(ev, t)));
-                c->nfeat[i] = fmin(c->nfeat[i], d);
-            }
-        }
+        for (int64_t q = 0; q < n; ++q)
+            pf_basis_face_edge_feature(c, lf, c->floc[a + q]);
     }
     return PF_OK;
+}
+
+/* Lowers node i's feature size to its distance from each edge of local face lf that does not
+ * touch it (a node near a face's far edge makes a narrow corner the samples must resolve). */
+void pf_basis_face_edge_feature(elem_ctx *c, int32_t lf, int32_t i)
+{
+    int64_t a = c->floc_off[lf], n = c->floc_off[lf + 1] - a;
+    for (int64_t r = 0; r < n; ++r) {
+        int32_t u = c->floc[a + r], v = c->floc[a + (r + 1) % n];
+        if (c->slot[u] == c->slot[i] || c->slot[v] == c->slot[i] || c->slot[u] == c->slot[v])
+            continue;
+        pf_vec3 ev = pf_v3_sub(c->pos[v], c->pos[u]), dv = pf_v3_sub(c->pos[i], c->pos[u]);
+        double t = pf_v3_dot(dv, ev) / pf_v3_dot(ev, ev);
+        t = t < 0 ? 0 : t > 1 ? 1 : t;
+        double d = pf_v3_dist(c->pos[i], pf_v3_add(c->pos[u], pf_v3_scale(ev, t)));
+        c->nfeat[i] = fmin(c->nfeat[i], d);
+    }
 }
 
 /* ---- closed forms

@@ -287,6 +287,8 @@ pf_status pf_basis_patch_build(elem_ctx *c, double angle_deg, const pf_basis_par
  * shortest edge at it outside the patch's interior (a loop edge or an edge of a neighbour face)
  * and its distance to the edges of its non-patch faces; at an inner node its bump width. */
 void pf_basis_patch_features(elem_ctx *c);
+/* Node i's feature size lowered to its distance from local face lf's edges not touching it. */
+void pf_basis_face_edge_feature(elem_ctx *c, int32_t lf, int32_t i);
 /* Whether sample pt lies on the patch (a patch face, or an edge between two patch faces). */
 bool pf_basis_patch_has(const elem_ctx *c, const pt3 *pt);
 /* Patch data at pt (a row of c->ng group values, stride ldb). faceval: PF_BASIS_MAX_NODES

@@ -463,19 +463,8 @@ void pf_basis_patch_features(elem_ctx *c)
         int64_t a = c->floc_off[lf], n = c->floc_off[lf + 1] - a;
         for (int64_t q = 0; q < n; ++q) {
             int32_t i = c->floc[a + q];
-            if (!on[i])
-                continue;
-            for (int64_t r = 0; r < n; ++r) {
-                int32_t u = c->floc[a + r], v = c->floc[a + (r + 1) % n];
-                if (c->slot[u] == c->slot[i] || c->slot[v] == c->slot[i] ||
-                    c->slot[u] == c->slot[v])
-                    continue;
-                pf_vec3 ev = pf_v3_sub(c->pos[v], c->pos[u]), dv = pf_v3_sub(c->pos[i], c->pos[u]);
-                double t = pf_v3_dot(dv, ev) / pf_v3_dot(ev, ev);
-                t = t < 0 ? 0 : t > 1 ? 1 : t;
-                double d = pf_v3_dist(c->pos[i], pf_v3_add(c->pos[u], pf_v3_scale(ev, t)));
-                c->nfeat[i] = fmin(c->nfeat[i], d);
-            }
+            if (on[i])
+                pf_basis_face_edge_feature(c, lf, i);
         }
     }
     for (int32_t j = 0; j < c->n_inner; ++j)

@@ -320,7 +320,8 @@ static pf_status create_part(part *p, pf_error *err)
     p->nb3 = 3 * pf_moment_count(p->scene.degree);
     if (p->h.n_elems == 0)
         return PF_OK;
-    return pf_sim_dg_create(&p->scene, &p->mesh, NULL, &p->ops, &p->method, &fixed, &loaded, err);
+    return pf_sim_dg_create(&p->scene, &p->mesh, NULL, NULL, &p->ops, &p->method, &fixed, &loaded,
+                            err);
 }
 
 /* Its penalty, and BZ's body length that of the whole mesh; the stiffness and forces. */

@@ -283,6 +283,24 @@ char *pf_cli_command_line(const pf_cli *cli)
     return line;
 }
 
+pf_status pf_cli_write_info(const pf_cli *cli, pf_stream_writer *w, pf_error *err)
+{
+    char *command = pf_cli_command_line(cli);
+    pf_status st =
+        pf_stream_write_info(w, cli->tool, PF_VERSION_STRING, command ? command : "", err);
+    pf_free(command);
+    return st;
+}
+
+void pf_cli_report_import(const pf_cli *cli, const pf_cli_import *imp)
+{
+    char line[512];
+    if (pf_cli_import_summary(imp, line, sizeof line))
+        fprintf(stderr, "%s: import: %s\n", cli->tool, line);
+    if (pf_cli_repair_summary(imp, line, sizeof line))
+        fprintf(stderr, "%s: repair: %s\n", cli->tool, line);
+}
+
 bool pf_cli_show_progress(bool quiet)
 {
     return !quiet && isatty(fileno(stderr));

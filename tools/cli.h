@@ -185,6 +185,13 @@ const char *pf_cli_import_summary(const pf_cli_import *imp, char *buf, size_t si
 pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer *w,
                               pf_cli_import *imp, pf_error *err);
 
+/* Writes the INFO chunk that opens every stream a tool writes: the tool's name, pf's version and
+ * the command line it ran with, so that a stream says how it was made. */
+pf_status pf_cli_write_info(const pf_cli *cli, pf_stream_writer *w, pf_error *err);
+
+/* The "import:" and "repair:" lines of a mesher's report on stderr, for what happened only. */
+void pf_cli_report_import(const pf_cli *cli, const pf_cli_import *imp);
+
 /* The grid options --res N, --cell H, --origin X,Y,Z: which is 'r', 'c' or 'o'. */
 void pf_cli_grid_option(const pf_cli *cli, char which, const char *value, pf_voxelize_params *p);
 

@@ -208,13 +208,11 @@ int main(int argc, char **argv)
         pf_cli_fail(&r.cli, &err);
     FILE *out = pf_cli_binary_stdout(&r.cli);
     pf_stream_reader *in = NULL;
-    char *command = pf_cli_command_line(&r.cli);
     pf_status st = pf_stream_reader_create(&in, in_file, r.in_name, &err);
     if (st >= 0)
         st = pf_stream_writer_create(&r.out, out, "stdout", &err);
     if (st >= 0)
-        st = pf_stream_write_info(r.out, "pf-embed", PF_VERSION_STRING, command ? command : "",
-                                  &err);
+        st = pf_cli_write_info(&r.cli, r.out, &err);
     if (st >= 0 && r.surface_path)
         st = load_surface_option(&r, &err);
     if (st >= 0)
@@ -230,7 +228,6 @@ int main(int argc, char **argv)
     pf_stream_writer_destroy(&r.out);
     pf_stream_reader_destroy(&in);
     pf_cli_close_input(in_file);
-    pf_free(command);
     pf_mesh_release(&r.mesh);
     pf_surface_release(&r.surface);
     if (st < 0)

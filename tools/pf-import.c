@@ -76,17 +76,15 @@ int main(int argc, char **argv)
 
     FILE *out = pf_cli_binary_stdout(&cli);
     pf_stream_writer *w = NULL;
-    char *command = pf_cli_command_line(&cli);
     pf_status s = pf_stream_writer_create(&w, out, "stdout", &err);
     if (s >= 0)
-        s = pf_stream_write_info(w, "pf-import", PF_VERSION_STRING, command ? command : "", &err);
+        s = pf_cli_write_info(&cli, w, &err);
     if (s >= 0)
         s = kind == 2 ? pf_stream_write_mesh(w, &mesh, &err)
                       : pf_stream_write_surface(w, &surface, &err);
     if (s >= 0)
         s = pf_stream_writer_finish(w, &err);
     pf_stream_writer_destroy(&w);
-    pf_free(command);
     if (s >= 0 && !quiet) {
         if (kind == 2) {
             pf_mesh_stats st;

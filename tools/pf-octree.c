@@ -140,10 +140,9 @@ int main(int argc, char **argv)
     pf_surface surface = {0};
     pf_mesh mesh = {0};
     pf_stream_writer *w = NULL;
-    char *command = pf_cli_command_line(&cli);
     pf_status st = pf_stream_writer_create(&w, out, "stdout", &err);
     if (st >= 0)
-        st = pf_stream_write_info(w, "pf-octree", PF_VERSION_STRING, command ? command : "", &err);
+        st = pf_cli_write_info(&cli, w, &err);
     if (st >= 0)
         st = pf_cli_read_surface(path, &surface, w, &imp, &err);
     if (st >= 0 && progress)
@@ -191,12 +190,7 @@ int main(int argc, char **argv)
             if (stats.cells_by_depth[k])
                 fprintf(stderr, " %d: %d", k, (int)stats.cells_by_depth[k]);
         fprintf(stderr, "\n");
-        char line[320];
-        if (pf_cli_import_summary(&imp, line, sizeof line))
-            fprintf(stderr, "pf-octree: import: %s\n", line);
-        char repaired[512];
-        if (pf_cli_repair_summary(&imp, repaired, sizeof repaired))
-            fprintf(stderr, "pf-octree: repair: %s\n", repaired);
+        pf_cli_report_import(&cli, &imp);
         if (stats.robust_used)
             fprintf(stderr,
                     "pf-octree: robust: the surface was not closed, manifold and outward; %s "
@@ -208,7 +202,6 @@ int main(int argc, char **argv)
                     (long long)stats.contour.interpolated);
     }
     pf_stream_writer_destroy(&w);
-    pf_free(command);
     pf_mesh_release(&mesh);
     pf_surface_release(&surface);
     if (st < 0)

@@ -106,18 +106,16 @@ int main(int argc, char **argv)
         pf_cli_usage_error(&cli, "%s", err.msg);
 
     FILE *out = pf_cli_binary_stdout(&cli);
-    char *command = pf_cli_command_line(&cli);
     pf_stream_writer *w = NULL;
     s = pf_stream_writer_create(&w, out, "stdout", &err);
     if (s >= 0)
-        s = pf_stream_write_info(w, "pf-shape", PF_VERSION_STRING, command ? command : "", &err);
+        s = pf_cli_write_info(&cli, w, &err);
     if (s >= 0)
         s = is_mesh ? pf_stream_write_mesh(w, &mesh, &err)
                     : pf_stream_write_surface(w, &surface, &err);
     if (s >= 0)
         s = pf_stream_writer_finish(w, &err);
     pf_stream_writer_destroy(&w);
-    pf_free(command);
     pf_mesh_release(&mesh);
     pf_surface_release(&surface);
     if (s < 0)

@@ -123,10 +123,9 @@ int main(int argc, char **argv)
     pf_surface surface = {0};
     pf_mesh mesh = {0};
     pf_stream_writer *w = NULL;
-    char *command = pf_cli_command_line(&cli);
     pf_status st = pf_stream_writer_create(&w, out, "stdout", &err);
     if (st >= 0)
-        st = pf_stream_write_info(w, "pf-slice", PF_VERSION_STRING, command ? command : "", &err);
+        st = pf_cli_write_info(&cli, w, &err);
     if (st >= 0)
         st = pf_cli_read_surface(path, &surface, w, &imp, &err);
     pf_slice_stats stats;
@@ -158,12 +157,8 @@ int main(int argc, char **argv)
                 (int)mesh.n_elems, (int)stats.kinds[PF_ELEM_HEX], (int)stats.kinds[PF_ELEM_TET],
                 (int)stats.kinds[PF_ELEM_POLY], (int)stats.merged, (int)stats.isolated_slivers,
                 (long long)stats.splits, stats.seconds, slice_cpu);
-    char line[320];
-    if (st >= 0 && !quiet && pf_cli_import_summary(&imp, line, sizeof line))
-        fprintf(stderr, "pf-slice: import: %s\n", line);
-    char repaired[512];
-    if (st >= 0 && !quiet && pf_cli_repair_summary(&imp, repaired, sizeof repaired))
-        fprintf(stderr, "pf-slice: repair: %s\n", repaired);
+    if (st >= 0 && !quiet)
+        pf_cli_report_import(&cli, &imp);
     if (st >= 0 && !quiet && stats.robust_used)
         fprintf(stderr,
                 "pf-slice: robust: the surface was not closed, manifold and outward; oriented "
@@ -177,7 +172,6 @@ int main(int argc, char **argv)
                 (int)stats.contour.n_tris, (long long)stats.contour.on_surface,
                 (long long)stats.contour.interpolated, stats.contour.seconds);
     pf_stream_writer_destroy(&w);
-    pf_free(command);
     pf_mesh_release(&mesh);
     pf_surface_release(&surface);
     if (st < 0)

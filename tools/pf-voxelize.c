@@ -88,11 +88,9 @@ int main(int argc, char **argv)
     pf_surface surface = {0};
     pf_mesh mesh = {0};
     pf_stream_writer *w = NULL;
-    char *command = pf_cli_command_line(&cli);
     pf_status st = pf_stream_writer_create(&w, out, "stdout", &err);
     if (st >= 0)
-        st = pf_stream_write_info(w, "pf-voxelize", PF_VERSION_STRING, command ? command : "",
-                                  &err);
+        st = pf_cli_write_info(&cli, w, &err);
     if (st >= 0)
         st = pf_cli_read_surface(path, &surface, w, &imp, &err);
     pf_grid grid = {0};
@@ -123,11 +121,9 @@ int main(int argc, char **argv)
                 "pf-voxelize: kept the largest of %d parts, dropped %d cells in the others "
                 "(--keep-islands keeps them)\n",
                 (int)parts, (int)dropped);
-    char line[320];
-    if (st >= 0 && !quiet && pf_cli_import_summary(&imp, line, sizeof line))
-        fprintf(stderr, "pf-voxelize: import: %s\n", line);
+    if (st >= 0 && !quiet)
+        pf_cli_report_import(&cli, &imp);
     pf_stream_writer_destroy(&w);
-    pf_free(command);
     pf_mesh_release(&mesh);
     pf_surface_release(&surface);
     if (st < 0)

@@ -324,6 +324,112 @@ static void grid_matrix(pf_block_matrix *a, int g, double scale, rng *r)
     free(pairs);
 }
 
+/* a's values: base plus a stiff contact-like term k n n^T (n = (1, 2, 2) / 3, k = 1e4 times the
+ * diagonal's scale) on the diagonal block of each of the triples first, first + step, ... (count
+ * of them). */
+static void with_terms(pf_block_matrix *a, const double *base, int32_t first, int32_t step,
+                       int32_t count)
+{
+    memcpy(a->val, base, (size_t)a->col_ptr[a->n] * sizeof *base);
+    const double n[3] = {1.0 / 3, 2.0 / 3, 2.0 / 3};
+    double m[9];
+    for (int i = 0; i < 9; ++i)
+        m[i] = 1e4 * n[i / 3] * n[i % 3];
+    for (int32_t c = 0; c < count; ++c) {
+        int32_t t = (first + c * step) % a->n_blocks;
+        pf_block_matrix_add(a, pf_block_matrix_slot(a, t, t), t, t, m, 3);
+    }
+}
+
+/* One PF_MATRIX_TERMS solve of a x = rhs to the solver's tolerance: returns the factorisations it
+ * made and sets *iterated to the PCG iterations it spent. */
+static int64_t terms_solve(pf_solver *s, const pf_block_matrix *a, const double *rhs, double *x,
+                           int64_t *iterated)
+{
+    pf_error err = {0};
+    const pf_solver_stats *st = pf_solver_get_stats(s);
+    int64_t f0 = st->factorisations, i0 = st->iterations, n = a->n;
+    assert_int_equal(pf_solver_solve(s, a, PF_MATRIX_TERMS, rhs, x, NULL, &err), PF_OK);
+    double *ax = malloc((size_t)n * sizeof *ax), rn = 0, bn = 0;
+    pf_block_matrix_mul(a, 1, x, 0, ax);
+    for (int64_t k = 0; k < n; ++k)
+        rn += (ax[k] - rhs[k]) * (ax[k] - rhs[k]), bn += rhs[k] * rhs[k];
+    free(ax);
+    assert_true(sqrt(rn) <= 1e-10 * sqrt(bn) * 1.0001); /* the solver's tolerance */
+    *iterated = st->iterations - i0;
+    return st->factorisations - f0;
+}
+
+/* PF_MATRIX_TERMS (contacts that came or went): one stiff rank-one term more than the factor's
+ * matrix is absorbed by PCG on the old factor (the preconditioned matrix is the identity plus a
+ * rank-one term, so 2 iterations in exact arithmetic; at most 4 with the single-precision
+ * factor's rounding); 60 of them are more than a factorisation's worth, so the trial fails and
+ * refactorises, counted as new terms, not as a PCG failure. Then the back-off: the next change
+ * refactorises at once (no iteration), the one after is tried again, fails, and the next two
+ * refactorise at once; a trial that converges ends the back-off, and so does a reset. The sets
+ * of 60 are residue classes mod 7 (first + 7 c), so two with another first share no term. */
+static void terms_tried_on_old_factor_with_back_off(void **state)
+{
+    (void)state;
+    rng r = {8080};
+    pf_block_matrix a;
+    grid_matrix(&a, 8, 1.0, &r);
+    int64_t n = a.n, nnz = a.col_ptr[a.n];
+    double *base = malloc((size_t)nnz * sizeof *base);
+    memcpy(base, a.val, (size_t)nnz * sizeof *base);
+    double *rhs = malloc((size_t)n * sizeof *rhs), *x = calloc((size_t)n, sizeof *x);
+    for (int64_t k = 0; k < n; ++k)
+        rhs[k] = cos(0.29 * (double)k);
+    pf_error err = {0};
+    pf_solver_params p = pf_solver_params_default();
+    p.method = PF_SOLVER_PCG;
+    pf_solver *s = NULL;
+    assert_int_equal(pf_solver_create(&s, &a, &p, true, &err), PF_OK);
+    const pf_solver_stats *st = pf_solver_get_stats(s);
+    assert_int_equal(pf_solver_solve(s, &a, PF_MATRIX_NEW, rhs, x, NULL, &err), PF_OK);
+    int64_t its;
+
+    with_terms(&a, base, 7, 1, 1); /* one contact came */
+    assert_int_equal(terms_solve(s, &a, rhs, x, &its), 0);
+    assert_true(its >= 1 && its <= 4);
+    with_terms(&a, base, 3, 7, 60); /* sixty: the trial fails */
+    assert_int_equal(terms_solve(s, &a, rhs, x, &its), 1);
+    assert_true(its > 4);
+    assert_int_equal(st->by_reason[PF_REFACTOR_FAILED], 0);
+    assert_int_equal(st->by_reason[PF_REFACTOR_NEW], 1);
+    with_terms(&a, base, 5, 7, 60); /* back-off 1: at once */
+    assert_int_equal(terms_solve(s, &a, rhs, x, &its), 1);
+    assert_int_equal(its, 0);
+    with_terms(&a, base, 4, 7, 60); /* tried again, fails: back-off 2 */
+    assert_int_equal(terms_solve(s, &a, rhs, x, &its), 1);
+    assert_true(its > 4);
+    for (int k = 0; k < 2; ++k) {
+        with_terms(&a, base, 6 - k, 7, 60);
+        assert_int_equal(terms_solve(s, &a, rhs, x, &its), 1);
+        assert_int_equal(its, 0);
+    }
+    with_terms(&a, base, 5, 7, 60);
+    a.val[0] += 1e-3; /* a small change of the factor's matrix (3 more terms would do too) */
+    assert_int_equal(terms_solve(s, &a, rhs, x, &its), 0); /* tried, converges: back-off ends */
+    with_terms(&a, base, 2, 7, 60);
+    assert_int_equal(terms_solve(s, &a, rhs, x, &its), 1);
+    assert_true(its > 4); /* tried at once: no back-off left */
+    assert_int_equal(st->by_reason[PF_REFACTOR_NEW], 6);
+
+    pf_solver_reset(s); /* a restart point forgets the back-off (1 now) */
+    assert_int_equal(pf_solver_solve(s, &a, PF_MATRIX_NEW, rhs, x, NULL, &err), PF_OK);
+    with_terms(&a, base, 1, 7, 60);
+    assert_int_equal(terms_solve(s, &a, rhs, x, &its), 1);
+    assert_true(its > 4);
+    assert_int_equal(st->by_reason[PF_REFACTOR_FAILED], 0);
+
+    pf_solver_destroy(&s);
+    pf_block_matrix_release(&a);
+    free(base);
+    free(rhs);
+    free(x);
+}
+
 /* The single-precision solve against the double one on a factor with real supernodes (panels of
  * four columns and their tails): relative difference of single's rounding, a few times 6e-8
  * times the condition (below 10 for this diagonally dominant matrix), so at most 1e-6 (8e-8
@@ -679,6 +785,7 @@ int main(void)
         cmocka_unit_test(cholesky_reports_indefinite_column),
         cmocka_unit_test(single_precision_solve_matches),
         cmocka_unit_test(warp_preconditions_rotated_matrix),
+        cmocka_unit_test(terms_tried_on_old_factor_with_back_off),
         cmocka_unit_test(invalid_patterns_are_refused),
         cmocka_unit_test(cholesky_is_independent_of_threads),
     };

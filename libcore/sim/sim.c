@@ -446,7 +446,7 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     pf_matrix_change change = PF_MATRIX_SAME;
     if (!s->assembled || (s->contact && pf_contact_set_changed(s->contact)) ||
         (s->crack && pf_crack_set_changed(s->crack))) {
-        change = PF_MATRIX_NEW;
+        change = s->assembled ? PF_MATRIX_TERMS : PF_MATRIX_NEW;
         s->trend = 0; /* an impact or a release: the velocity's trend breaks (on the torus
                          dropped by scripts/demo, 1,188 PCG iterations in 600 steps against
                          1,190 with the trend kept) */

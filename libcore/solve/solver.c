@@ -60,6 +60,9 @@ struct pf_solver {
     double factor_cost;      /* a factorisation in iteration flops (the cost model above) */
     int32_t iteration_limit; /* per solve: max_iterations, or a factorisation's worth */
     bool refactor_due;
+    int32_t terms_backoff;   /* PF_MATRIX_TERMS: changes refactorised at once after the last
+                                failed trial of the old factor (0: the last trial converged) */
+    int32_t terms_skip;      /* ... of which still to come */
     double last_residual;
     /* the warp (pf_solver_set_rotations): the rotation of every unknown triple for the coming
      * solve, and those of the factor's matrix */
@@ -248,6 +251,7 @@ void pf_solver_set_progress(pf_solver *s, const pf_progress_hook *progress)
 void pf_solver_reset(pf_solver *s)
 {
     s->have_factor = s->factor_current = false;
+    s->terms_backoff = s->terms_skip = 0; /* history too: a reset is a restart point */
 }
 
 /* ---- conjugate gradients ----------------------------------------------------------------- */
@@ -400,18 +404,20 @@ static pf_status solve_exact(pf_solver *s, const pf_block_matrix *a, const doubl
     return PF_OK;
 }
 
-/* PCG from x on the old factor; when it fails, the exact solve on a fresh one. */
+/* PCG from x on the old factor; when it fails, the exact solve on a fresh one, the factorisation
+ * counted for the reason given (the new terms of a trial, else a failure). *converged says
+ * which. */
 static pf_status iterate(pf_solver *s, const pf_block_matrix *a, const double *b, double *x,
-                         int64_t *failed, pf_error *err)
+                         int64_t *failed, pf_refactor_reason reason, bool *converged,
+                         pf_error *err)
 {
     int32_t its = 0;
     pcg_result res = pcg(s, a, b, x, &its, err);
-    if (res == PCG_CONVERGED) {
-        account(s, its);
+    *converged = res == PCG_CONVERGED;
+    account(s, its); /* a failed attempt iterated too; its charge ends with the factorisation */
+    if (res == PCG_CONVERGED)
         return PF_OK;
-    }
-    s->stats.iterations += its;
-    PF_TRY(factor_system(s, a, PF_REFACTOR_FAILED, failed, err));
+    PF_TRY(factor_system(s, a, reason, failed, err));
     PF_TRY(solve_exact(s, a, b, x, err));
     charge(s, s->stats.iteration_flops);
     return PF_OK;
@@ -445,6 +451,18 @@ pf_status pf_solver_set_near_null_space(pf_solver *s, int32_t k, const double *v
     return s->petsc ? pf_petsc_solver_near_null_space(s->petsc, k, vectors, err) : PF_OK;
 }
 
+/* The back-off of PF_MATRIX_TERMS trials (pf_matrix_change): a failure doubles the changes to
+ * refactorise at once, up to 32 (a failed trial wastes about a factorisation's worth of
+ * iterations, so at most 1 in 33 changes pays twice); a success ends it. */
+static void note_terms_trial(pf_solver *s, bool converged)
+{
+    enum { MOST = 32 };
+    s->terms_backoff = converged ? 0 : s->terms_backoff ? 2 * s->terms_backoff : 1;
+    if (s->terms_backoff > MOST)
+        s->terms_backoff = MOST;
+    s->terms_skip = s->terms_backoff;
+}
+
 pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_change change,
                           const double *b, double *x, int64_t *failed_column, pf_error *err)
 {
@@ -459,6 +477,12 @@ pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_chan
     if (change != PF_MATRIX_SAME)
         s->factor_current = false;
     bool direct = s->params.method == PF_SOLVER_DIRECT;
+    bool trial = false; /* new terms on the old factor (PF_MATRIX_TERMS) */
+    if (change == PF_MATRIX_TERMS) {
+        trial = s->terms_skip == 0;
+        s->terms_skip -= !trial;
+        change = trial ? PF_MATRIX_DRIFTED : PF_MATRIX_NEW;
+    }
     pf_status st = PF_OK;
     if (!s->have_factor || (direct && !s->factor_current) || s->refactor_due ||
         change == PF_MATRIX_NEW) {
@@ -472,7 +496,11 @@ pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_chan
         st = solve_exact(s, a, b, x, err);
         charge(s, s->stats.iteration_flops);
     } else if (st >= 0) {
-        st = iterate(s, a, b, x, failed_column, err);
+        bool converged;
+        st = iterate(s, a, b, x, failed_column, trial ? PF_REFACTOR_NEW : PF_REFACTOR_FAILED,
+                     &converged, err);
+        if (trial)
+            note_terms_trial(s, converged);
     }
     /* solve time excludes the factorisations made on the way */
     s->stats.solve_seconds += pf_time_seconds() - t0 - (s->stats.factor_seconds - f0);

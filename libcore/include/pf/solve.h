@@ -164,12 +164,17 @@ typedef struct pf_solver_params {
 pf_solver_params pf_solver_params_default(void);
 
 /* How the matrix differs from the previous solve's: not at all; by a drift of its values (the
- * rotations of a corotated step); or by terms that appeared or vanished (contacts), which an old
- * factor does not precondition well. */
+ * rotations of a corotated step); wholly (pcg refactorises); or by terms that appeared or
+ * vanished (contacts came or went). For the last, pcg tries the old factor first while such
+ * trials converge: a contact that adds a stiff rank-one term costs PCG about one iteration,
+ * one whose term spreads over many unknowns (a surface vertex moved by MLS weights) more than a
+ * factorisation is worth. After a failed trial the next changes of terms refactorise at once, 1,
+ * 2, 4 ... up to 32 of them, before the old factor is tried again. */
 typedef enum pf_matrix_change {
     PF_MATRIX_SAME = 0,
     PF_MATRIX_DRIFTED = 1,
     PF_MATRIX_NEW = 2,
+    PF_MATRIX_TERMS = 3,
 } pf_matrix_change;
 
 /* Why a factorisation happened. */
@@ -179,7 +184,8 @@ typedef enum pf_refactor_reason {
     PF_REFACTOR_COST = 2,    /* pcg: the iterations since the last one outweighed it */
     PF_REFACTOR_FAILED = 3,  /* pcg: no convergence (or breakdown) with the old factor */
     PF_REFACTOR_OTHER = 4,   /* a factorisation of another matrix (pf_solver_factor) */
-    PF_REFACTOR_NEW = 5,     /* pcg: PF_MATRIX_NEW */
+    PF_REFACTOR_NEW = 5,     /* pcg: PF_MATRIX_NEW, or PF_MATRIX_TERMS at once or after the
+                                old factor failed on the new terms */
     PF_REFACTOR_REASONS = 6,
 } pf_refactor_reason;
 
@@ -191,7 +197,8 @@ typedef struct pf_solver_stats {
     int64_t solves;
     int64_t factorisations;
     int64_t by_reason[PF_REFACTOR_REASONS];
-    int64_t pcg_solves;     /* solves that iterated (on a factor of an earlier matrix) */
+    int64_t pcg_solves;     /* solves that iterated (on a factor of an earlier matrix), also
+                               those that gave up and refactorised */
     int64_t iterations;     /* PCG iterations, all solves */
     int32_t max_iterations; /* the most of one solve */
     int64_t matrix_nnz;     /* stored (upper) entries */
@@ -240,7 +247,8 @@ pf_status pf_solver_set_near_null_space(pf_solver *s, int32_t k, const double *v
  * factors made without them, precondition with A_f^-1 alone. PF_ERR_NOMEM. */
 pf_status pf_solver_set_rotations(pf_solver *s, const double *rot, pf_error *err);
 
-/* Forgets the factor (the next solve factorises): after a failed step whose state was undone. */
+/* Forgets the factor (the next solve factorises) and the back-off of PF_MATRIX_TERMS: after a
+ * failed step whose state was undone, and at a checkpoint's restart point. */
 void pf_solver_reset(pf_solver *s);
 /* Replaces the progress hook of the params (NULL or zero: none; borrowed, as there). */
 void pf_solver_set_progress(pf_solver *s, const pf_progress_hook *progress);

@@ -171,6 +171,30 @@ PY
 expect 1 "chunk CKPT at byte" "$bin/pf-sim" --resume "$tmp/bad.pfs"
 check "... saying what differs" grep -q "another scene, mesh or obstacle surface" "$tmp/err"
 
+# a version 1 checkpoint (an older pf-sim: no run counters in its header) is refused, since the
+# resumed run's STAT could not count the whole run
+python3 - "$full" "$tmp/v1.pfs" <<'PY'
+import struct, sys, zlib
+data = bytes(open(sys.argv[1], "rb").read()[:20000])
+out, at = bytearray(data[:8]), 8
+while at + 16 <= len(data):
+    size = struct.unpack_from("<Q", data, at + 8)[0]
+    chunk = bytearray(data[at:at + 20 + size])
+    if len(chunk) < 20 + size:
+        break
+    if chunk[:4] == b"CKPT":
+        payload = chunk[16:32] + chunk[64:16 + size]  # the 16 bytes of version 1, the state
+        chunk = bytearray(b"CKPT" + struct.pack("<IQ", 1, len(payload)) + payload +
+                          struct.pack("<I", zlib.crc32(bytes(payload))))
+    out += chunk
+    at += 20 + size
+open(sys.argv[2], "wb").write(out)
+PY
+expect 1 "a version 1 checkpoint, without the run's counters" "$bin/pf-sim" --resume "$tmp/v1.pfs"
+check "... naming the chunk" grep -q "chunk CKPT at byte" "$tmp/err"
+expect 1 "truncated" "$bin/pf-info" "$tmp/v1.pfs"
+check "pf-info reads version 1 checkpoints" grep -q "^CKPT  [0-9]* checkpoints" "$tmp/out"
+
 # A scene that refines changes its mesh between frames: no CKPT (a note when --checkpoint-every
 # asks for them), and --resume refuses its stream, cut or whole, saying why.
 expect 0 "the scene refines" "$bin/pf-sim" "$(dirname "$0")/../../data/scenes/cantilever_refine.json" --frames 12 \

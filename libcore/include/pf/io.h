@@ -61,7 +61,7 @@ bool pf_stream_tag_is_critical(const char *tag);
 bool pf_stream_tag_is_mesh_dependent(const char *tag);
 /* The newest version of a known chunk that this pf reads and writes; 0 for an unknown tag. */
 uint32_t pf_stream_tag_version(const char *tag);
-/* Whether this pf's decoder reads version of the known chunk tag (SURF: 1 and 2, the others:
+/* Whether this pf's decoder reads version of the known chunk tag (SURF, CKPT: 1 and 2, others:
  * pf_stream_tag_version only); false for an unknown tag. */
 bool pf_stream_version_is_read(const char *tag, uint32_t version);
 /* PF_ERR_UNSUPPORTED (naming chunk, offset and versions) when c is a known chunk of a version this

@@ -27,14 +27,15 @@ typedef struct fixture {
     pf_weights wght;
     pf_frame_data frames[3];
     pf_stress_data stress[2]; /* von Mises of frame 1, the full tensor of frame 2 */
+    pf_stats_data stats;      /* texts and numbers, one replaced after it was set */
 } fixture;
 
 static const char SCENE[] = "{\"gravity\": [0, 0, -9.81], \"name\": \"caf\xc3\xa9\"}";
 static const char COMMAND[] = "pf-sim sc\xc3\xa8ne.json --frames 3";
 static const unsigned char XTRA[] = {0, 1, 2, 0xff, 0x89, 'P', 'F', 'S'};
 static const char *const FIXTURE_TAGS[] = {"INFO", "SCEN", "MESH", "SURF", "WGHT", "XTRA", "FRAM",
-                                           "FRAM", "STRS", "FRAM", "STRS", "zero", "END_"};
-enum { FIXTURE_CHUNKS = 13 };
+                                           "FRAM", "STRS", "FRAM", "STRS", "zero", "STAT", "END_"};
+enum { FIXTURE_CHUNKS = 14 };
 
 static void fixture_make(fixture *fx)
 {
@@ -78,6 +79,14 @@ static void fixture_make(fixture *fx)
         for (int64_t i = 0; i < (int64_t)fx->stress[s].n_elems * fx->stress[s].components; ++i)
             fx->stress[s].values[i] = 1.5e6 * (double)(i + 1) - 3.0 / 7.0;
     }
+    pf_stats_data *d = &fx->stats;
+    assert_int_equal(pf_stats_data_set_text(d, "method", "cg", &err), PF_OK);
+    assert_int_equal(pf_stats_data_set_number(d, "error_indicator", 1.0 / 3, &err), PF_OK);
+    assert_int_equal(pf_stats_data_set_text(d, "note", "", &err), PF_OK);
+    assert_int_equal(pf_stats_data_set_number(d, "zero", -0.0, &err), PF_OK);
+    assert_int_equal(pf_stats_data_set_number(d, "tiny", 4.9e-324, &err), PF_OK);
+    assert_int_equal(pf_stats_data_set_text(d, "method", "dg caf\xc3\xa9", &err), PF_OK);
+    assert_int_equal(pf_stats_data_set_number(d, "steps", 9007199254740992.0, &err), PF_OK);
 }
 
 static void fixture_release(fixture *fx)
@@ -89,6 +98,7 @@ static void fixture_release(fixture *fx)
         pf_frame_data_release(&fx->frames[f]);
     pf_stress_data_release(&fx->stress[0]);
     pf_stress_data_release(&fx->stress[1]);
+    pf_stats_data_release(&fx->stats);
 }
 
 static void write_fixture(const fixture *fx, FILE *f, bool finish)
@@ -108,6 +118,7 @@ static void write_fixture(const fixture *fx, FILE *f, bool finish)
             assert_int_equal(pf_stream_write_stress(w, &fx->stress[k - 1], &err), PF_OK);
     }
     assert_int_equal(pf_stream_write_chunk(w, "zero", 1, NULL, 0, &err), PF_OK);
+    assert_int_equal(pf_stream_write_stats(w, &fx->stats, &err), PF_OK);
     if (finish)
         assert_int_equal(pf_stream_writer_finish(w, &err), PF_OK);
     pf_stream_writer_destroy(&w);
@@ -200,6 +211,22 @@ static void check_chunk(const fixture *fx, const pf_chunk *c, int *frame, int *s
         assert_int_equal(pf_stream_decode_end(c, &d, &err), PF_OK);
         assert_true(d.chunk_count == FIXTURE_CHUNKS - 1 && d.frame_count == 3);
         assert_int_equal(pf_stream_encode_end(&d, re, &err), PF_OK);
+    } else if (strcmp(c->tag, "STAT") == 0) {
+        pf_stats_data d = {0};
+        assert_int_equal(pf_stream_decode_stats(c, &d, &err), PF_OK);
+        assert_int_equal(d.n, fx->stats.n);
+        for (int32_t i = 0; i < d.n; ++i) {
+            const pf_stat_entry *a = &fx->stats.entries[i], *b = &d.entries[i];
+            assert_string_equal(b->key, a->key);
+            assert_true((a->text == NULL) == (b->text == NULL));
+            if (a->text)
+                assert_string_equal(b->text, a->text);
+            else
+                assert_memory_equal(&b->value, &a->value, sizeof a->value);
+        }
+        assert_string_equal(d.entries[0].text, "dg caf\xc3\xa9"); /* replaced in place */
+        assert_int_equal(pf_stream_encode_stats(&d, re, &err), PF_OK);
+        pf_stats_data_release(&d);
     } else if (strcmp(c->tag, "XTRA") == 0) {
         assert_int_equal(c->version, 3);
         assert_int_equal(c->size, sizeof XTRA);
@@ -341,6 +368,12 @@ static void test_tag_table(void **state)
         /* SURF 2: triangle parts (caps), tests/test_stream_caps.c */
         assert_int_equal(pf_stream_tag_version(KNOWN[i]), strcmp(KNOWN[i], "SURF") == 0 ? 2 : 1);
     }
+    /* CKPT 2: the run's counters; STAT: a run's statistics, a record like INFO */
+    assert_int_equal(pf_stream_tag_version("CKPT"), 2);
+    assert_true(pf_stream_version_is_read("CKPT", 1) && pf_stream_version_is_read("CKPT", 2));
+    assert_int_equal(pf_stream_tag_version("STAT"), 1);
+    assert_true(pf_stream_tag_is_known("STAT"));
+    assert_false(pf_stream_tag_is_critical("STAT") || pf_stream_tag_is_mesh_dependent("STAT"));
     static const char *const UNKNOWN[] = {"XTRA", "mesh", "MES", "MESHX", ""};
     for (int i = 0; i < 5; ++i) {
         assert_false(pf_stream_tag_is_known(UNKNOWN[i]));

@@ -147,6 +147,10 @@ static inline pf_status decode_known(const pf_chunk *c, pf_error *err)
         size_t n = 0;
         s = pf_stream_decode_scene(c, &json, &n, err);
         pf_free(json);
+    } else if (strcmp(c->tag, "STAT") == 0) {
+        pf_stats_data d = {0};
+        s = pf_stream_decode_stats(c, &d, err);
+        pf_stats_data_release(&d);
     } else if (strcmp(c->tag, "END_") == 0) {
         pf_end_data d;
         s = pf_stream_decode_end(c, &d, err);

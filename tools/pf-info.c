@@ -18,6 +18,8 @@ static const char USAGE[] =
     "  FRAM  consecutive frames as one entry: frame count, time range, largest displacement\n"
     "  STRS  consecutive stress chunks as one entry: count, largest value\n"
     "  CKPT  pf-sim's checkpoints among those frames: count, the last one's frame\n"
+    "  STAT  pf-sim's run statistics: method, the error indicator and what it measures,\n"
+    "        unknowns, frames, steps, factorisations, solves (docs/scene.md)\n"
     "  SCEN  the scene as simulated (JSON, every key, overrides applied)\n"
     "  others: tag, version, size; unknown chunks are listed, not interpreted\n"
     "and at the end every mesh of the stream (a refining or cutting run has several) with the\n"
@@ -389,6 +391,37 @@ static void print_groups(const info *in, const pf_chunk *c, const pf_mesh *m)
         printf("]}\n");
 }
 
+/* STAT: a run's statistics, every entry in stream order (those this pf does not know too). */
+static pf_status print_stats(const info *in, const pf_chunk *c, pf_error *err)
+{
+    pf_stats_data d = {0};
+    PF_TRY(pf_stream_decode_stats(c, &d, err));
+    if (in->json)
+        printf("{\"chunk\":\"STAT\",\"offset\":%llu,\"version\":%u,\"stats\":{",
+               (unsigned long long)c->offset, c->version);
+    else
+        printf("STAT  at byte %llu: run statistics, %d entries\n", (unsigned long long)c->offset,
+               (int)d.n);
+    for (int32_t i = 0; i < d.n; ++i) {
+        const pf_stat_entry *e = &d.entries[i];
+        if (in->json) {
+            printf("%s\"%s\":", i ? "," : "", e->key); /* keys need no escapes */
+            if (e->text)
+                json_string(e->text, strlen(e->text));
+            else
+                printf("%.17g", e->value);
+        } else if (e->text) {
+            printf("      %s %s\n", e->key, e->text);
+        } else {
+            printf("      %s %.6g\n", e->key, e->value);
+        }
+    }
+    if (in->json)
+        printf("}}\n");
+    pf_stats_data_release(&d);
+    return PF_OK;
+}
+
 /* SCEN: the JSON as stored (docs/scene.md: every key, the overrides applied). */
 static pf_status print_scene(info *in, const pf_chunk *c, pf_error *err)
 {
@@ -439,6 +472,8 @@ static pf_status print_chunk(info *in, const pf_chunk *c, pf_error *err)
     if (strcmp(c->tag, "CKPT") == 0)
         return add_checkpoint(in, c, err);
     print_frames(in);
+    if (strcmp(c->tag, "STAT") == 0)
+        return print_stats(in, c, err);
     PF_TRY(pf_stream_state_take(&in->st, c, err)); /* the id checks of WGHT and the others */
     if (strcmp(c->tag, "MESH") == 0) {
         PF_TRY(check_mesh_id(in, c, err));

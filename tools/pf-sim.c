@@ -22,7 +22,8 @@ static const char USAGE[] =
     "\n"
     "Simulates the stream's MESH as the scene says (docs/scene.md) and writes the stream on:\n"
     "every input chunk except earlier frames, then INFO, SCEN, and one FRAM (stitched nodal\n"
-    "displacements) and STRS (von Mises stress per element) per frame, and checkpoints (CKPT).\n"
+    "displacements) and STRS (von Mises stress per element) per frame, checkpoints (CKPT)\n"
+    "and STAT (statistics).\n"
     "Without a scene file, the defaults drop the body under gravity onto a ground plane below\n"
     "it. Contact with the ground and the scene's obstacles acts at the mesh's boundary nodes or,\n"
     "when the stream carries embedding weights (WGHT, from pf-embed) for its SURF, at the\n"
@@ -129,6 +130,9 @@ typedef struct run {
     bool checkpoint_given; /* --checkpoint-every was given */
     int32_t checkpoints;   /* CKPT chunks written (or copied, when resuming) */
     pf_buffer checkpoint;  /* scratch for CKPT payloads */
+    /* the whole run's counters (STAT, CKPT) are base + the simulator's now - at_restore: a
+     * resumed run continues those of the checkpoint it restored */
+    pf_run_counts base, at_restore;
     const char *resume_path;
     int64_t first_written; /* --frames A:B: frames before A are simulated, not written */
     char frames_last[24];  /* --frames A:B: B, the frames override */
@@ -290,7 +294,7 @@ static void build_scene(run *r, pf_scene *scene)
 }
 
 /* Passes every input chunk on except the ones this run replaces (scene, frames, stress,
- * checkpoints, END_), keeping the last MESH. */
+ * checkpoints, statistics of an earlier run, END_), keeping the last MESH. */
 static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
 {
     for (;;) {
@@ -302,7 +306,7 @@ static pf_status copy_input(run *r, pf_stream_reader *in, pf_error *err)
         if (!strcmp(c.tag, "END_"))
             continue;
         if (!strcmp(c.tag, "FRAM") || !strcmp(c.tag, "STRS") || !strcmp(c.tag, "SCEN") ||
-            !strcmp(c.tag, "CKPT"))
+            !strcmp(c.tag, "CKPT") || !strcmp(c.tag, "STAT"))
             continue;
         PF_TRY(pf_stream_state_take(&r->input, &c, err)); /* MESH, SURF, WGHT and their ids */
         PF_TRY(pf_stream_write_raw(r->out, &c, err));
@@ -374,65 +378,6 @@ static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error 
     return st;
 }
 
-static void print_summary(const run *r, const pf_sim *sim)
-{
-    const pf_sim_stats *st = pf_sim_get_stats(sim);
-    char samples[64] = "";
-    if (st->contact_samples > 0)
-        snprintf(samples, sizeof samples, " and %d samples on large triangles",
-                 (int)st->contact_samples);
-    if (r->scene.method == PF_METHOD_CG)
-        fprintf(stderr,
-                "pf-sim: cg, %d elements (%d closed forms, MFS skipped; %d harmonic, %lld "
-                "kernels, basis %.3f s), %lld unknowns, %lld steps; ",
-                (int)st->elements, (int)st->closed_form_elems, (int)st->harmonic_elems,
-                (long long)st->kernels, st->basis_seconds, (long long)st->dofs,
-                (long long)st->steps);
-    else
-        fprintf(stderr,
-                "pf-sim: dg, %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; ",
-                (int)st->elements, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
-                (long long)st->steps);
-    fprintf(stderr,
-            "setup %.3f s wall / %.3f s cpu, assembly %.3f s wall / %.3f s cpu, factorisation "
-            "%.3f s (%lld), solves %.3f s; contact at %d %s%s: %lld contacts, search %.3f s, "
-            "positions %.3f s\n",
-            st->setup_seconds, st->setup_cpu_seconds, st->assemble_seconds,
-            st->assemble_cpu_seconds, st->factor_seconds,
-            (long long)st->factorisations, st->solve_seconds, (int)st->contact_points,
-            r->embedded ? "surface vertices" : "nodes", samples, (long long)st->contacts,
-            st->contact_seconds, st->embed_seconds);
-    if (r->scene.method == PF_METHOD_CG)
-        fprintf(stderr,
-                "pf-sim: error indicator %.3g (largest boundary error of the shape functions, "
-                "docs/basis.md)\n",
-                pf_sim_error_indicator(sim));
-    else
-        fprintf(stderr,
-                "pf-sim: error indicator %.3g (largest jump between elements at a node over the "
-                "largest displacement)\n",
-                pf_sim_error_indicator(sim));
-    if (st->refinements > 0)
-        fprintf(stderr,
-                "pf-sim: mesh changes: %d (%lld elements split, %lld groups merged back; %d -> "
-                "%d elements), %.3f s cpu; integrals %lld reused, %lld computed; shape "
-                "functions %lld reused, %lld built; embedding rows %lld of %lld recomputed "
-                "(%.3f s cpu)\n",
-                (int)st->refinements, (long long)st->elements_split, (long long)st->elements_merged,
-                (int)r->mesh.n_elems, (int)st->elements, st->refine_seconds,
-                (long long)st->integrals_reused, (long long)st->integrals_computed,
-                (long long)st->basis_reused, (long long)st->basis_computed,
-                (long long)st->embed_rows_computed, (long long)st->embed_rows,
-                st->refine_embed_seconds);
-    if (st->cuts > 0)
-        fprintf(stderr,
-                "pf-sim: cuts: %d (%lld elements split), %d bodies, %.3g dropped (volume %.3g), "
-                "%.3f s cpu\n",
-                (int)st->cuts, (long long)st->elements_cut, (int)st->bodies, st->dropped_mass,
-                st->dropped_volume, st->cut_seconds);
-    pf_cli_solver_summary(&st->solver);
-}
-
 /* --stats FILE: the statistics as JSON, written atomically. */
 static pf_status write_stats(const run *r, const pf_sim *sim, pf_error *err)
 {
@@ -442,6 +387,18 @@ static pf_status write_stats(const run *r, const pf_sim *sim, pf_error *err)
     pf_status st = pf_write_file_atomic(r->stats_path, json, strlen(json), "statistics", err);
     pf_free(json);
     return st;
+}
+
+/* The whole run's counters so far (a resumed run's include those before its checkpoint). */
+static pf_run_counts run_counts(const run *r, const pf_sim *sim)
+{
+    pf_run_counts c;
+    pf_sim_run_counts(sim, &c);
+    c.steps = r->base.steps + (c.steps - r->at_restore.steps);
+    c.factorisations = r->base.factorisations + (c.factorisations - r->at_restore.factorisations);
+    c.solves = r->base.solves + (c.solves - r->at_restore.solves);
+    c.pcg_iterations = r->base.pcg_iterations + (c.pcg_iterations - r->at_restore.pcg_iterations);
+    return c;
 }
 
 /* A CKPT after frames 0, N, 2N, ... and the last one (the stream format's CKPT); none in a
@@ -455,10 +412,12 @@ static pf_status write_checkpoint(run *r, pf_sim *sim, int32_t index, bool last,
     r->checkpoint.size = 0;
     pf_checkpoint_header h = {.mesh_id = pf_sim_mesh(sim)->id,
                               .frame = (uint32_t)index,
-                              .every = (uint32_t)r->checkpoint_every};
+                              .every = (uint32_t)r->checkpoint_every,
+                              .counts = run_counts(r, sim)};
     PF_TRY(pf_stream_encode_checkpoint_header(&h, &r->checkpoint, err));
     PF_TRY(pf_sim_checkpoint(sim, &r->checkpoint, err));
-    PF_TRY(pf_stream_write_chunk(r->out, "CKPT", 1, r->checkpoint.data, r->checkpoint.size, err));
+    PF_TRY(pf_stream_write_chunk(r->out, "CKPT", pf_stream_tag_version("CKPT"), r->checkpoint.data,
+                                 r->checkpoint.size, err));
     r->checkpoints++;
     return PF_OK;
 }
@@ -478,8 +437,14 @@ static pf_status restore_checkpoint(run *r, pf_sim *sim, const pf_chunk *restore
 {
     pf_checkpoint_header h = {0};
     pf_status st = pf_stream_checkpoint_header(restore, &h, err);
+    if (st >= 0 && !h.have_counts)
+        st = pf_error_set(err, PF_ERR_UNSUPPORTED, __FILE__, __LINE__,
+                          "a version 1 checkpoint, without the run's counters for its STAT "
+                          "chunk (an older pf-sim wrote it): rerun");
     if (st >= 0)
         st = pf_sim_restore(sim, h.state, h.state_size, err);
+    r->base = h.counts;
+    pf_sim_run_counts(sim, &r->at_restore); /* the set-up of this process is not the run's */
     if (st < 0)
         pf_error_prefix(err, "%s: chunk CKPT at byte %llu", r->resume_path,
                         (unsigned long long)restore->offset);
@@ -573,8 +538,17 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     if (st >= 0 && !r->scene.is_static)
         st = advance(r, sim, first, err);
     pf_cli_progress_done(&r->bar);
+    if (st >= 0 || err->status == PF_ERR_NUMERIC) { /* also after a diverged frame */
+        pf_error stat_err = {0};
+        pf_run_counts counts = run_counts(r, sim);
+        pf_status ss = pf_cli_write_stat(r->out, sim, &counts, &stat_err);
+        if (ss < 0 && st >= 0) {
+            *err = stat_err;
+            st = ss;
+        }
+    }
     if (!r->quiet)
-        print_summary(r, sim);
+        pf_cli_sim_summary(sim, r->embedded, r->mesh.n_elems);
     if (r->stats_path) { /* also after a failed frame: the statistics of what was done */
         pf_error stats_err = {0};
         pf_status ss = write_stats(r, sim, &stats_err);

@@ -1,4 +1,4 @@
-/* pf-sim's solver summary line (sim_summary.h). */
+/* pf-sim's summary lines and its STAT chunk (sim_summary.h). */
 #include "sim_summary.h"
 
 #include <stdio.h>
@@ -37,4 +37,74 @@ void pf_cli_solver_summary(const pf_solver_stats *ss)
             ss->pcg_solves ? (double)ss->iterations / (double)ss->pcg_solves : 0.0,
             (int)ss->max_iterations, ss->factor_seconds, ss->factor_cpu_seconds, ss->solve_seconds,
             ss->solve_cpu_seconds, ss->factor_iterations);
+}
+
+void pf_cli_sim_summary(const pf_sim *sim, bool embedded, int32_t input_elems)
+{
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    bool is_cg = st->closed_form_elems + st->harmonic_elems > 0; /* dg counts neither */
+    char samples[64] = "";
+    if (st->contact_samples > 0)
+        snprintf(samples, sizeof samples, " and %d samples on large triangles",
+                 (int)st->contact_samples);
+    if (is_cg)
+        fprintf(stderr,
+                "pf-sim: cg, %d elements (%d closed forms, MFS skipped; %d harmonic, %lld "
+                "kernels, basis %.3f s), %lld unknowns, %lld steps; ",
+                (int)st->elements, (int)st->closed_form_elems, (int)st->harmonic_elems,
+                (long long)st->kernels, st->basis_seconds, (long long)st->dofs,
+                (long long)st->steps);
+    else
+        fprintf(stderr,
+                "pf-sim: dg, %d elements, %lld unknowns, penalty %g (%d doublings), %lld steps; ",
+                (int)st->elements, (long long)st->dofs, st->penalty, (int)st->penalty_doublings,
+                (long long)st->steps);
+    fprintf(stderr,
+            "setup %.3f s wall / %.3f s cpu, assembly %.3f s wall / %.3f s cpu, factorisation "
+            "%.3f s (%lld), solves %.3f s; contact at %d %s%s: %lld contacts, search %.3f s, "
+            "positions %.3f s\n",
+            st->setup_seconds, st->setup_cpu_seconds, st->assemble_seconds,
+            st->assemble_cpu_seconds, st->factor_seconds, (long long)st->factorisations,
+            st->solve_seconds, (int)st->contact_points, embedded ? "surface vertices" : "nodes",
+            samples, (long long)st->contacts, st->contact_seconds, st->embed_seconds);
+    if (is_cg)
+        fprintf(stderr,
+                "pf-sim: error indicator %.3g (largest boundary error of the shape functions, "
+                "docs/basis.md)\n",
+                pf_sim_error_indicator(sim));
+    else
+        fprintf(stderr,
+                "pf-sim: error indicator %.3g (largest jump between elements at a node over the "
+                "largest displacement)\n",
+                pf_sim_error_indicator(sim));
+    if (st->refinements > 0)
+        fprintf(stderr,
+                "pf-sim: mesh changes: %d (%lld elements split, %lld groups merged back; %d -> "
+                "%d elements), %.3f s cpu; integrals %lld reused, %lld computed; shape "
+                "functions %lld reused, %lld built; embedding rows %lld of %lld recomputed "
+                "(%.3f s cpu)\n",
+                (int)st->refinements, (long long)st->elements_split, (long long)st->elements_merged,
+                (int)input_elems, (int)st->elements, st->refine_seconds,
+                (long long)st->integrals_reused, (long long)st->integrals_computed,
+                (long long)st->basis_reused, (long long)st->basis_computed,
+                (long long)st->embed_rows_computed, (long long)st->embed_rows,
+                st->refine_embed_seconds);
+    if (st->cuts > 0)
+        fprintf(stderr,
+                "pf-sim: cuts: %d (%lld elements split), %d bodies, %.3g dropped (volume %.3g), "
+                "%.3f s cpu\n",
+                (int)st->cuts, (long long)st->elements_cut, (int)st->bodies, st->dropped_mass,
+                st->dropped_volume, st->cut_seconds);
+    pf_cli_solver_summary(&st->solver);
+}
+
+pf_status pf_cli_write_stat(pf_stream_writer *w, const pf_sim *sim, const pf_run_counts *counts,
+                            pf_error *err)
+{
+    pf_stats_data d = {0};
+    pf_status st = pf_sim_stats_entries(sim, counts, &d, err);
+    if (st >= 0)
+        st = pf_stream_write_stats(w, &d, err);
+    pf_stats_data_release(&d);
+    return st;
 }

@@ -35,12 +35,12 @@ typedef struct tag_entry {
 } tag_entry;
 
 /* SURF 2 adds the part of each triangle (model or cap); a surface without caps is still written
- * as SURF 1, byte for byte. */
+ * as SURF 1, byte for byte. CKPT 2 adds the run's counters to the header (pf_run_counts). */
 static const tag_entry TAGS[] = {
-    {"INFO", 1, 0, false, false}, {"SCEN", 1, 0, true, false}, {"MESH", 1, 0, true, false},
-    {"SURF", 2, 1, true, false},  {"WGHT", 1, 0, true, true},  {"FRAM", 1, 0, true, true},
-    {"STRS", 1, 0, false, true},  {"END_", 1, 0, true, false}, {"GRPS", 1, 0, false, true},
-    {"CKPT", 1, 0, false, true},
+    {"INFO", 1, 0, false, false}, {"SCEN", 1, 0, true, false},  {"MESH", 1, 0, true, false},
+    {"SURF", 2, 1, true, false},  {"WGHT", 1, 0, true, true},   {"FRAM", 1, 0, true, true},
+    {"STRS", 1, 0, false, true},  {"END_", 1, 0, true, false},  {"GRPS", 1, 0, false, true},
+    {"CKPT", 2, 1, false, true},  {"STAT", 1, 0, false, false},
 };
 
 static const tag_entry *find_tag(const char *tag)
@@ -638,4 +638,11 @@ pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, p
     w->scratch.size = 0;
     PF_TRY(pf_stream_encode_stress(s, &w->scratch, err));
     return write_scratch(w, "STRS", err);
+}
+
+pf_status pf_stream_write_stats(pf_stream_writer *w, const pf_stats_data *d, pf_error *err)
+{
+    w->scratch.size = 0;
+    PF_TRY(pf_stream_encode_stats(d, &w->scratch, err));
+    return write_scratch(w, "STAT", err);
 }

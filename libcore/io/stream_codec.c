@@ -539,14 +539,23 @@ pf_status pf_stream_frame_index(const pf_chunk *c, uint32_t *index, pf_error *er
 
 pf_status pf_stream_checkpoint_header(const pf_chunk *c, pf_checkpoint_header *h, pf_error *err)
 {
+    memset(h, 0, sizeof *h);
     cursor k;
     PF_TRY(begin(c, "CKPT", &k, err));
     const unsigned char *hp = NULL;
-    PF_TRY(take(&k, 1, PF_CHECKPOINT_HEADER_BYTES, &hp, "header", err));
+    h->have_counts = c->version >= 2;
+    uint64_t bytes = h->have_counts ? PF_CHECKPOINT_HEADER_BYTES : PF_CHECKPOINT_HEADER_BYTES_V1;
+    PF_TRY(take(&k, 1, bytes, &hp, "header", err));
     h->mesh_id = le_get_u64(hp);
     h->frame = le_get_u32(hp + 8);
     h->every = le_get_u32(hp + 12);
-    h->state = hp + PF_CHECKPOINT_HEADER_BYTES;
+    if (h->have_counts) {
+        h->counts.steps = le_get_u64(hp + 16);
+        h->counts.factorisations = le_get_u64(hp + 24);
+        h->counts.solves = le_get_u64(hp + 32);
+        h->counts.pcg_iterations = le_get_u64(hp + 40);
+    }
+    h->state = hp + bytes;
     h->state_size = k.left;
     return PF_OK;
 }
@@ -558,6 +567,10 @@ pf_status pf_stream_encode_checkpoint_header(const pf_checkpoint_header *h, pf_b
     le_put_u64(b, h->mesh_id);
     le_put_u32(b + 8, h->frame);
     le_put_u32(b + 12, h->every);
+    le_put_u64(b + 16, h->counts.steps);
+    le_put_u64(b + 24, h->counts.factorisations);
+    le_put_u64(b + 32, h->counts.solves);
+    le_put_u64(b + 40, h->counts.pcg_iterations);
     return pf_buffer_append(out, b, sizeof b, err);
 }
 

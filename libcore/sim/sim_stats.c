@@ -3,9 +3,12 @@
  * statistics"; times are seconds, wall-clock unless the key says cpu. */
 #include <pf/sim.h>
 
+#include <math.h>
+
 #include <cjson/cJSON.h>
 
 #include "scene_json.h"
+#include "sim_internal.h"
 
 static void add_int(cJSON *o, const char *key, int64_t v)
 {
@@ -100,4 +103,47 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
         cJSON_AddNumberToObject(cuts, "seconds", st->cut_seconds);
     }
     return pf_sim_json_print(root, "the run's statistics", json, err);
+}
+
+void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c)
+{
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    c->steps = (uint64_t)st->steps;
+    c->factorisations = (uint64_t)st->factorisations;
+    c->solves = (uint64_t)st->solver.solves;
+    c->pcg_iterations = (uint64_t)st->solver.iterations;
+}
+
+pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
+                               pf_error *err)
+{
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    const pf_scene *sc = sim->scene;
+    bool dg = sc->method == PF_METHOD_DG;
+    pf_run_counts own;
+    pf_sim_run_counts(sim, &own);
+    if (!counts)
+        counts = &own;
+    PF_TRY(pf_stats_data_set_text(d, "method", dg ? "dg" : "cg", err));
+    if (dg) {
+        PF_TRY(pf_stats_data_set_number(d, "degree", sc->degree, err));
+        PF_TRY(pf_stats_data_set_text(d, "flux", sc->flux == PF_FLUX_BZ ? "bz" : "ip", err));
+    }
+    double indicator = pf_sim_error_indicator(sim);
+    if (isfinite(indicator))
+        PF_TRY(pf_stats_data_set_number(d, "error_indicator", indicator, err));
+    PF_TRY(pf_stats_data_set_text(
+        d, "error_measure", dg ? "node_jump_over_displacement" : "basis_boundary_error", err));
+    PF_TRY(pf_stats_data_set_number(d, "elements", pf_sim_mesh(sim)->n_elems, err));
+    PF_TRY(pf_stats_data_set_number(d, "unknowns", (double)st->dofs, err));
+    PF_TRY(pf_stats_data_set_number(d, "frames", pf_sim_frame_index(sim), err));
+    if (isfinite(pf_sim_time(sim)))
+        PF_TRY(pf_stats_data_set_number(d, "simulated_time", pf_sim_time(sim), err));
+    PF_TRY(pf_stats_data_set_number(d, "steps", (double)counts->steps, err));
+    PF_TRY(pf_stats_data_set_number(d, "factorisations", (double)counts->factorisations, err));
+    PF_TRY(pf_stats_data_set_number(d, "solves", (double)counts->solves, err));
+    PF_TRY(pf_stats_data_set_number(d, "pcg_iterations", (double)counts->pcg_iterations, err));
+    PF_TRY(pf_stats_data_set_text(d, "solver", pf_solver_method_name(st->solver.method), err));
+    PF_TRY(pf_stats_data_set_number(d, "mesh_changes", st->refinements, err));
+    return pf_stats_data_set_number(d, "cuts", st->cuts, err);
 }

@@ -94,6 +94,11 @@ static int decode_and_reencode(const pf_chunk *c, pf_buffer *re)
         if ((s = pf_stream_decode_groups(c, &m, &err)) == PF_OK)
             require(pf_stream_encode_groups(&m, re, &err) == PF_OK, "decoded GRPS re-encodes");
         pf_mesh_groups_release(&m);
+    } else if (strcmp(c->tag, "STAT") == 0) {
+        pf_stats_data d = {0};
+        if ((s = pf_stream_decode_stats(c, &d, &err)) == PF_OK)
+            require(pf_stream_encode_stats(&d, re, &err) == PF_OK, "decoded STAT re-encodes");
+        pf_stats_data_release(&d);
     } else if (strcmp(c->tag, "END_") == 0) {
         pf_end_data d;
         if ((s = pf_stream_decode_end(c, &d, &err)) == PF_OK)

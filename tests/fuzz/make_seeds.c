@@ -83,6 +83,7 @@ enum {
     FULL_STRS1,
     FULL_FRAM1,
     FULL_STRS6,
+    FULL_STAT,
     FULL_END
 };
 
@@ -145,6 +146,11 @@ static bytes full_stream(bool finish)
         check(pf_stream_write_stress(w, &st, &err), "STRS", &err);
         pf_stress_data_release(&st);
     }
+    pf_stats_data sd = {0};
+    check(pf_stats_data_set_text(&sd, "method", "dg", &err), "stats", &err);
+    check(pf_stats_data_set_number(&sd, "error_indicator", 0.0125, &err), "stats", &err);
+    check(pf_stream_write_stats(w, &sd, &err), "STAT", &err);
+    pf_stats_data_release(&sd);
     if (finish)
         check(pf_stream_writer_finish(w, &err), "END_", &err);
     pf_stream_writer_destroy(&w);
@@ -284,6 +290,15 @@ static void info_length(bytes *b)
 {
     payload_edit(b, FULL_INFO, 0, 0xfffffff0u, 4);
 }
+/* STAT: u32 n, then the first entry's key length */
+static void stat_key_length(bytes *b)
+{
+    payload_edit(b, FULL_STAT, 4, 0xfffffff0u, 4);
+}
+static void stat_count(bytes *b)
+{
+    payload_edit(b, FULL_STAT, 0, 0xffffffffu, 4);
+}
 
 int main(int argc, char **argv)
 {
@@ -347,6 +362,8 @@ int main(int argc, char **argv)
         {"strs-3-components.pfs", strs_components},
         {"info-bad-utf8.pfs", info_utf8},
         {"info-length.pfs", info_length},
+        {"stat-key-length.pfs", stat_key_length},
+        {"stat-count-ffffffff.pfs", stat_count},
     };
     for (size_t i = 0; i < sizeof EDITS / sizeof EDITS[0]; ++i)
         save_edited(dir, EDITS[i].name, EDITS[i].edit);

@@ -81,6 +81,46 @@ if ! cat "$tmp/huge.pfs" | "$bin/pf-render" --quiet --size 40x30 --out "$tmp/r-h
   echo "FAIL: pf-render on a pipe: frame 1 not named: $(cat "$tmp/err")"; failures=$((failures + 1))
 fi
 
+# A STAT chunk (pf-sim's run statistics) cut short, with a damaged entry behind a valid CRC, and
+# of a version this pf does not read: the message names STAT and its byte offset; the chunks
+# before it are printed; the unknown version is listed and skipped (STAT is not critical).
+printf '{"ground": false, "time": {"frames": 1, "dt": 0.01}}' >"$tmp/stat.json"
+"$bin/pf-sim" "$tmp/stat.json" --quiet --input "$tmp/good.pfs" >"$tmp/stat.pfs" ||
+  { echo "FAIL: pf-sim for a STAT chunk"; exit 1; }
+stat_at=$(python3 - "$tmp/stat.pfs" <<'PY'
+import struct, sys
+data = open(sys.argv[1], "rb").read()
+at = 8
+while data[at:at + 4] != b"STAT":
+    at += 20 + struct.unpack_from("<Q", data, at + 8)[0]
+print(at)
+PY
+)
+head -c $((stat_at + 40)) "$tmp/stat.pfs" >"$tmp/stat-cut.pfs"
+expect 1 "truncated inside chunk STAT at byte $stat_at" "$bin/pf-info" "$tmp/stat-cut.pfs"
+check "the frames before the cut STAT are printed" grep -q "^FRAM" "$tmp/out"
+# the first key's length made 4000, the CRC recomputed: the decoder, not the framing, refuses it
+python3 - "$tmp/stat.pfs" "$stat_at" "$tmp/stat-key.pfs" "$tmp/stat-v9.pfs" <<'PY'
+import struct, sys, zlib
+data = bytearray(open(sys.argv[1], "rb").read())
+at = int(sys.argv[2])
+size = struct.unpack_from("<Q", data, at + 8)[0]
+v9 = bytearray(data)
+struct.pack_into("<I", v9, at + 4, 9)
+open(sys.argv[4], "wb").write(v9)
+struct.pack_into("<I", data, at + 16 + 4, 4000)
+struct.pack_into("<I", data, at + 16 + size, zlib.crc32(bytes(data[at + 16:at + 16 + size])))
+open(sys.argv[3], "wb").write(data)
+PY
+expect 1 "chunk STAT at byte $stat_at: entry 0 at payload byte 4: a key of 4000 bytes runs past the payload" \
+  "$bin/pf-info" "$tmp/stat-key.pfs"
+expect 1 "chunk STAT at byte $stat_at" "$bin/pf-info" --json "$tmp/stat-key.pfs"
+expect 0 "" "$bin/pf-info" "$tmp/stat-v9.pfs"
+check "STAT version 9 is listed as skipped" \
+  grep -q "^STAT  at byte $stat_at: version 9, .* (a version this pf does not read: skipped)" "$tmp/out"
+# tools that read frames read past a damaged STAT's contents (they do not decode it)
+expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/e-stat" "$tmp/stat-key.pfs"
+
 # A stream from stdin works like a file.
 checks=$((checks + 1))
 "$bin/pf-info" <"$tmp/good.pfs" >"$tmp/stdin.txt" 2>&1 || { echo "FAIL: pf-info from stdin"; failures=$((failures + 1)); }

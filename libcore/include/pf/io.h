@@ -50,18 +50,18 @@ typedef struct pf_chunk {
 } pf_chunk;
 
 /* ---- the chunk table ----------------------------------------------------------------------------
- * Known tags: INFO SCEN MESH SURF WGHT FRAM STRS END_ GRPS CKPT. Critical: a tool that consumes
- * such a chunk and cannot decode it (an unknown version) must stop rather than skip it (SCEN MESH
- * SURF WGHT FRAM END_). Mesh-dependent: refers to the nodes or elements of the latest MESH and is
- * dropped or recomputed by a tool that emits a new MESH (WGHT FRAM STRS GRPS CKPT). Unknown tags
- * are neither; tools pass them on byte for byte. tag is a NUL-terminated string; anything but 4
- * characters is unknown. */
+ * Known tags: INFO SCEN MESH SURF WGHT FRAM STRS END_ GRPS CKPT STAT. Critical: a tool that
+ * consumes such a chunk and cannot decode it (an unknown version) must stop rather than skip it
+ * (SCEN MESH SURF WGHT FRAM END_). Mesh-dependent: refers to the nodes or elements of the latest
+ * MESH and is dropped or recomputed by a tool that emits a new MESH (WGHT FRAM STRS GRPS CKPT).
+ * Unknown tags are neither; tools pass them on byte for byte. tag is a NUL-terminated string;
+ * anything but 4 characters is unknown. */
 bool pf_stream_tag_is_known(const char *tag);
 bool pf_stream_tag_is_critical(const char *tag);
 bool pf_stream_tag_is_mesh_dependent(const char *tag);
 /* The newest version of a known chunk that this pf reads and writes; 0 for an unknown tag. */
 uint32_t pf_stream_tag_version(const char *tag);
-/* Whether this pf's decoder reads version of the known chunk tag (SURF: 1 and 2, the others:
+/* Whether this pf's decoder reads version of the known chunk tag (SURF, CKPT: 1 and 2, others:
  * pf_stream_tag_version only); false for an unknown tag. */
 bool pf_stream_version_is_read(const char *tag, uint32_t version);
 /* PF_ERR_UNSUPPORTED (naming chunk, offset and versions) when c is a known chunk of a version this
@@ -204,18 +204,28 @@ pf_status pf_stream_decode_frame(const pf_chunk *c, pf_frame_data *f, pf_error *
  * size only (pf_stream_decode_frame checks the rest). */
 pf_status pf_stream_frame_index(const pf_chunk *c, uint32_t *index, pf_error *err);
 pf_status pf_stream_decode_stress(const pf_chunk *c, pf_stress_data *s, pf_error *err);
-/* CKPT: pf-sim's checkpoint, a 16-byte header and the simulator's state (pf_sim_checkpoint). */
-enum { PF_CHECKPOINT_HEADER_BYTES = 16 };
+/* CKPT: pf-sim's checkpoint, a header (version 1: 16 bytes; version 2: 48, with the run's
+ * counters) and the simulator's state (pf_sim_checkpoint). */
+enum { PF_CHECKPOINT_HEADER_BYTES = 48, PF_CHECKPOINT_HEADER_BYTES_V1 = 16 };
+/* What a run did up to a checkpoint, so that a resumed run's STAT counts the whole run. */
+typedef struct pf_run_counts {
+    uint64_t steps;          /* time steps */
+    uint64_t factorisations; /* numeric factorisations, set-up included */
+    uint64_t solves;         /* linear solves */
+    uint64_t pcg_iterations; /* PCG iterations, all solves */
+} pf_run_counts;
 typedef struct pf_checkpoint_header {
     uint64_t mesh_id;           /* the MESH simulated */
     uint32_t frame;             /* the FRAM index it follows */
     uint32_t every;             /* the run's frames between checkpoints */
+    pf_run_counts counts;       /* the run's counters at the checkpoint (version 2) */
+    bool have_counts;           /* decode: false for a version 1 chunk (counts zero) */
     const unsigned char *state; /* decode: the simulator's state in the payload (borrowed) */
     uint64_t state_size;
 } pf_checkpoint_header;
-/* Checks the tag, version and header size only (pf_sim_restore checks the state). */
+/* Checks the tag, version (1 or 2) and header size only (pf_sim_restore checks the state). */
 pf_status pf_stream_checkpoint_header(const pf_chunk *c, pf_checkpoint_header *h, pf_error *err);
-/* Appends the header's 16 bytes (state and state_size unused). */
+/* Appends the version 2 header's 48 bytes (state, state_size and have_counts unused). */
 pf_status pf_stream_encode_checkpoint_header(const pf_checkpoint_header *h, pf_buffer *out,
                                              pf_error *err);
 pf_status pf_stream_decode_end(const pf_chunk *c, pf_end_data *d, pf_error *err);
@@ -227,6 +237,30 @@ pf_status pf_stream_decode_end(const pf_chunk *c, pf_end_data *d, pf_error *err)
 pf_status pf_stream_encode_groups(const pf_mesh *m, pf_buffer *out, pf_error *err);
 pf_status pf_stream_decode_groups(const pf_chunk *c, pf_mesh *m, pf_error *err);
 
+/* STAT: a run's statistics (pf-sim writes one before END_), docs/stream-format.md. Named
+ * entries, each a number or a text; keys are 1 to 64 characters of a-z, 0-9 and _, unique. The
+ * set functions replace the value of a key already present (keeping its place) or append it;
+ * PF_ERR_INVALID for a bad key, a non-finite number or a text that is not UTF-8 without NUL. */
+typedef struct pf_stat_entry {
+    char *key;    /* NUL-terminated */
+    char *text;   /* a text value (NUL-terminated UTF-8), or NULL for a number */
+    double value; /* the number (text NULL), finite */
+} pf_stat_entry;
+typedef struct pf_stats_data {
+    int32_t n, cap;
+    pf_stat_entry *entries; /* [n] in stream order */
+} pf_stats_data;
+pf_status pf_stats_data_set_number(pf_stats_data *d, const char *key, double value, pf_error *err);
+pf_status pf_stats_data_set_text(pf_stats_data *d, const char *key, const char *text,
+                                 pf_error *err);
+/* The entry of key, or NULL. */
+const pf_stat_entry *pf_stats_data_find(const pf_stats_data *d, const char *key);
+void pf_stats_data_release(pf_stats_data *d);
+pf_status pf_stream_encode_stats(const pf_stats_data *d, pf_buffer *out, pf_error *err);
+/* Every count measured against the bytes left before allocating; keys, kinds, texts and numbers
+ * checked: PF_ERR_FORMAT naming the chunk, its offset and the entry. */
+pf_status pf_stream_decode_stats(const pf_chunk *c, pf_stats_data *d, pf_error *err);
+
 /* ---- encode and write in one call (the writer reuses one scratch buffer) --------------------- */
 pf_status pf_stream_write_info(pf_stream_writer *w, const char *producer, const char *version,
                                const char *command, pf_error *err);
@@ -237,6 +271,7 @@ pf_status pf_stream_write_surface(pf_stream_writer *w, const pf_surface *s, pf_e
 pf_status pf_stream_write_weights(pf_stream_writer *w, const pf_weights *wt, pf_error *err);
 pf_status pf_stream_write_frame(pf_stream_writer *w, const pf_frame_data *f, pf_error *err);
 pf_status pf_stream_write_stress(pf_stream_writer *w, const pf_stress_data *s, pf_error *err);
+pf_status pf_stream_write_stats(pf_stream_writer *w, const pf_stats_data *d, pf_error *err);
 
 /* ==== reader state: the latest MESH, SURF, WGHT, STRS and SCEN of a stream ======================
  * Every tool that reads frames keeps the same picture of a stream, and a mesh change mid-stream

@@ -13,6 +13,7 @@
 #include <pf/base.h>
 #include <pf/fem.h>
 #include <pf/geom.h>
+#include <pf/io.h>
 #include <pf/mesh.h>
 #include <pf/cut.h>
 #include <pf/refine.h>
@@ -586,6 +587,19 @@ pf_status pf_sim_refine(pf_sim *sim, int32_t *n_changed, pf_error *err);
  * PF_ERR_NOMEM. */
 pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_seconds,
                             char **json, pf_error *err);
+
+/* The counters a resumed run carries over (a CKPT's header): time steps, factorisations, linear
+ * solves and PCG iterations of this simulator so far, its set-up included. */
+void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c);
+
+/* The run's statistics as the entries of a STAT chunk (docs/stream-format.md), for pf-info:
+ * method, degree and flux (dg), the error indicator and its measure (pf_sim_error_indicator),
+ * elements and unknowns of the current mesh, frames, simulated time, the counters of counts
+ * (NULL: pf_sim_run_counts; a resumed run passes the whole run's), solver, mesh changes and cuts.
+ * Only numbers that the same run reproduces bit for bit: no timings. Appended to d (keys already
+ * there are replaced). A non-finite indicator (a diverged state) is left out. PF_ERR_NOMEM. */
+pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
+                               pf_error *err);
 
 #ifdef __cplusplus
 }

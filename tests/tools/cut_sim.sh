@@ -15,6 +15,7 @@ cp "$tmp/out" "$tmp/dg.pfs"
 check "dg: the blade cut elements ($(stat_of "$tmp/dg.json" elements_cut))" \
   test "$(stat_of "$tmp/dg.json" elements_cut)" -gt 0
 check "dg: the bunny is in two pieces" test "$(stat_of "$tmp/dg.json" bodies)" = 2
+check "dg: every opened face capped" test "$(stat_of "$tmp/dg.json" uncapped_faces)" = 0
 "$bin/pf-info" "$tmp/dg.pfs" >"$tmp/info.txt" 2>&1
 check "pf-info accepts the cut stream" "$bin/pf-info" "$tmp/dg.pfs"
 check "more than one mesh" test "$(sed -n 's/^meshes: //p' "$tmp/info.txt")" -gt 1

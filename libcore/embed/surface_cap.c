@@ -75,19 +75,95 @@ static double seg_dist(double u, double v, const double *s)
     return hypot(wx - t * ex, wy - t * ey);
 }
 
-/* 1 inside the surface, 0 outside, -1 on its section (within tol): crossing parity of a ray
- * along the first projected axis. */
+/* 1 inside the surface, 0 outside, -1 on its section (within tol): on the section of the
+ * surface being built, else the crossing parity of a ray along the first projected axis with
+ * the input surface's section (closed curves: the surface being built is open where the caps of
+ * the groups still to come are missing). */
 static int inside_section(const sc_state *c, double u, double v)
 {
-    int inside = 0;
-    for (int64_t i = 0; i < c->n_seg; ++i) {
-        const double *s = c->seg + 4 * i;
-        if (seg_dist(u, v, s) <= c->g->tol)
+    for (int64_t i = 0; i < c->n_seg; ++i)
+        if (seg_dist(u, v, c->seg + 4 * i) <= c->g->tol)
             return -1;
+    int inside = 0;
+    for (int64_t i = 0; i < c->n_iseg; ++i) {
+        const double *s = c->iseg + 4 * i;
         if ((s[1] > v) != (s[3] > v) && u < s[0] + (v - s[1]) * (s[2] - s[0]) / (s[3] - s[1]))
             inside ^= 1;
     }
     return inside;
+}
+
+/* ---- the input surface's section ---------------------------------------------------------------
+ * Each vertex classified once against the group's plane; the vertices on it counted as above it
+ * (the plane lowered by an infinitesimal), so that the section is closed curves whatever lies in
+ * the plane (the caps of earlier cuts on it): a triangle with corners below and not below gives
+ * the segment between its two edges that cross, at the edge's corner on the plane or its
+ * crossing (computed from its lower end in position order, so that both triangles of the edge get
+ * the same bits). */
+
+static pf_status push_iseg(sc_state *c, pf_vec3 p, pf_vec3 q, pf_error *err)
+{
+    if (c->n_iseg == c->cap_iseg) {
+        int64_t cap = c->cap_iseg ? 2 * c->cap_iseg : 256;
+        double *n = pf_realloc_array(c->iseg, 4 * (size_t)cap, sizeof *n);
+        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for a section of %lld segments",
+                 (long long)cap);
+        c->iseg = n;
+        c->cap_iseg = cap;
+    }
+    double *s = c->iseg + 4 * c->n_iseg++;
+    s[0] = pf_v3_get(p, c->g->ax[0]), s[1] = pf_v3_get(p, c->g->ax[1]);
+    s[2] = pf_v3_get(q, c->g->ax[0]), s[3] = pf_v3_get(q, c->g->ax[1]);
+    return PF_OK;
+}
+
+static bool below(const double *a, const double *b)
+{
+    for (int k = 0; k < 3; ++k)
+        if (a[k] != b[k])
+            return a[k] < b[k];
+    return false;
+}
+
+/* Where the edge a-b of the input (on opposite sides) meets the plane. */
+static pf_vec3 in_edge_point(const sc_state *c, uint32_t a, uint32_t b)
+{
+    const double *xa = c->in->x + 3 * (size_t)a, *xb = c->in->x + 3 * (size_t)b;
+    if (below(xb, xa)) {
+        const double *t = xa;
+        xa = xb, xb = t;
+    }
+    pf_vec3 pa = pf_v3_load(xa), pb = pf_v3_load(xb);
+    double da = pf_plane_signed_distance(c->g->plane, pa),
+           db = pf_plane_signed_distance(c->g->plane, pb);
+    return pf_v3_add(pa, pf_v3_scale(pf_v3_sub(pb, pa), da / (da - db)));
+}
+
+static pf_status input_section(sc_state *c, pf_error *err)
+{
+    const pf_surface *in = c->in;
+    c->n_iseg = 0;
+    for (int32_t i = 0; i < in->n_verts; ++i) {
+        double d = pf_plane_signed_distance(c->g->plane, pf_v3_load(in->x + 3 * (size_t)i));
+        c->in_cls[i] = (int8_t)(d > c->g->tol ? 1 : d < -c->g->tol ? -1 : 0);
+    }
+    for (int32_t t = 0; t < in->n_tris; ++t) {
+        const uint32_t *v = in->tri + 3 * (size_t)t;
+        int below = (c->in_cls[v[0]] < 0) + (c->in_cls[v[1]] < 0) + (c->in_cls[v[2]] < 0);
+        if (below == 0 || below == 3)
+            continue;
+        pf_vec3 p[2];
+        int np = 0;
+        for (int q = 0; q < 3; ++q) {
+            uint32_t a = v[q], b = v[(q + 1) % 3];
+            if ((c->in_cls[a] < 0) == (c->in_cls[b] < 0))
+                continue;
+            uint32_t up = c->in_cls[a] < 0 ? b : a;
+            p[np++] = c->in_cls[up] == 0 ? pf_v3_load(in->x + 3 * (size_t)up) : in_edge_point(c, a, b);
+        }
+        PF_TRY(push_iseg(c, p[0], p[1], err));
+    }
+    return PF_OK;
 }
 
 /* Twice the area of (a, b, d) about normal (positive counter-clockwise). */
@@ -384,6 +460,8 @@ pf_status pf_sc_caps(sc_state *c, pf_error *err)
     /* a cap polygon has at most the face's corners and the section's points */
     int64_t room = 32 * (longest + 2 * (int64_t)c->n_points + 8) + 256;
     pf_status st = pf_arena_init(&arena, (size_t)room, err);
+    if (st >= 0 && c->closed)
+        st = input_section(c, err);
     for (int32_t k = 0; k < c->g->n_faces && st >= 0; ++k)
         st = face_cap(c, k, &b, &arena, err);
     pf_arena_release(&arena);

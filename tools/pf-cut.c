@@ -430,7 +430,8 @@ static pf_status write_stats(const run *r, pf_error *err)
         "\"elements_kept\": %d,\n  \"elements_clipped\": %d,\n  \"parts\": %d,\n  "
         "\"slivers_merged\": %d,\n  \"elements_dropped\": %d,\n  \"embedded_surface\": %s,\n  "
         "\"surface_triangles_split\": %d,\n  \"surface_vertices_duplicated\": %d,\n  "
-        "\"cap_triangles\": %d,\n  \"cap_area\": %.17g,\n  \"wall_seconds\": %.6f,\n  "
+        "\"cap_triangles\": %d,\n  \"cap_area\": %.17g,\n  \"uncapped_faces\": %d,\n  "
+        "\"wall_seconds\": %.6f,\n  "
         "\"cpu_seconds\": %.6f\n}\n",
         (int)r->in_elems, (int)r->mesh.n_elems, (int)r->in_nodes, (int)r->mesh.n_nodes,
         r->in_volume, pf_mesh_volume(&r->mesh), (int)r->n_planes, (int)r->split, (int)r->snapped,
@@ -439,8 +440,8 @@ static pf_status write_stats(const run *r, pf_error *err)
         r->clip.keep == PF_CLIP_OUTSIDE ? "outside" : "inside", (int)c->n_kept, (int)c->n_clipped,
         (int)c->n_parts, (int)c->n_merged, (int)c->n_dropped, r->have_surf ? "true" : "false",
         (int)r->surf_stats.n_split_tris, (int)r->surf_stats.n_duplicated,
-        (int)r->surf_stats.n_cap_tris, r->surf_stats.cap_area, pf_time_seconds() - r->wall0,
-        pf_cpu_seconds() - r->cpu0);
+        (int)r->surf_stats.n_cap_tris, r->surf_stats.cap_area, (int)r->surf_stats.n_uncapped,
+        pf_time_seconds() - r->wall0, pf_cpu_seconds() - r->cpu0);
     PF_CHECK(n > 0 && (size_t)n < sizeof json, err, PF_ERR_INVALID, "statistics too long");
     return pf_write_file_atomic(r->stats_path, json, (size_t)n, "statistics", err);
 }

@@ -95,6 +95,11 @@ void pf_cli_sim_summary(const pf_sim *sim, bool embedded, int32_t input_elems)
                 "%.3f s cpu\n",
                 (int)st->cuts, (long long)st->elements_cut, (int)st->bodies, st->dropped_mass,
                 st->dropped_volume, st->cut_seconds);
+    if (st->uncapped_faces > 0)
+        fprintf(stderr,
+                "pf-sim: warning: %d opened faces left without a cap (their boundary inside the "
+                "embedded surface did not close): the rendered surface has holes there\n",
+                (int)st->uncapped_faces);
     pf_cli_solver_summary(&st->solver);
 }
 

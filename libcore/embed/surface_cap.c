@@ -9,6 +9,7 @@
 
 #include <pf/split.h>
 
+#include <stdlib.h>
 #include <string.h>
 
 typedef struct cap_buf {
@@ -19,6 +20,15 @@ typedef struct cap_buf {
     int32_t n_chain, cap_chain;
     int32_t *chain;
     double *chain_t;
+    pf_vec3 centroid; /* of the face being capped */
+    int32_t n_vpt;
+    struct vpt_key {
+        double x;
+        int32_t p;
+    } *vpt;             /* [n_vpt] the group's points at surface vertices, by first coordinate */
+    int64_t n_in_edges;
+    uint64_t *in_edges; /* [n_in_edges] edges (lo << 32 | hi) of triangles of the input
+                           surface or pieces of them, with an end at an input vertex, sorted */
 } cap_buf;
 
 static void cap_buf_release(cap_buf *b)
@@ -27,6 +37,8 @@ static void cap_buf_release(cap_buf *b)
     pf_free(b->ends);
     pf_free(b->chain);
     pf_free(b->chain_t);
+    pf_free(b->vpt);
+    pf_free(b->in_edges);
     memset(b, 0, sizeof *b);
 }
 
@@ -75,19 +87,95 @@ static double seg_dist(double u, double v, const double *s)
     return hypot(wx - t * ex, wy - t * ey);
 }
 
-/* 1 inside the surface, 0 outside, -1 on its section (within tol): crossing parity of a ray
- * along the first projected axis. */
+/* 1 inside the surface, 0 outside, -1 on its section (within tol): on the section of the
+ * surface being built, else the crossing parity of a ray along the first projected axis with
+ * the input surface's section (closed curves: the surface being built is open where the caps of
+ * the groups still to come are missing). */
 static int inside_section(const sc_state *c, double u, double v)
 {
-    int inside = 0;
-    for (int64_t i = 0; i < c->n_seg; ++i) {
-        const double *s = c->seg + 4 * i;
-        if (seg_dist(u, v, s) <= c->g->tol)
+    for (int64_t i = 0; i < c->n_seg; ++i)
+        if (seg_dist(u, v, c->seg + 4 * i) <= c->g->tol)
             return -1;
+    int inside = 0;
+    for (int64_t i = 0; i < c->n_iseg; ++i) {
+        const double *s = c->iseg + 4 * i;
         if ((s[1] > v) != (s[3] > v) && u < s[0] + (v - s[1]) * (s[2] - s[0]) / (s[3] - s[1]))
             inside ^= 1;
     }
     return inside;
+}
+
+/* ---- the input surface's section ---------------------------------------------------------------
+ * Each vertex classified once against the group's plane; the vertices on it counted as above it
+ * (the plane lowered by an infinitesimal), so that the section is closed curves whatever lies in
+ * the plane (the caps of earlier cuts on it): a triangle with corners below and not below gives
+ * the segment between its two edges that cross, at the edge's corner on the plane or its
+ * crossing (computed from its lower end in position order, so that both triangles of the edge get
+ * the same bits). */
+
+static pf_status push_iseg(sc_state *c, pf_vec3 p, pf_vec3 q, pf_error *err)
+{
+    if (c->n_iseg == c->cap_iseg) {
+        int64_t cap = c->cap_iseg ? 2 * c->cap_iseg : 256;
+        double *n = pf_realloc_array(c->iseg, 4 * (size_t)cap, sizeof *n);
+        PF_CHECK(n, err, PF_ERR_NOMEM, "out of memory for a section of %lld segments",
+                 (long long)cap);
+        c->iseg = n;
+        c->cap_iseg = cap;
+    }
+    double *s = c->iseg + 4 * c->n_iseg++;
+    s[0] = pf_v3_get(p, c->g->ax[0]), s[1] = pf_v3_get(p, c->g->ax[1]);
+    s[2] = pf_v3_get(q, c->g->ax[0]), s[3] = pf_v3_get(q, c->g->ax[1]);
+    return PF_OK;
+}
+
+static bool below(const double *a, const double *b)
+{
+    for (int k = 0; k < 3; ++k)
+        if (a[k] != b[k])
+            return a[k] < b[k];
+    return false;
+}
+
+/* Where the edge a-b of the input (on opposite sides) meets the plane. */
+static pf_vec3 in_edge_point(const sc_state *c, uint32_t a, uint32_t b)
+{
+    const double *xa = c->in->x + 3 * (size_t)a, *xb = c->in->x + 3 * (size_t)b;
+    if (below(xb, xa)) {
+        const double *t = xa;
+        xa = xb, xb = t;
+    }
+    pf_vec3 pa = pf_v3_load(xa), pb = pf_v3_load(xb);
+    double da = pf_plane_signed_distance(c->g->plane, pa),
+           db = pf_plane_signed_distance(c->g->plane, pb);
+    return pf_v3_add(pa, pf_v3_scale(pf_v3_sub(pb, pa), da / (da - db)));
+}
+
+static pf_status input_section(sc_state *c, pf_error *err)
+{
+    const pf_surface *in = c->in;
+    c->n_iseg = 0;
+    for (int32_t i = 0; i < in->n_verts; ++i) {
+        double d = pf_plane_signed_distance(c->g->plane, pf_v3_load(in->x + 3 * (size_t)i));
+        c->in_cls[i] = (int8_t)(d > c->g->tol ? 1 : d < -c->g->tol ? -1 : 0);
+    }
+    for (int32_t t = 0; t < in->n_tris; ++t) {
+        const uint32_t *v = in->tri + 3 * (size_t)t;
+        int below = (c->in_cls[v[0]] < 0) + (c->in_cls[v[1]] < 0) + (c->in_cls[v[2]] < 0);
+        if (below == 0 || below == 3)
+            continue;
+        pf_vec3 p[2];
+        int np = 0;
+        for (int q = 0; q < 3; ++q) {
+            uint32_t a = v[q], b = v[(q + 1) % 3];
+            if ((c->in_cls[a] < 0) == (c->in_cls[b] < 0))
+                continue;
+            uint32_t up = c->in_cls[a] < 0 ? b : a;
+            p[np++] = c->in_cls[up] == 0 ? pf_v3_load(in->x + 3 * (size_t)up) : in_edge_point(c, a, b);
+        }
+        PF_TRY(push_iseg(c, p[0], p[1], err));
+    }
+    return PF_OK;
 }
 
 /* Twice the area of (a, b, d) about normal (positive counter-clockwise). */
@@ -193,7 +281,109 @@ static pf_status cap_id(sc_state *c, int32_t p, int sigma, int32_t *id, pf_error
     return PF_OK;
 }
 
-/* The point at a corner of the face: a section end within tol of it, else the node's point. */
+static int compare_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static int compare_vpt(const void *a, const void *b)
+{
+    const struct vpt_key *x = a, *y = b;
+    if (x->x != y->x)
+        return x->x < y->x ? -1 : 1;
+    return (x->p > y->p) - (x->p < y->p);
+}
+
+/* The lookups of the group's caps: its points at surface vertices by position, and the edges
+ * of the input's triangles (and their pieces) with an end at an input vertex. */
+static pf_status cap_lookups(const sc_state *c, cap_buf *b, pf_error *err)
+{
+    const sc_surface *s = c->s;
+    int32_t n_in = c->in->n_verts;
+    b->n_vpt = 0;
+    b->n_in_edges = 0;
+    pf_free(b->vpt);
+    pf_free(b->in_edges);
+    b->vpt = NULL;
+    b->in_edges = NULL;
+    PF_CHECK(PF_ALLOC_N(b->vpt, (size_t)c->n_points) &&
+                 PF_ALLOC_N(b->in_edges, 3 * (size_t)s->n_tris),
+             err, PF_ERR_NOMEM, "out of memory for the lookups of %d points", (int)c->n_points);
+    for (int32_t i = 0; i < c->n_points; ++i)
+        if (c->pt[i].orig >= 0)
+            b->vpt[b->n_vpt++] = (struct vpt_key){c->pt[i].x.x, i};
+    if (b->n_vpt > 1)
+        qsort(b->vpt, (size_t)b->n_vpt, sizeof *b->vpt, compare_vpt);
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        const uint32_t *tv = s->tri + 3 * (size_t)t;
+        for (int q = 0; q < 3 && s->src[t] >= 0; ++q) {
+            uint32_t u = tv[q], v = tv[(q + 1) % 3];
+            if ((int32_t)u < n_in || (int32_t)v < n_in)
+                b->in_edges[b->n_in_edges++] = (uint64_t)(u < v ? u : v) << 32 | (u < v ? v : u);
+        }
+    }
+    if (b->n_in_edges > 1)
+        qsort(b->in_edges, (size_t)b->n_in_edges, sizeof *b->in_edges, compare_u64);
+    return PF_OK;
+}
+
+/* Whether the edge u-v (one end at an input vertex) is one of a triangle of the input surface
+ * or of a piece of one. */
+static bool surface_edge(const cap_buf *b, int32_t u, int32_t v)
+{
+    uint64_t key = (uint64_t)(u < v ? u : v) << 32 | (uint64_t)(u < v ? v : u);
+    return b->n_in_edges > 0 &&
+           bsearch(&key, b->in_edges, (size_t)b->n_in_edges, sizeof key, compare_u64) != NULL;
+}
+
+/* The direction into the material at vertex v: the sum of its triangles' inward unit normals. */
+static pf_vec3 vertex_inward(const sc_surface *s, int32_t v)
+{
+    pf_vec3 in = pf_v3(0, 0, 0);
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        const uint32_t *tv = s->tri + 3 * (size_t)t;
+        if (tv[0] != (uint32_t)v && tv[1] != (uint32_t)v && tv[2] != (uint32_t)v)
+            continue;
+        pf_vec3 a = pf_v3_load(s->x + 3 * (size_t)tv[0]);
+        pf_vec3 n = pf_v3_cross(pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[1]), a),
+                                pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[2]), a));
+        double len = pf_v3_norm(n);
+        if (len > 0)
+            in = pf_v3_sub(in, pf_v3_scale(n, 1 / len));
+    }
+    return in;
+}
+
+/* A vertex of the surface at a face's corner x (on the plane: a corner of an earlier cut's
+ * caps) that the face's cap joins: of the copies there (one per side of the earlier cut), the
+ * one whose material lies towards the face (the face lies on one side of the earlier cut);
+ * -1 when there is none. */
+static int32_t corner_vertex(const sc_state *c, const cap_buf *b, pf_vec3 x, pf_vec3 into)
+{
+    int32_t best = -1, lo = 0, hi = b->n_vpt;
+    double best_score = 0;
+    while (lo < hi) { /* the first point at x.x - tol or beyond */
+        int32_t mid = lo + (hi - lo) / 2;
+        if (b->vpt[mid].x < x.x - c->g->tol)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    for (int32_t i = lo; i < b->n_vpt && b->vpt[i].x <= x.x + c->g->tol; ++i) {
+        const sc_point *p = &c->pt[b->vpt[i].p];
+        if (pf_v3_dist(p->x, x) > c->g->tol)
+            continue;
+        pf_vec3 in = vertex_inward(c->s, p->orig);
+        double len = pf_v3_norm(in), score = len > 1e-9 ? pf_v3_dot(in, into) / len : 0;
+        if (score > best_score)
+            best = p->orig, best_score = score;
+    }
+    return best;
+}
+
+/* The point at a corner of the face: a section end within tol of it, else the node's point
+ * (the surface's vertex there, if any, the first time). */
 static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int32_t *out,
                               pf_error *err)
 {
@@ -203,6 +393,8 @@ static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int3
             *out = b->ends[i];
             return PF_OK;
         }
+    if (c->cap_pt[node] < 0 && c->cap_vert[node] < 0)
+        c->cap_vert[node] = corner_vertex(c, b, x, pf_v3_sub(b->centroid, x));
     return pf_sc_cap_point(c, (int32_t)node, out, err);
 }
 
@@ -268,6 +460,8 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
         PF_TRY(cap_id(c, q, sigma, &v, err));
         if (u != v && !has_edge(b, n_sec_edges, (uint32_t)u, (uint32_t)v))
             PF_TRY(push_edge(b, u, v, err));
+        if (u != v && (u < c->in->n_verts || v < c->in->n_verts) && surface_edge(b, u, v))
+            PF_TRY(pf_sc_push_slit(c, u, v, err)); /* an earlier cut's edge the crack goes on from */
     }
     return PF_OK;
 }
@@ -343,6 +537,7 @@ static pf_status face_cap(sc_state *c, int32_t k, cap_buf *b, pf_arena *arena, p
         pf_free(poly);
         return st;
     }
+    b->centroid = pf_polygon_centroid(m->x, m->face_nodes + o, n);
     int whole = n_sec_edges == 0 ? face_inside(c, k) : -1;
     if (whole == 0)
         return PF_OK;
@@ -384,6 +579,10 @@ pf_status pf_sc_caps(sc_state *c, pf_error *err)
     /* a cap polygon has at most the face's corners and the section's points */
     int64_t room = 32 * (longest + 2 * (int64_t)c->n_points + 8) + 256;
     pf_status st = pf_arena_init(&arena, (size_t)room, err);
+    if (st >= 0 && c->closed)
+        st = input_section(c, err);
+    if (st >= 0)
+        st = cap_lookups(c, &b, err);
     for (int32_t k = 0; k < c->g->n_faces && st >= 0; ++k)
         st = face_cap(c, k, &b, &arena, err);
     pf_arena_release(&arena);

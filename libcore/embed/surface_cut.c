@@ -556,11 +556,13 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     c.m = m;
     c.s = &work;
     c.closed = ss.closed;
+    c.in = s;
     c.stats = so;
     pf_status st = PF_OK;
     if (!PF_ALLOC_N(fi, (size_t)m->n_faces) || !PF_ALLOC_N(leader, (size_t)m->n_faces) ||
         !PF_ALLOC_N(split_src, (size_t)s->n_tris) || !PF_ALLOC_N(c.node_pt, (size_t)m->n_nodes) ||
-        !PF_ALLOC_N(c.cap_pt, (size_t)m->n_nodes) || !PF_ALLOC_N(c.cap_vert, (size_t)m->n_nodes))
+        !PF_ALLOC_N(c.cap_pt, (size_t)m->n_nodes) || !PF_ALLOC_N(c.cap_vert, (size_t)m->n_nodes) ||
+        !PF_ALLOC_N(c.in_cls, (size_t)s->n_verts))
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                           "out of memory for a surface cut (%d faces, %d triangles)",
                           (int)m->n_faces, (int)s->n_tris);
@@ -595,6 +597,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     pf_free(c.node_pt);
     pf_free(c.cap_pt);
     pf_free(c.cap_vert);
+    pf_free(c.in_cls);
+    pf_free(c.iseg);
     pf_free(c.slit);
     pf_free(c.pt);
     pf_free(c.sec);

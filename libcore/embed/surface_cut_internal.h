@@ -76,6 +76,12 @@ typedef struct sc_state {
     int64_t n_slit, cap_slit;
     uint64_t *slit; /* the slits: surface edges (lo << 32 | hi) on opened faces */
     bool closed;    /* the input surface is closed */
+    const pf_surface *in; /* the input surface */
+    int8_t *in_cls;       /* [in->n_verts] its vertices against the group's plane: -1, 0, +1 */
+    int64_t n_iseg, cap_iseg;
+    double *iseg; /* [4 cap_iseg] the section of the input surface by the group's plane,
+                     projected: the inside test of the caps (the surface being built is open
+                     where caps of the groups still to come are missing) */
     pf_surface_cut_stats *stats;
 } sc_state;
 

@@ -123,8 +123,9 @@ static int edge_dir(const sc_surface *s, int32_t t, uint32_t v, uint32_t w)
 
 /* Triangles a and b sharing the edge v-w lie on the same side of the cut around v: across a
  * slit, a cap and a triangle of the surface traversing it the opposite ways (the cap closes that
- * triangle's side); across another edge, two triangles of the surface, or two caps facing the
- * same way, or a cap and a surface triangle traversing it the opposite ways. */
+ * triangle's side); across another edge, two triangles of the surface, or a cap and a surface
+ * triangle traversing it the opposite ways. Two caps: of one plane, facing the same way and not
+ * across a slit; of two planes, traversing it the opposite ways. */
 static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t w, bool slit)
 {
     const sc_surface *s = c->s;
@@ -132,13 +133,21 @@ static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t
     if (da == 0 || db == 0)
         return false;
     bool cap_a = s->src[a] < 0, cap_b = s->src[b] < 0;
+    if (cap_a && cap_b) {
+        /* caps of two planes (a crack bending at the edge): the material's two caps traverse
+         * it the opposite ways; caps of one plane: those facing the same way, never across a
+         * slit */
+        pf_vec3 na = pf_v3_load(s->normal + 3 * (size_t)a),
+                nb = pf_v3_load(s->normal + 3 * (size_t)b);
+        double d = pf_v3_dot(na, nb);
+        if (fabs(d) < (1 - 1e-9) * pf_v3_norm(na) * pf_v3_norm(nb))
+            return da == -db;
+        return !slit && d > 0;
+    }
     if (slit)
         return cap_a != cap_b && da == -db;
     if (!cap_a && !cap_b)
         return true;
-    if (cap_a && cap_b)
-        return pf_v3_dot(pf_v3_load(s->normal + 3 * (size_t)a),
-                         pf_v3_load(s->normal + 3 * (size_t)b)) > 0;
     return da == -db;
 }
 

@@ -43,6 +43,7 @@ static void carry_stats(pf_sim *t, const pf_sim *s, double transfer_seconds)
     t->stats.closed_form_elems = mesh_stats.closed_form_elems;
     t->stats.harmonic_elems = mesh_stats.harmonic_elems;
     t->stats.kernels = mesh_stats.kernels;
+    t->stats.uncapped_faces = mesh_stats.uncapped_faces;
     t->stats.basis_seconds += mesh_stats.basis_seconds;
     t->stats.integrals_reused += mesh_stats.integrals_reused;
     t->stats.integrals_computed += mesh_stats.integrals_computed;
@@ -125,13 +126,16 @@ static pf_status build_on(pf_sim *t, const pf_sim *s, pf_mesh *mesh, const pf_me
          * the crack where one cut's faces met the next's */
         pf_cut_result all = *change->cut;
         all.opened = change->cut->cut_face;
+        pf_surface_cut_stats cs;
         PF_TRY(pf_surface_cut(s->uncut_surface, t->owned_mesh, &all, NULL, t->owned_surface,
-                              t->owned_weights, NULL, err));
+                              t->owned_weights, &cs, err));
+        t->stats.uncapped_faces = cs.n_uncapped;
         t->owned_surface->id = t->owned_weights->surface_id = s->surface->id + 1;
         t->surface = t->owned_surface;
         t->weights = t->owned_weights;
     } else if (s->surface) {
         PF_TRY(reweight(t, s, change, err));
+        t->stats.uncapped_faces = s->stats.uncapped_faces; /* the same surface goes on */
     }
     /* same solid: neither a child nor a merged element (a neighbour whose faces were only
      * subdivided or united is the same polyhedron) */

@@ -100,6 +100,7 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
         add_int(cuts, "bodies", st->bodies);
         cJSON_AddNumberToObject(cuts, "dropped_volume", st->dropped_volume);
         cJSON_AddNumberToObject(cuts, "dropped_mass", st->dropped_mass);
+        add_int(cuts, "uncapped_faces", st->uncapped_faces);
         cJSON_AddNumberToObject(cuts, "seconds", st->cut_seconds);
     }
     return pf_sim_json_print(root, "the run's statistics", json, err);

@@ -29,8 +29,10 @@ expect 0 "2 bodies" "$bin/pf-cut" "$tmp/box.pfs" --plane 0,0,0.26,0,0,1
 check "near a grid plane: no element was split" grep -q "0 elements split" "$tmp/err"
 # a plane through a sliced bunny, then simulated and read by pf-info
 "$bin/pf-slice" "$root/data/models/bunny.obj" --res 12 --quiet >"$tmp/bunny_sliced.pfs"
-expect 0 "2 bodies" "$bin/pf-cut" "$tmp/bunny_sliced.pfs" --plane 0,0,0.5,0,0.2,1
+expect 0 "2 bodies" "$bin/pf-cut" "$tmp/bunny_sliced.pfs" --plane 0,0,0.5,0,0.2,1 \
+  --stats "$tmp/bunny_cut.json"
 cp "$tmp/out" "$tmp/bunny_cut.pfs"
+check "sliced bunny: every opened face capped (--stats)" grep -q '"uncapped_faces": 0,' "$tmp/bunny_cut.json"
 check "sliced bunny: its embedded surface is cut and capped" grep -q "embedded surface: [1-9][0-9]* triangles split.*[1-9][0-9]* cap triangles" "$tmp/err"
 "$bin/pf-info" "$tmp/bunny_cut.pfs" >"$tmp/bunny_cut.txt" 2>&1
 check "sliced bunny: SURF, MESH and their WGHT, accepted by pf-info" sh -c "grep -q '^SURF' '$tmp/bunny_cut.txt' && grep -q '^WGHT' '$tmp/bunny_cut.txt' && '$bin/pf-info' '$tmp/bunny_cut.pfs' >/dev/null"

@@ -61,8 +61,9 @@ cat >"$tmp/ball.json" <<'JSON'
 {"ground": {"point": [0, 0, -1.05]}, "time": {"frames": 10},
  "cuts": [{"plane": {"point": [0.05, 0, 0], "normal": [1, 0, 0.1]}, "time": 0.05}]}
 JSON
-expect 0 "cuts:" "$bin/pf-sim" "$tmp/ball.json" --input "$tmp/ball.pfs"
+expect 0 "cuts:" "$bin/pf-sim" "$tmp/ball.json" --input "$tmp/ball.pfs" --stats "$tmp/ball_stats.json"
 cp "$tmp/out" "$tmp/ball_cut.pfs"
+check "embedded: every opened face capped" test "$(stat_of "$tmp/ball_stats.json" uncapped_faces)" = 0
 "$bin/pf-info" "$tmp/ball_cut.pfs" >"$tmp/binfo.txt" 2>&1
 check "embedded: pf-info accepts every surface and its weights" "$bin/pf-info" "$tmp/ball_cut.pfs"
 check "embedded: a second SURF" test "$(grep -c '^SURF' "$tmp/binfo.txt")" -ge 2

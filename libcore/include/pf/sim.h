@@ -386,6 +386,8 @@ typedef struct pf_sim_stats {
     int32_t bodies;          /* connected pieces after the latest cut (0 before any) */
     double dropped_volume;   /* pieces too small to keep alone (pf/cut.h), model units */
     double dropped_mass;     /* their mass (their elements' densities) */
+    int32_t uncapped_faces;  /* opened faces the latest cut embedded surface left without a cap
+                                (pf_surface_cut_stats.n_uncapped; 0: it is closed where cut) */
     double cut_seconds;      /* finding the elements, the cut, the new set-up, CPU seconds */
 } pf_sim_stats;
 

@@ -121,7 +121,7 @@ pf_status pf_cg_pattern(const pf_cg *cg, const uint8_t *fixed, pf_block_matrix *
 
 /* ---- rotations ---------------------------------------------------------------------------- */
 
-void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double *rot)
+void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, bool warm, double *rot)
 {
     for (int32_t e = 0; e < cg->n_elems; ++e) {
         const int32_t *nodes;
@@ -145,10 +145,16 @@ void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double 
                 for (int j = 0; j < 3; ++j)
                     a.m[i][j] += xv[i] * rv[j];
         }
-        pf_mat3 r = pf_mat3_polar_rotation(a);
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-                rot[9 * (size_t)e + 3 * i + j] = r.m[i][j];
+        double *re = rot + 9 * (size_t)e;
+        pf_mat3 r;
+        if (warm) {
+            pf_mat3 guess;
+            memcpy(guess.m, re, sizeof guess.m);
+            r = pf_mat3_polar_rotation_near(a, guess, NULL);
+        } else {
+            r = pf_mat3_polar_rotation(a);
+        }
+        memcpy(re, r.m, sizeof r.m);
     }
 }
 

@@ -12,6 +12,8 @@
 
 #include <string.h>
 
+#include "../base/lanes.h"
+
 void pf_cg_map_release(pf_cg_map *map)
 {
     pf_free(map->node_block);
@@ -119,7 +121,7 @@ pf_status pf_cg_pattern(const pf_cg *cg, const uint8_t *fixed, pf_block_matrix *
 
 /* ---- rotations ---------------------------------------------------------------------------- */
 
-void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double *rot)
+void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, bool warm, double *rot)
 {
     for (int32_t e = 0; e < cg->n_elems; ++e) {
         const int32_t *nodes;
@@ -143,10 +145,16 @@ void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double 
                 for (int j = 0; j < 3; ++j)
                     a.m[i][j] += xv[i] * rv[j];
         }
-        pf_mat3 r = pf_mat3_polar_rotation(a);
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j)
-                rot[9 * (size_t)e + 3 * i + j] = r.m[i][j];
+        double *re = rot + 9 * (size_t)e;
+        pf_mat3 r;
+        if (warm) {
+            pf_mat3 guess;
+            memcpy(guess.m, re, sizeof guess.m);
+            r = pf_mat3_polar_rotation_near(a, guess, NULL);
+        } else {
+            r = pf_mat3_polar_rotation(a);
+        }
+        memcpy(re, r.m, sizeof r.m);
     }
 }
 
@@ -175,6 +183,67 @@ static void add_node_block(pf_block_matrix *k, int64_t slot, int32_t i, int32_t 
         for (int r = 0; r < 3; ++r)
             if (i != j || r <= c)
                 v[r] += m[3 * r + c];
+    }
+}
+
+/* The rows of W = R B R^T for the 3 x 3 block B at b (row stride n), lane j of row i holding
+ * W_ij (lane 3 zero): with the columns c_q of R, (B R^T)_p = sum_q B_pq c_q, then
+ * W_i = sum_p R_ip (B R^T)_p. */
+static inline void warp_rows(const double *r, const lanes_d col[3], const double *b, int32_t n,
+                             lanes_d w[3])
+{
+    lanes_d t[3];
+    for (int p = 0; p < 3; ++p) {
+        const double *bp = b + (size_t)p * n;
+        t[p] = (bp[0] * col[0] + bp[1] * col[1]) + bp[2] * col[2];
+    }
+    for (int i = 0; i < 3; ++i)
+        w[i] = (r[3 * i] * t[0] + r[3 * i + 1] * t[1]) + r[3 * i + 2] * t[2];
+}
+
+/* Adds the block M of node blocks (i, j), i <= j, given the rows of M^T (its columns): column c of
+ * the stored block is contiguous. For i = j, M's upper triangle. */
+static inline void add_block_columns(pf_block_matrix *k, int64_t slot, int32_t i, int32_t j,
+                                     const lanes_d mt[3])
+{
+    int64_t row0 = k->adj_row[slot];
+    for (int c = 0; c < 3; ++c) {
+        double *v = k->val + k->col_ptr[3 * (int64_t)j + c] + row0;
+        for (int r = 0; r < 3; ++r)
+            if (i != j || r <= c)
+                v[r] += mt[c][r];
+    }
+}
+
+/* The warped blocks (a, c), c >= a, of element e's free node pairs added to k: the stored block
+ * (i, j), i <= j, is K'_ac when i = block(a) <= j = block(c) (its columns: the rows of
+ * K'_ac^T = R K_ca R^T), else K'_ca (the rows of K'_ac = R K_ac R^T). */
+PF_KERNEL_CLONES
+static void scatter_free_pairs(const int32_t *block, const int32_t *nodes, int32_t kn,
+                               const double *ke, const double *r, const int64_t *slot,
+                               pf_block_matrix *k)
+{
+    int32_t n = 3 * kn;
+    lanes_d col[3];
+    for (int q = 0; q < 3; ++q)
+        col[q] = (lanes_d){r[q], r[3 + q], r[6 + q], 0};
+    for (int32_t a = 0; a < kn; ++a) {
+        int32_t i = block[nodes[a]];
+        if (i < 0)
+            continue;
+        for (int32_t c = a; c < kn; ++c) {
+            int32_t j = block[nodes[c]];
+            if (j < 0)
+                continue;
+            lanes_d w[3];
+            if (i <= j) {
+                warp_rows(r, col, ke + (size_t)3 * c * n + 3 * a, n, w);
+                add_block_columns(k, slot[a * kn + c], i, j, w);
+            } else {
+                warp_rows(r, col, ke + (size_t)3 * a * n + 3 * c, n, w);
+                add_block_columns(k, slot[a * kn + c], j, i, w);
+            }
+        }
     }
 }
 
@@ -207,11 +276,13 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
                 for (int i = 0; i < 3; ++i)
                     y[3 * a + i] = xa[i] - (r[i] * xa[0] + r[3 + i] * xa[1] + r[6 + i] * xa[2]);
             }
-            for (int32_t p = 0; p < n; ++p) {
-                double s = 0;
-                for (int32_t q = 0; q < n; ++q)
-                    s += ke[(size_t)p * n + q] * y[q];
-                z[p] = s;
+            /* z = K y as a sum of K's rows (K_e symmetric): independent updates, not one chain
+             * of additions per row (the element's matrix streams through once) */
+            memset(z, 0, (size_t)n * sizeof *z);
+            for (int32_t q = 0; q < n; ++q) {
+                const double *kq = ke + (size_t)q * n;
+                for (int32_t p = 0; p < n; ++p)
+                    z[p] += kq[p] * y[q];
             }
             for (int32_t a = 0; a < kn; ++a)
                 for (int i = 0; i < 3; ++i)
@@ -223,11 +294,13 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
         /* the blocks (a, c), c >= a, warped and scattered at once; a pair of a free and a fixed
          * node adds its term of -K'_fc g_c instead */
         const int64_t *slot = map->slot + cg->me_offsets[e];
+        if (r)
+            scatter_free_pairs(map->node_block, nodes, kn, ke, r, slot, k);
         for (int32_t a = 0; a < kn; ++a) {
             int32_t i = map->node_block[nodes[a]];
             for (int32_t c = a; c < kn; ++c) {
                 int32_t j = map->node_block[nodes[c]];
-                if ((i < 0 && j < 0) || (i < 0 && !g) || (j < 0 && !g))
+                if ((i < 0 && j < 0) || (i < 0 && !g) || (j < 0 && !g) || (r && i >= 0 && j >= 0))
                     continue;
                 const double *kac = ke + (size_t)3 * a * n + 3 * c;
                 double m[9];

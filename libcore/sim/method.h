@@ -47,6 +47,10 @@ typedef struct pf_method_ops {
      * 58), for no CPU time gained on the beam. last: the rotations this gave at the last step
      * (the starting guess of an iterative polar decomposition), or NULL. */
     void (*triple_rotations)(const void *m, const double *last, double *rot);
+    /* Drops what the corotated stiffness keeps from the last step as the next one's starting
+     * guess (CG: the element rotations), so that the next stiffness depends on u alone: at a
+     * checkpoint's restart point and after a failed step (pf_sim_forget_trend). NULL: none. */
+    void (*forget_rotations)(void *m);
     /* Loads and body forces, constant in time, added to f. */
     void (*external_forces)(const void *m, double *f);
     /* The linear map S from the unknowns to the nodal displacements, with which the driver moves

@@ -45,6 +45,8 @@ void pf_sim_forget_trend(pf_sim *s)
 {
     s->trend = 0;
     s->rot_warm = false;
+    if (s->method && s->ops->forget_rotations)
+        s->ops->forget_rotations(s->method);
 }
 
 void pf_sim_sync_solver_stats(pf_sim *s)

@@ -83,9 +83,9 @@ void pf_sim_release(pf_sim *s);
 /* The solver's statistics, with those of earlier meshes' solvers, into the simulator's. */
 void pf_sim_sync_solver_stats(pf_sim *s);
 
-/* Drops the history the next step starts from (the velocity trend, the warp's last rotations):
- * after a failed step, a restored state or a restart point, so that what follows depends on the
- * state alone. */
+/* Drops the history the next step starts from (the velocity trend, the warp's last rotations,
+ * the method's element rotations): after a failed step, a restored state or a restart point, so
+ * that what follows depends on the state alone. */
 void pf_sim_forget_trend(pf_sim *s);
 
 #endif

@@ -12,6 +12,7 @@
 
 #include <cholmod.h>
 
+#include "../base/lanes.h"
 #include "solve_threads.h"
 
 struct pf_cholesky {
@@ -176,13 +177,7 @@ static bool make_single(pf_cholesky *c)
     return fits;
 }
 
-/* Four lanes of doubles, four of floats: GCC's vector extensions, so that the order of every
- * sum is the source's whatever the machine's vector width (the same bits on any x86-64; no FMA,
- * -ffp-contract=off). On a machine with AVX2 the kernels below run a clone built for it. */
-/* The lanes live in registers of static functions, never in a call across objects: GCC's note on
- * the ABI of 32-byte vectors without AVX does not apply. */
-#pragma GCC diagnostic ignored "-Wpsabi"
-typedef double lanes_d __attribute__((vector_size(32)));
+/* Four lanes of floats beside lanes.h's doubles (the factor's values in single precision). */
 typedef float lanes_f __attribute__((vector_size(16)));
 
 static inline lanes_d load4(const float *p)
@@ -203,13 +198,6 @@ static inline double lane_sum(lanes_d v)
 {
     return (v[0] + v[1]) + (v[2] + v[3]);
 }
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) &&                             \
-    !defined(__SANITIZE_ADDRESS__)
-#define PF_KERNEL_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define PF_KERNEL_CLONES
-#endif
 
 /* w[r] -= sum_j B[r, j] x[j] for r < m, B's columns j < k (k = 4 or 1) at stride ld. */
 PF_KERNEL_CLONES

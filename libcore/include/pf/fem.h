@@ -464,8 +464,10 @@ size_t pf_cg_scratch_size(const pf_cg *cg);
 /* Element rotations by shape matching (sec. 6, stiffness warping): R_e the rotation of the polar
  * decomposition of A = sum_a (x_a - x_c)(X_a - X_c)^T over the element's nodes, X the rest
  * positions x0 [3 n_nodes], x = X + u (u [3 n_nodes] nodal displacements), c the node averages.
- * rot [9 n_elems] row-major. */
-void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, double *rot);
+ * rot [9 n_elems] row-major. warm: rot holds rotations near the new ones (the last time step's),
+ * the starting guesses of pf_mat3_polar_rotation_near; else the SVD's polar. Both agree to a few
+ * ulps. */
+void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, bool warm, double *rot);
 
 /* Assembles the stiffness over the free nodes into k (zeroed first; from pf_cg_pattern) and adds
  * its constant terms to f [3 n_free]: with rotations (rot [9 n_elems], NULL for linear

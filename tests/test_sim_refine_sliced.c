@@ -1,7 +1,8 @@
 /* sim_refine_sliced: stress-driven refinement of a sliced body (hexes inside, exact polyhedra at
  * the surface) while the simulation runs: the bunny sliced 8 across, as pf-slice makes it, under
  * DG (octs and halves) and CG (halves: the harmonic basis of its split surface cells is the
- * cost), refined by stress over a few events with frames between them. */
+ * cost), refined by stress over a few events with frames between them; and a CG sphere sliced 6
+ * across whose third stress-driven change once made faces too thin for the harmonic basis. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -101,6 +102,55 @@ static void bunny_refines(const char *method, pf_split_kind kind, int events, do
 static const char BUNNY_DG[] = "{\"name\": \"dg\", \"degree\": 1}";
 static const char BUNNY_CG[] = "{\"name\": \"cg\"}";
 
+/* The case of bench_adapt reuse slice 6: a sphere (8 x 16 facets) sliced 6 across under CG, its
+ * lowest eighth fixed, refined by octs where the stress exceeds 0.8 of its largest after five
+ * frames. Its third change once failed ("face ...: nodes are collinear"): an element's plane
+ * passed 1e-8 to 5e-8 of its diagonal from nodes the planes of several neighbours (split in the
+ * change before) had put on its faces, leaving faces 1e-9 wide of 0.05. Now the three changes
+ * go through, the harmonic basis builds on every element, and no face is narrower than
+ * PF_REFINE_SNAP of its size (measured: 8.4e-6 after the third change). */
+static void test_sphere_cg_three_changes(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_mesh m = {0};
+    assert_int_equal(pf_surface_make_sphere(&s, 1, 8, 16, &err), PF_OK);
+    pf_slice_params sp = pf_slice_params_default();
+    sp.grid.res = 6;
+    assert_int_equal(pf_mesh_slice(&m, &s, &sp, NULL, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(&m, &err), PF_OK);
+    pf_surface_release(&s);
+    pf_scene sc;
+    parse(&sc, "{\"method\": {\"name\": \"cg\"}, \"material\": {\"E\": 1e6},"
+               " \"damping\": {\"beta\": 0.02}, \"ground\": false,"
+               " \"fixed\": [{\"box\": [[-9, -9, -9], [9, 9, -0.75]]}]}");
+    pf_sim *sim = create(&sc, &m);
+    run_frames(sim, 5);
+    sc.refine = (pf_refine_params){.enabled = true,
+                                   .threshold = 0.8 * largest_stress(sim),
+                                   .split = PF_SPLIT_OCTS,
+                                   .max_level = 2,
+                                   .max_elements = 100000};
+    int32_t counts[3];
+    for (int c = 0; c < 3; ++c) {
+        int32_t split = 0;
+        if (pf_sim_refine(sim, &split, &err) < 0)
+            fail_msg("change %d: %s", c, err.msg);
+        counts[c] = split;
+    }
+    double narrow = narrowest_face(pf_sim_mesh(sim));
+    printf("sphere sliced 6 across, CG: %d -> %d elements (%d, %d, %d split), narrowest face %.3g\n",
+           (int)m.n_elems, (int)pf_sim_mesh(sim)->n_elems, (int)counts[0], (int)counts[1],
+           (int)counts[2], narrow);
+    assert_true(counts[2] > 0);
+    assert_true(narrow > PF_REFINE_SNAP);
+    run_frames(sim, 1);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+}
+
 static void test_bunny_dg(void **state)
 {
     (void)state;
@@ -117,6 +167,7 @@ static void test_bunny_cg(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sphere_cg_three_changes),
         cmocka_unit_test(test_bunny_dg),
         cmocka_unit_test(test_bunny_cg),
     };

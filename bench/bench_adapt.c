@@ -44,9 +44,11 @@
  *                          Before the table, a comment line: every element of the sphere split by
  *                          octs at once and a CG simulator built on the result (the harmonic
  *                          basis on every refined cell).
- *   bench_adapt reuse ... slice N  the sphere sliced N across (default 5). At 6 the all-octs
- *                          check passes; the stress-driven runs still stop at a later refinement
- *                          ("nodes are collinear": a face between planes of successive rounds)
+ *   bench_adapt reuse ... slice N  the sphere sliced N across (default 5). At 6 the
+ *                          stress-driven runs once stopped at their third change ("nodes are
+ *                          collinear": a face between the planes of neighbours split in successive
+ *                          changes); the planes are now moved clear of such nodes
+ *                          (PF_REFINE_SHIFT, pf/refine.h)
  *   bench_adapt embed      CSV: the embedded surface's MLS weights after each of three local
  *                          refinements (octs of the elements whose mean corner lies in the last
  *                          30 %, 15 %, 7.5 % of the mesh's extent in x), updated (pf_embed_update)

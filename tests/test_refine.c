@@ -296,6 +296,42 @@ static void test_plane_near_vertex(void **state)
 /* ---- non-convex elements ----------------------------------------------------------------------
  */
 
+/* Three unit cubes along x; the outer two cut first by planes near z = 1/2 (1e-7 above it, tilted
+ * by 1e-7 about x, on the left; 1e-7 below on the right), which put on the middle cube's faces
+ * x = 1 and x = 2 four nodes 0.5e-7 to 1.5e-7 off z = 1/2 that no plane passes through (coplanar
+ * to 2.5e-8 only, far above the snap's 1e-10). Then the middle cube split in halves across z:
+ * its plane z = 1/2 would leave faces 1e-7 wide (of 1, which the harmonic basis refuses as
+ * collinear), and no fit puts the four nodes on it; it is moved up by one step of
+ * PF_REFINE_SHIFT of the diagonal (1.73e-5) instead, which leaves every node at least 1.7e-5
+ * off it: no face narrower than 1e-5 of its size, and the lower half is 1/2 + 1.73e-5. (Before
+ * the move, the plane stayed where it was: faces 1e-7 wide.) */
+static void test_plane_between_neighbour_cuts(void **state)
+{
+    (void)state;
+    pf_mesh src = make_box(3, 1, 1, 3, 1, 1), mid = {0}, dst = {0};
+    pf_refine_result res;
+    const pf_refine_request cuts[2] = {
+        {.elem = 0, .kind = PF_SPLIT_PLANE, .normal = {0, -1e-7, 1}, .point = {0.5, 0.5, 0.5 + 1e-7}},
+        {.elem = 2, .kind = PF_SPLIT_PLANE, .normal = {0, 0, 1}, .point = {2.5, 0.5, 0.5 - 1e-7}}};
+    refine_ok(&src, cuts, 2, &mid, &res);
+    assert_int_equal(res.n_split, 2);
+    pf_refine_result_release(&res);
+    /* elements: 0, 1 (left), 2 (middle), 3, 4 (right) */
+    pf_refine_request req = {.elem = 2, .kind = PF_SPLIT_HALVES, .normal = {0, 0, 1}};
+    refine_ok(&mid, &req, 1, &dst, &res);
+    assert_int_equal(res.n_split, 1);
+    double narrow = narrowest_face(&dst);
+    printf("plane between neighbour cuts: narrowest face %.3g of its size\n", narrow);
+    assert_true(narrow > 1e-5);
+    double v0 = pf_mesh_elem_volume(&dst, 2), v1 = pf_mesh_elem_volume(&dst, 3);
+    assert_near(v0 + v1, 1, 1e-14);
+    assert_near(fabs(v0 - 0.5), PF_REFINE_SHIFT * sqrt(3), 1e-12);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&mid);
+    pf_mesh_release(&src);
+}
+
 /* An L (areas 2 + 1, centroid x = y = 5/6) by halves along x: a rectangle 5/6 x 2 and an L. */
 static void test_l_shape(void **state)
 {
@@ -671,6 +707,7 @@ int main(void)
         cmocka_unit_test(test_octs_box_axes),
         cmocka_unit_test(test_neighbour_halves),
         cmocka_unit_test(test_plane_near_vertex),
+        cmocka_unit_test(test_plane_between_neighbour_cuts),
         cmocka_unit_test(test_l_shape),
         cmocka_unit_test(test_u_shape_three_children),
         cmocka_unit_test(test_sliver_skipped),

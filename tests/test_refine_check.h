@@ -33,6 +33,34 @@ static inline double total_volume(const pf_mesh *m)
     return v;
 }
 
+/* The narrowest face of m: over the faces, the largest distance of a face's node from the line
+ * through its two farthest nodes, over their distance (0 for a face with collinear nodes). */
+static inline double narrowest_face(const pf_mesh *m)
+{
+    double worst = INFINITY;
+    for (int32_t f = 0; f < m->n_faces; ++f) {
+        int64_t k0 = m->face_offsets[f], n = m->face_offsets[f + 1] - k0;
+        const uint32_t *fn = m->face_nodes + k0;
+        pf_vec3 a = pf_v3_load(m->x + 3 * (size_t)fn[0]), b = a;
+        double diam = 0;
+        for (int64_t i = 0; i < n; ++i)
+            for (int64_t j = i + 1; j < n; ++j) {
+                pf_vec3 p = pf_v3_load(m->x + 3 * (size_t)fn[i]);
+                pf_vec3 q = pf_v3_load(m->x + 3 * (size_t)fn[j]);
+                if (pf_v3_dist(p, q) > diam)
+                    diam = pf_v3_dist(p, q), a = p, b = q;
+            }
+        pf_vec3 u = pf_v3_normalize(pf_v3_sub(b, a));
+        double width = 0;
+        for (int64_t i = 0; i < n; ++i) {
+            pf_vec3 d = pf_v3_sub(pf_v3_load(m->x + 3 * (size_t)fn[i]), a);
+            width = fmax(width, pf_v3_norm(pf_v3_sub(d, pf_v3_scale(u, pf_v3_dot(d, u)))));
+        }
+        worst = fmin(worst, width / diam);
+    }
+    return worst;
+}
+
 /* Element e of a and element d of b have the same face polygons, node for node, in order. */
 static inline bool same_polygons(const pf_mesh *a, int32_t e, const pf_mesh *b, int32_t d)
 {

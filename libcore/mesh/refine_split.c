@@ -359,33 +359,57 @@ static pf_plane fit_plane(const refine_local *L, pf_plane pl, double diag, doubl
     return fit;
 }
 
+/* Whether splitting the pieces of L by pl makes no edge or face narrower than PF_REFINE_SNAP of
+ * the diagonal: no piece edge has one end off pl by more than on but less than that, and the
+ * other end beyond on on the other side (the split would put a node just beside the first). */
+static bool clear_of_nodes(const refine_local *L, pf_plane pl, double diag, double on)
+{
+    const refine_pieces *ps = &L->cur;
+    double near = PF_REFINE_SNAP * diag;
+    for (int32_t f = 0; f < ps->n_faces; ++f)
+        for (int64_t k = ps->off[f]; k < ps->off[f + 1]; ++k) {
+            int64_t k1 = k + 1 < ps->off[f + 1] ? k + 1 : ps->off[f];
+            double du = pf_plane_signed_distance(pl, pf_v3_load(L->x + 3 * (size_t)ps->nodes[k]));
+            double dv = pf_plane_signed_distance(pl, pf_v3_load(L->x + 3 * (size_t)ps->nodes[k1]));
+            if (fabs(du) > near || fabs(du) <= on) /* far from pl, or on it */
+                continue;
+            if ((du > 0 && dv < -on) || (du < 0 && dv > on))
+                return false;
+        }
+    return true;
+}
+
 /* The plane an octs or halves split uses instead of pl, and its on-plane tolerance *tol (0:
- * pf_poly_split's own; PF_REFINE_SNAP): the nodes within PF_REFINE_SNAP of the diagonal (else
- * within 1e-8) are put on it by fit_plane when they are coplanar to 1e-10 of the diagonal, and
- * *tol is raised to twice what they stay off it, at least 1e-10 of the diagonal (a cap stays
- * planar to 1e-10 of the element, within pf_mesh_validate's 1e-9 of the face for caps down to a
- * tenth of the element). Then no node lies off the plane by less than the band: the split makes
- * no edge shorter than that. pl stays as it is when no node lies off it by more than 1e-11 of
- * the diagonal (rounding: boxes keep their exact planes) or when no band fits. */
+ * pf_poly_split's own; PF_REFINE_SNAP). pl itself when it is clear of the nodes (clear_of_nodes;
+ * on it: within rounding, 1e-11 of the diagonal: boxes keep their exact planes). Else the nodes within
+ * PF_REFINE_SNAP of the diagonal (else within 1e-8) are put on it by fit_plane when they are
+ * coplanar to 1e-10 of the diagonal and the fit leaves every other node clear (*tol twice what
+ * they stay off it, at least 1e-10 of the diagonal: a cap stays planar within pf_mesh_validate's
+ * 1e-9 of the face for caps down to a tenth of the element). Else (the near nodes lie on lines
+ * that the planes of several neighbours put on the element's faces at slightly different
+ * places, which no plane passes through) pl moved along its normal by the least multiple of
+ * PF_REFINE_SHIFT of the diagonal, up to PF_REFINE_SHIFT_STEPS of them (+ before -), that leaves
+ * every node clear; pl when none does. */
 static pf_plane snap_plane(const refine_local *L, pf_plane pl, double diag, double *tol)
 {
     *tol = 0;
-    bool off = false;
-    for (int32_t i = 0; i < L->n && !off; ++i) {
-        double d = fabs(pf_plane_signed_distance(pl, pf_v3_load(L->x + 3 * (size_t)i)));
-        off = d > 1e-11 * diag && d < PF_REFINE_SNAP * diag;
-    }
-    if (!off)
+    if (clear_of_nodes(L, pl, diag, 1e-11 * diag))
         return pl;
     const double bands[2] = {PF_REFINE_SNAP, 1e-8};
     for (int k = 0; k < 2; ++k) {
         double resid;
         pf_plane fit = fit_plane(L, pl, diag, bands[k] * diag, &resid);
-        if (resid <= 1e-10 * diag) {
+        if (resid <= 1e-10 * diag && clear_of_nodes(L, fit, diag, resid)) {
             *tol = fmax(2 * resid, 1e-10 * diag);
             return fit;
         }
     }
+    for (int k = 1; k <= PF_REFINE_SHIFT_STEPS; ++k)
+        for (int sign = 1; sign >= -1; sign -= 2) {
+            pf_plane moved = {pl.n, pl.d + sign * k * PF_REFINE_SHIFT * diag};
+            if (clear_of_nodes(L, moved, diag, 0))
+                return moved;
+        }
     return pl;
 }
 

@@ -55,24 +55,34 @@ extern "C" {
  * default sliver threshold, pf_slice_params.merge). */
 #define PF_REFINE_MIN_FRACTION 0.05
 
-/* Nodes of a split element closer than this (relative to its bounding-box diagonal) to an octs
- * or halves plane are put on it: the plane is turned and moved by the least change that passes
- * through them (least squares), and pf_poly_split's on-plane tolerance raised to twice what they
- * stay off it, when that is at most 1e-10 of the diagonal (caps stay planar well within
- * pf_mesh_validate's 1e-9); else the nodes within 1e-8 are tried the same way, else the plane
- * stays as computed. Without it, a plane through the centroid passing a node just beyond
- * pf_poly_split's tolerance (1e-10 of the piece) made a node beside it: the octs planes of the
- * nearly symmetric cells of a sliced sphere pass ~1e-9 from their corners, and those of
- * mirror-symmetric neighbours differ by the rounding of their principal axes, leaving edges
- * of ~1e-11 of their face that the harmonic basis merges (pf_basis_params.merge_tol, 1e-9),
- * leaving a face with collinear nodes, or a split inconsistent. Planes no node lies off by more
- * than 1e-11 of the diagonal (rounding) are kept bit for bit (boxes: the exact planes); cut
- * planes (PF_SPLIT_PLANE) are never moved: they are the blade's, the same in every cell.
- * Limit: a snapped plane leaves its nodes up to this far from where a neighbour's later plane
- * passes; where that neighbour's near nodes are not coplanar no snap applies, and a face a few
- * 1e-7 wide can still be made, which the harmonic basis refuses as collinear (seen after
- * several stress-driven refinements of a sphere sliced 6 across). */
+/* No node of a split element is left closer than this (relative to its bounding-box diagonal)
+ * to an octs or halves plane without being on it, so a split makes no face narrower than this
+ * fraction of the element. The nodes that near are put on the plane when they are coplanar:
+ * the plane is turned and moved by the least change that passes through them (least squares),
+ * and pf_poly_split's on-plane tolerance raised to twice what they stay off it, when that is at
+ * most 1e-10 of the diagonal (caps stay planar well within pf_mesh_validate's 1e-9) and every
+ * other node stays this far off; else the nodes within 1e-8 are tried the same way. Else the
+ * plane is moved along its normal by the least multiple of PF_REFINE_SHIFT (at most
+ * PF_REFINE_SHIFT_STEPS of them) that leaves every node this far off; else it stays as
+ * computed. Planes no node lies off by more than 1e-11 of the diagonal (rounding) are kept bit
+ * for bit (boxes: the exact planes); cut planes (PF_SPLIT_PLANE) are never moved: they are the
+ * blade's, the same in every cell.
+ * Why: a plane through the centroid passing a node just beyond pf_poly_split's tolerance (1e-10
+ * of the piece) makes a node beside it. The octs planes of the nearly symmetric cells of a
+ * sliced sphere pass ~1e-9 from their corners, and those of mirror-symmetric neighbours differ
+ * by the rounding of their principal axes: edges of ~1e-11 of their face, which the harmonic
+ * basis merges (pf_basis_params.merge_tol, 1e-9), leaving a face with collinear nodes. And
+ * after a few stress-driven refinements of a sphere sliced 6 across, an element's plane passed
+ * 1e-8 to 5e-8 of its diagonal from nodes that the planes of several neighbours had put on its
+ * faces at slightly different places (no plane passes through all of them): faces 1e-9 wide
+ * and 0.05 long, which the harmonic basis refuses as collinear (its exactness projection needs
+ * a face's width relative to its size well above 3e-7). */
 #define PF_REFINE_SNAP 1e-6
+/* The step of the move above, relative to the diagonal, and the most steps: a moved plane is
+ * off the centroid by at most 5e-4 of the diagonal (the children stay exact: any plane splits
+ * exactly), and the faces it makes are about a step wide. */
+#define PF_REFINE_SHIFT 1e-5
+#define PF_REFINE_SHIFT_STEPS 50
 
 typedef enum pf_split_kind {
     PF_SPLIT_OCTS = 0,

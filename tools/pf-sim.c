@@ -519,7 +519,7 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
     return st;
 }
 
-/* A static DG scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
+/* A static scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
 static pf_status simulate_distributed(run *r, pf_error *err)
 {
     pf_sim_distrib_result res;
@@ -527,7 +527,7 @@ static pf_status simulate_distributed(run *r, pf_error *err)
     if (st >= 0 && r->first_written == 0)
         st = pf_cli_distrib_frame(r->out, &r->mesh, &res, err);
     if (st >= 0 && !r->quiet)
-        pf_cli_distrib_summary(&res, r->mesh.n_elems);
+        pf_cli_distrib_summary(&res, r->mesh.n_elems, r->scene.method == PF_METHOD_CG);
     pf_sim_distrib_result_release(&res);
     return st;
 }

@@ -30,6 +30,23 @@ pf_status pf_petsc_partition_graph(int32_t n, const int64_t *offsets, const int3
 
 #ifdef PF_HAVE_PETSC
 #include <petscksp.h>
+/* A PETSc call in a function returning pf_status with a pf_error *err in scope: a nonzero
+ * PetscErrorCode returns PF_ERR_NUMERIC naming the call. PF_PETSC_TRY_TO: the same into st,
+ * skipping the call once st is an error (the caller frees what it holds, then returns st). */
+#define PF_PETSC_TRY(call)                                                                         \
+    do {                                                                                           \
+        PetscErrorCode pe_ = (call);                                                               \
+        if (pe_)                                                                                   \
+            return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc error %d in %s",   \
+                                (int)pe_, #call);                                                  \
+    } while (0)
+#define PF_PETSC_TRY_TO(st, call)                                                                  \
+    do {                                                                                           \
+        PetscErrorCode pe_ = (st) >= 0 ? (call) : 0;                                               \
+        if (pe_)                                                                                   \
+            (st) = pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc error %d in %s",   \
+                                (int)pe_, #call);                                                  \
+    } while (0)
 /* The KSP every petsc solve uses on matrix a (collective): CG on the true residual to
  * tolerance, GAMG, nonzero initial guess, then PETSc's options. */
 pf_status pf_petsc_create_ksp(Mat a, double tolerance, KSP *ksp, pf_error *err);

@@ -547,8 +547,15 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
-    if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY"))
+    if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY")) {
+        /* that path has no pf_sim whose statistics or state could be written */
+        PF_CHECK(!r->stats_path && !(r->checkpoint_given && r->checkpoint_every > 0), err,
+                 PF_ERR_INVALID,
+                 "--stats and --checkpoint-every are not available for a static scene on petsc, "
+                 "where every rank assembles its own elements; PF_SIM_RANK0_ASSEMBLY=1 has rank "
+                 "0 assemble all and writes both");
         return simulate_distributed(r, err);
+    }
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);
     r->bar.phase_lines = true;
     pf_sim_options opt = {.surface = embedded ? &r->input.surface : NULL,

@@ -50,9 +50,7 @@ static int ranks(void)
     return s;
 }
 
-/* Every rank learns whether any failed: its own error stays, the others get one naming the task
- * (rank 0 reports its own error when it has one). */
-static pf_status agree(pf_status st, pf_error *err)
+pf_status pf_sim_distrib_agree(pf_status st, pf_error *err)
 {
     int bad = st < 0, any = 0;
     MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
@@ -215,7 +213,7 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
         st = pf_sim_distrib_cg_whole(scene, m, owner, n, &cg, err);
     if (st >= 0)
         st = pf_scene_to_json(scene, &json, err);
-    st = agree(st, err); /* a failed partition: no parts, every rank knows */
+    st = pf_sim_distrib_agree(st, err); /* a failed partition: no parts, every rank knows */
     bool made = st >= 0;
     for (int32_t r = n - 1; r >= 0 && made; --r) {
         if (st >= 0)
@@ -437,8 +435,8 @@ static pf_status solution_rows(part *p, Vec x, pf_error *err)
     IS rows;
     Vec mine;
     VecScatter take;
-    PF_PETSC_TRY(ISCreateGeneral(PETSC_COMM_SELF, (PetscInt)p->n_dofs, p->row, PETSC_USE_POINTER,
-                              &rows));
+    PF_PETSC_TRY(
+        ISCreateGeneral(PETSC_COMM_SELF, (PetscInt)p->n_dofs, p->row, PETSC_USE_POINTER, &rows));
     PF_PETSC_TRY(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, (PetscInt)p->n_dofs, p->u, &mine));
     PF_PETSC_TRY(VecScatterCreate(x, rows, mine, NULL, &take));
     PF_PETSC_TRY(VecScatterBegin(take, x, mine, INSERT_VALUES, SCATTER_FORWARD));
@@ -486,9 +484,14 @@ static pf_status gather_outputs(part *p, double *nodes, double *vm, pf_error *er
     double *sum = pf_calloc(4 * nn + 1, sizeof *sum), *mises = pf_calloc(ne + 1, sizeof *mises);
     double *local = pf_alloc_array((size_t)p->h.n_elems + 1, sizeof *local);
     double *nodal = pf_alloc_array(3 * (size_t)p->h.n_nodes + 1, sizeof *nodal);
-    if (!sum || !mises || !local || !nodal) {
+    pf_status st =
+        sum && mises && local && nodal
+            ? PF_OK
+            : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate the outputs");
+    st = pf_sim_distrib_agree(st, err); /* before the reductions, which all ranks join */
+    if (st < 0) {
         pf_free(sum), pf_free(mises), pf_free(local), pf_free(nodal);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate the outputs");
+        return st;
     }
     const int64_t *off = NULL, *triple = NULL;
     const double *w = NULL;
@@ -539,18 +542,18 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_dist
 {
     part p = {0};
     rank_stats rs = {0};
-    st = agree(st >= 0 ? unpack_part(&p, msg, err) : st, err);
+    st = pf_sim_distrib_agree(st >= 0 ? unpack_part(&p, msg, err) : st, err);
     pf_buffer_release(msg);
     if (st >= 0)
-        st = agree(create_part(&p, err), err);
+        st = pf_sim_distrib_agree(create_part(&p, err), err);
     if (st >= 0)
-        st = agree(allocate_part(&p, err), err);
+        st = pf_sim_distrib_agree(allocate_part(&p, err), err);
     if (st >= 0)
-        st = agree(setup_part(&p, err), err);
+        st = pf_sim_distrib_agree(setup_part(&p, err), err);
     if (st >= 0)
-        st = agree(solve_part(&p, &rs, cpu0, err), err);
+        st = pf_sim_distrib_agree(solve_part(&p, &rs, cpu0, err), err);
     if (st >= 0)
-        st = agree(gather_outputs(&p, nodes, res ? res->von_mises : NULL, err), err);
+        st = pf_sim_distrib_agree(gather_outputs(&p, nodes, res ? res->von_mises : NULL, err), err);
     rs.owned = p.n_owned;
     rs.cpu = pf_cpu_seconds() - cpu0;
     rs.rss_mb = peak_rss_mb();
@@ -590,14 +593,14 @@ bool pf_sim_distrib_applies(const pf_scene *scene)
     for (int32_t k = 0; k < scene->n_materials; ++k)
         lists |= is_list(&scene->materials[k].region);
     return scene->solver.method == PF_SOLVER_PETSC && scene->is_static &&
-           (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) &&
-           scene->n_cuts == 0 && !lists;
+           (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) && scene->n_cuts == 0 &&
+           !lists;
 }
 
 pf_status pf_sim_distrib_serve(pf_error *err)
 {
     double cpu0 = pf_cpu_seconds();
-    pf_status st = agree(PF_OK, err); /* rank 0's partition */
+    pf_status st = pf_sim_distrib_agree(PF_OK, err); /* rank 0's partition */
     pf_buffer msg = {0};
     if (st >= 0)
         st = receive_part(&msg, err);

@@ -65,6 +65,11 @@ typedef struct cg_whole {
     int32_t fixed_faces;
 } cg_whole;
 
+/* Collective: every rank learns whether any failed (st < 0 on some rank); its own error stays, the
+ * others get one saying another rank failed (rank 0 reports its own error when it has one). Before
+ * collective calls that a rank failing alone would leave the others waiting in. */
+pf_status pf_sim_distrib_agree(pf_status st, pf_error *err);
+
 /* Rank 0: w for the mesh m (derived) whose elements are in parts owner [n_elems]. */
 pf_status pf_sim_distrib_cg_whole(const pf_scene *scene, const pf_mesh *m, const int64_t *owner,
                                   int32_t parts, cg_whole *w, pf_error *err);

@@ -54,8 +54,7 @@ pf_status pf_sim_distrib_cg_whole(const pf_scene *scene, const pf_mesh *m, const
         next[r + 1] += next[r];
     w->all_free = next[parts];
     for (size_t i = 0; i < nn; ++i)
-        w->pnode[i] =
-            !w->fixed[i] && w->node_owner[i] < parts ? next[w->node_owner[i]]++ : -1;
+        w->pnode[i] = !w->fixed[i] && w->node_owner[i] < parts ? next[w->node_owner[i]]++ : -1;
     pf_free(next);
     return PF_OK;
 }
@@ -123,8 +122,7 @@ static pf_status cg_rows(part *p, pf_error *err)
     for (int32_t i = 0; i < p->h.n_nodes; ++i) {
         if (off[i + 1] == off[i])
             continue;
-        PF_CHECK(p->pnode[i] >= 0, err, PF_ERR_INVALID, "node %d of the part is not free",
-                 (int)i);
+        PF_CHECK(p->pnode[i] >= 0, err, PF_ERR_INVALID, "node %d of the part is not free", (int)i);
         for (int d = 0; d < 3; ++d) {
             p->row[3 * triple[off[i]] + d] = (PetscInt)(3 * p->pnode[i] + d);
             p->row_owned[3 * triple[off[i]] + d] = p->node_owned[i];

@@ -55,14 +55,16 @@ pf_status pf_sim_distrib_matrix(part *p, Mat *a, pf_error *err)
     PetscInt *ci = pf_alloc_array((size_t)n_coo + 1, sizeof *ci);
     PetscInt *cj = pf_alloc_array((size_t)n_coo + 1, sizeof *cj);
     PetscScalar *v = pf_alloc_array((size_t)n_coo + 1, sizeof *v);
-    if (!ci || !cj || !v) {
+    pf_status st = ci && cj && v ? PF_OK
+                                 : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                                "cannot allocate %lld entries", (long long)n_coo);
+    st = pf_sim_distrib_agree(st, err); /* before PETSc's collective calls */
+    if (st < 0) {
         pf_free(ci), pf_free(cj), pf_free(v);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate %lld entries",
-                            (long long)n_coo);
+        return st;
     }
     coo_entries(p, ci, cj, v);
     PetscInt local = p->local_rows, all = p->all_rows;
-    pf_status st = PF_OK;
     PF_PETSC_TRY_TO(st, MatCreate(PETSC_COMM_WORLD, a));
     PF_PETSC_TRY_TO(st, MatSetSizes(*a, local, local, all, all));
     PF_PETSC_TRY_TO(st, MatSetType(*a, MATAIJ));
@@ -84,6 +86,7 @@ static pf_status matrix_values(part *p, Mat a, pf_error *err)
     pf_status st = ci && cj && v ? PF_OK
                                  : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                                                 "cannot allocate %lld entries", (long long)n_coo);
+    st = pf_sim_distrib_agree(st, err); /* before PETSc's collective call */
     if (st >= 0)
         coo_entries(p, ci, cj, v);
     PF_PETSC_TRY_TO(st, MatSetValuesCOO(a, v, INSERT_VALUES));

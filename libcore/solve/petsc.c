@@ -23,6 +23,7 @@
 #include "solve_petsc.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -78,6 +79,18 @@ static int comm_size(void)
     int s = 1;
     MPI_Comm_size(PETSC_COMM_WORLD, &s);
     return s;
+}
+
+pf_status pf_petsc_error(pf_error *err, int pe, const char *call, const char *file, int line)
+{
+    pf_status st = pf_error_set(err, PF_ERR_NUMERIC, file, line, "PETSc error %d in %s", pe, call);
+    if (comm_size() == 1)
+        return st;
+    fprintf(stderr, "pf: rank %d of %d: PETSc error %d in %s (%s:%d); ending every rank\n",
+            comm_rank(), comm_size(), pe, call, file, line);
+    fflush(stderr);
+    MPI_Abort(PETSC_COMM_WORLD, 1);
+    return st;
 }
 
 /* Rank 0 tells the serving ranks what comes. */

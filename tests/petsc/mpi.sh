@@ -154,6 +154,14 @@ for n in 1 2; do
   check "the message is printed once on $n ranks" test "$(grep -c 'needs fixed faces' "$tmp/err")" = 1
 done
 
+# --stats and --checkpoint-every have nothing to write on that path: refused, every rank exits 1
+for opt in "--stats $tmp/stats.json" "--checkpoint-every 1"; do
+  expect 1 "are not available for a static scene on petsc" mpi 2 "$bin/pf-sim" "$tmp/bz.json" \
+    --solver petsc --input "$tmp/beam.pfs" --output "$tmp/never.pfs" $opt
+  check "refused ${opt%% *}: the message once" test "$(grep -c 'not available' "$tmp/err")" = 1
+done
+check "no statistics written" test ! -e "$tmp/stats.json"
+
 # An error on rank 0 (a missing scene file) ends all ranks: exit 1, the message once, no hang.
 expect 1 "missing.json: cannot open" mpi 2 "$bin/pf-sim" "$tmp/missing.json" --solver petsc \
   --input "$tmp/beam.pfs" --output "$tmp/never.pfs"

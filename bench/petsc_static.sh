@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# The static DG solve on PETSc with every rank assembling its own elements (pf_sim_distrib_static)
+# The static solve on PETSc with every rank assembling its own elements (pf_sim_distrib_static)
 # against rank 0 assembling the whole system (PF_SIM_RANK0_ASSEMBLY=1, the path of every other
 # scene), on 1 and 2 ranks: memory and CPU per rank. The scene: data/scenes/cantilever.json with
 # DG degree 1 and the BZ flux (its default penalty: no definiteness test, so both paths solve the
-# same system), on 4r x r x r hexes. CSV on stdout, one row per (path, mesh, ranks); the head
-# comment says what machine and load it ran on.
-#   bench/petsc_static.sh BUILD_DIR [SIZES...]   SIZES: r (default 8 16)
+# same system), on 4r x r x r hexes; METHOD=cg in the environment: CG instead. CSV on stdout, one
+# row per (path, mesh, ranks); the head comment says what machine and load it ran on.
+#   [METHOD=cg] bench/petsc_static.sh BUILD_DIR [SIZES...]   SIZES: r (default 8 16)
 # Needs a build with -DPF_PETSC=ON and /usr/bin/time. Columns:
 #   assembly (ranks: each its own; rank0: rank 0 all), elements, unknowns, ranks, iterations,
 #   rank0_setup_cpu_s (rank 0's CPU outside PETSc's solve and preconditioner set-up: MPI and
@@ -24,10 +24,17 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 echo "# cpu: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(nproc) cores online, load average $(cut -d' ' -f1 /proc/loadavg) at start; $(mpirun --version | head -1); PETSc $(pkg-config --modversion petsc)"
-echo "# scene: data/scenes/cantilever.json, DG degree 1, flux bz (default penalty), static"
+method=${METHOD:-dg}
+if [ "$method" = cg ]; then
+  echo "# scene: data/scenes/cantilever.json, CG, static"
+  sed 's/"name": "dg", "degree": 2, "flux": "ip", "penalty": 0/"name": "cg"/' \
+    "$root/data/scenes/cantilever.json" >"$tmp/bz.json"
+else
+  echo "# scene: data/scenes/cantilever.json, DG degree 1, flux bz (default penalty), static"
+  sed 's/"degree": 2, "flux": "ip", "penalty": 0/"degree": 1, "flux": "bz"/' \
+    "$root/data/scenes/cantilever.json" >"$tmp/bz.json"
+fi
 echo "assembly,elements,unknowns,ranks,iterations,rank0_setup_cpu_s,rank0_cpu_s,rank1_cpu_s,rank0_rss_mb,rank1_rss_mb,wall_s"
-sed 's/"degree": 2, "flux": "ip", "penalty": 0/"degree": 1, "flux": "bz"/' \
-  "$root/data/scenes/cantilever.json" >"$tmp/bz.json"
 for r in "${sizes[@]}"; do
   "$bin/pf-shape" box --extent 4,1,1 --cells $((4 * r)),$r,$r >"$tmp/beam.pfs"
   for n in 1 2; do
@@ -40,7 +47,7 @@ for r in "${sizes[@]}"; do
         --output "$tmp/out.pfs" 2>"$tmp/err"
       end=$(date +%s.%N)
       awk -v path=$path -v n=$n -v wall="$(echo "$end - $start" | bc)" '
-        /^pf-sim: dg,/ { for (k = 1; k <= NF; ++k) { if ($(k+1) ~ /^elements/) el = $k; if ($(k+1) ~ /^unknowns/) un = $k } }
+        /^pf-sim: [cd]g,/ { for (k = 1; k <= NF; ++k) { if ($(k+1) ~ /^elements/) el = $k; if ($(k+1) ~ /^unknowns/) un = $k } }
         /assembled on/ { for (k = 1; k <= NF; ++k) if ($(k+1) == "iterations,") it = $k }
         /^pf-sim: rank 0: / { for (k = 1; k <= NF; ++k) { if ($k == "set-up") setup = $(k+1); if ($k == "in" && $(k+1) == "all,") all = $(k-3) } }
         /^pf-sim: solver petsc/ { for (k = 1; k <= NF; ++k) { if ($k == "iterations" && $(k+1) == "mean,") it = $(k-1); if ($k == "solves" && $(k+2) == "s") sc = $(k+5) } }

@@ -484,7 +484,7 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
     return st;
 }
 
-/* A static DG scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
+/* A static scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
 static pf_status simulate_distributed(run *r, pf_error *err)
 {
     pf_sim_distrib_result res;
@@ -492,7 +492,7 @@ static pf_status simulate_distributed(run *r, pf_error *err)
     if (st >= 0 && r->first_written == 0)
         st = pf_cli_distrib_frame(r->out, &r->mesh, &res, err);
     if (st >= 0 && !r->quiet)
-        pf_cli_distrib_summary(&res, r->mesh.n_elems);
+        pf_cli_distrib_summary(&res, r->mesh.n_elems, r->scene.method == PF_METHOD_CG);
     pf_sim_distrib_result_release(&res);
     return st;
 }
@@ -512,8 +512,15 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
-    if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY"))
+    if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY")) {
+        /* that path has no pf_sim whose statistics or state could be written */
+        PF_CHECK(!r->stats_path && !(r->checkpoint_given && r->checkpoint_every > 0), err,
+                 PF_ERR_INVALID,
+                 "--stats and --checkpoint-every are not available for a static scene on petsc, "
+                 "where every rank assembles its own elements; PF_SIM_RANK0_ASSEMBLY=1 has rank "
+                 "0 assemble all and writes both");
         return simulate_distributed(r, err);
+    }
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);
     r->bar.phase_lines = true;
     pf_sim_options opt = {.surface = embedded ? &r->input.surface : NULL,

@@ -27,12 +27,18 @@ pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
     return st;
 }
 
-void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements)
+void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements, bool cg)
 {
+    char penalty[64] = "";
+    if (!cg && res->penalty_doublings > 0)
+        snprintf(penalty, sizeof penalty, ", penalty %g (%d doublings)", res->penalty,
+                 (int)res->penalty_doublings);
+    else if (!cg)
+        snprintf(penalty, sizeof penalty, ", penalty %g", res->penalty);
     fprintf(stderr,
-            "pf-sim: dg, %d elements, %lld unknowns, penalty %g, assembled on %d ranks; solver "
-            "petsc: %d iterations, residual %.3g\n",
-            (int)elements, (long long)res->dofs, res->penalty, (int)res->ranks,
+            "pf-sim: %s, %d elements, %lld unknowns%s, assembled on %d ranks; solver petsc: %d "
+            "iterations, residual %.3g\n",
+            cg ? "cg" : "dg", (int)elements, (long long)res->dofs, penalty, (int)res->ranks,
             (int)res->iterations, res->residual);
     for (int32_t r = 0; r < res->ranks; ++r)
         fprintf(stderr,

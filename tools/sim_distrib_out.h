@@ -9,8 +9,8 @@
 pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
                                const pf_sim_distrib_result *res, pf_error *err);
 
-/* The summary on stderr: unknowns, penalty, solve, and per rank its elements, set-up CPU and
- * peak memory. */
-void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements);
+/* The summary on stderr: the method (cg: CG, else DG), unknowns, DG's penalty, solve, and per
+ * rank its elements, set-up CPU and peak memory. */
+void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements, bool cg);
 
 #endif

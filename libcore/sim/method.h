@@ -211,4 +211,17 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                            const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
                            int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);
 
+/* CG's fixed nodes (sim_cg.c): every node of a boundary face whose centroid lies in a fixed
+ * region is fixed (fixed[i] = 1, of n_nodes zeroed) to that region's displacement (g [3 n_nodes],
+ * the first region that selects the face). Returns the count of fixed faces; *loaded_faces (or
+ * NULL) receives that of loaded faces. mesh derived. */
+int32_t pf_sim_cg_fixed_nodes(const pf_scene *scene, const pf_mesh *mesh, uint8_t *fixed, double *g,
+                              int32_t *loaded_faces);
+/* CG on one rank's part of a mesh (sim_distrib_cg.c): the fixed nodes and their displacements as
+ * the whole mesh has them (fixed [n_nodes], g [3 n_nodes]: a node of a face fixed in another part
+ * is fixed here too), and the faces between parts (cut [n_faces], 1: the part's boundary there is
+ * not the body's, loads skip it). Renumbers the unknowns. PF_ERR_NOMEM. */
+pf_status pf_sim_cg_set_part(void *m, const uint8_t *fixed, const double *g, const uint8_t *cut,
+                             pf_error *err);
+
 #endif

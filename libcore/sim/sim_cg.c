@@ -25,6 +25,7 @@ typedef struct cg_method {
     bool rot_warm;   /* rot holds the last corotated step's (the next one's polar guesses) */
     double *scratch; /* [pf_cg_scratch_size] */
     pf_boundary bd;  /* boundary faces, triangulated (loads only) */
+    uint8_t *cut;    /* [n_faces] on a rank's part: 1 for a face between parts (no load); or NULL */
     /* the identity on free nodes as method.h's nodal map (contact) */
     int64_t *map_offsets; /* [n_nodes + 1] */
     int64_t *map_triple;  /* [n_free] */
@@ -137,6 +138,8 @@ static void external_forces(const void *m, double *f)
     const pf_boundary *bd = &c->bd;
     for (int32_t q = 0; q < bd->n_faces; ++q) {
         int32_t face = bd->face[q];
+        if (c->cut && c->cut[face])
+            continue;
         const uint32_t *idx = mesh->face_nodes + mesh->face_offsets[face];
         int64_t n = mesh->face_offsets[face + 1] - mesh->face_offsets[face];
         pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
@@ -482,6 +485,7 @@ static void destroy(void *m)
     pf_cg_release(&c->cg);
     pf_cg_map_release(&c->map);
     pf_free(c->fixed);
+    pf_free(c->cut);
     pf_free(c->g);
     pf_free(c->u_full);
     pf_free(c->rot);
@@ -521,14 +525,10 @@ static const pf_method_ops CG_OPS = {
     .destroy = destroy,
 };
 
-/* Every node of a boundary face whose centroid lies in a fixed region is fixed to that region's
- * displacement (the first region that selects the face); counts the faces fixed and loaded. */
-static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loaded_faces,
-                              pf_error *err)
+int32_t pf_sim_cg_fixed_nodes(const pf_scene *sc, const pf_mesh *mesh, uint8_t *fixed, double *g,
+                              int32_t *loaded_faces)
 {
-    const pf_scene *sc = c->scene;
-    const pf_mesh *mesh = c->mesh;
-    *fixed_faces = *loaded_faces = 0;
+    int32_t fixed_faces = 0, loaded = 0;
     for (int32_t f = 0; f < mesh->n_faces; ++f) {
         if (mesh->face_elems[2 * f] >= 0 && mesh->face_elems[2 * f + 1] >= 0)
             continue;
@@ -537,16 +537,43 @@ static pf_status select_nodes(cg_method *c, int32_t *fixed_faces, int32_t *loade
         pf_vec3 centroid = pf_polygon_centroid(mesh->x, idx, n);
         int32_t k = pf_method_fixed_region(sc, mesh, f, centroid);
         for (int64_t q = 0; k >= 0 && q < n; ++q) {
-            if (c->fixed[idx[q]])
+            if (fixed[idx[q]])
                 continue;
-            c->fixed[idx[q]] = 1;
-            pf_v3_store(sc->fixed[k].displacement, c->g + 3 * (size_t)idx[q]);
+            fixed[idx[q]] = 1;
+            pf_v3_store(sc->fixed[k].displacement, g + 3 * (size_t)idx[q]);
         }
-        *fixed_faces += k >= 0;
-        *loaded_faces += pf_method_face_loaded(sc, mesh, f, centroid);
+        fixed_faces += k >= 0;
+        loaded += pf_method_face_loaded(sc, mesh, f, centroid);
     }
-    (void)err;
-    return PF_OK;
+    if (loaded_faces)
+        *loaded_faces = loaded;
+    return fixed_faces;
+}
+
+/* The free nodes' map (the unknowns) and the nodal map of contact, from c->fixed. */
+static pf_status number_free_nodes(cg_method *c, pf_error *err)
+{
+    /* the driver builds its own matrix from the same pattern */
+    pf_block_matrix probe = {0};
+    pf_cg_map_release(&c->map);
+    pf_status st = pf_cg_pattern(&c->cg, c->fixed, &probe, &c->map, err);
+    pf_block_matrix_release(&probe);
+    pf_free(c->map_offsets), pf_free(c->map_triple), pf_free(c->map_w);
+    c->map_offsets = NULL, c->map_triple = NULL, c->map_w = NULL;
+    return st >= 0 ? build_nodal_map(c, err) : st;
+}
+
+pf_status pf_sim_cg_set_part(void *m, const uint8_t *fixed, const double *g, const uint8_t *cut,
+                             pf_error *err)
+{
+    cg_method *c = m;
+    size_t nn = (size_t)c->mesh->n_nodes, nf = (size_t)c->mesh->n_faces;
+    c->cut = pf_alloc_array(nf + 1, sizeof *c->cut);
+    PF_CHECK(c->cut, err, PF_ERR_NOMEM, "cannot allocate %zu face flags", nf);
+    memcpy(c->cut, cut, nf * sizeof *c->cut);
+    memcpy(c->fixed, fixed, nn * sizeof *c->fixed);
+    memcpy(c->g, g, 3 * nn * sizeof *c->g);
+    return number_free_nodes(c, err);
 }
 
 pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
@@ -604,18 +631,11 @@ pf_status pf_sim_cg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_
                                 "cannot allocate the CG state of %d nodes", (int)nn);
     }
     if (st >= 0)
-        st = select_nodes(c, fixed_faces, loaded_faces, err);
+        *fixed_faces = pf_sim_cg_fixed_nodes(scene, mesh, c->fixed, c->g, loaded_faces);
     if (st >= 0 && scene->n_loads > 0)
         st = pf_boundary_extract(mesh, &c->bd, err);
-    if (st >= 0) {
-        /* The unknowns: the map of the free nodes (the driver builds its own matrix from the
-         * same pattern). */
-        pf_block_matrix probe = {0};
-        st = pf_cg_pattern(&c->cg, c->fixed, &probe, &c->map, err);
-        pf_block_matrix_release(&probe);
-    }
     if (st >= 0)
-        st = build_nodal_map(c, err);
+        st = number_free_nodes(c, err);
     if (st < 0) {
         destroy(c);
         return st;

@@ -1,5 +1,5 @@
-/* The static DG solve with each MPI rank assembling its own elements (pf/sim.h,
- * pf_sim_distrib_static).
+/* The static solve with each MPI rank assembling its own elements (pf/sim.h,
+ * pf_sim_distrib_static): DG here, CG's differences in sim_distrib_cg.c.
  *
  * Rank 0 partitions the elements (PT-Scotch on their face adjacency, pf_petsc_partition_graph)
  * and sends each rank its part: its elements and their face neighbours (the halo) as a mesh of
@@ -28,47 +28,13 @@
 #include <string.h>
 
 #include "../solve/solve_petsc.h"
+#include "sim_distrib.h"
 #include "sim_internal.h"
 #include <pf/integrate.h>
 
 #ifdef PF_HAVE_PETSC
 
 #include <sys/resource.h>
-
-#define PETSC_TRY(call)                                                                            \
-    do {                                                                                           \
-        PetscErrorCode pe_ = (call);                                                               \
-        if (pe_)                                                                                   \
-            return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc error %d in %s",   \
-                                (int)pe_, #call);                                                  \
-    } while (0)
-
-/* What the header of a part's message holds. */
-typedef struct part_header {
-    int64_t mesh_bytes, groups_bytes;
-    int32_t n_elems, n_nodes;     /* the part's */
-    int32_t all_elems, all_nodes; /* the whole mesh's */
-    int64_t scene_bytes;
-    double lo[3], hi[3]; /* the whole mesh's bounds */
-} part_header;
-
-/* One rank's part and what it computes. */
-typedef struct part {
-    part_header h;
-    pf_scene scene;
-    pf_mesh mesh;
-    int64_t *pelem; /* [n_elems] PETSc number of each element */
-    int32_t *gelem; /* [n_elems] its index in the whole mesh */
-    int32_t *gnode; /* [n_nodes] each node's index in the whole mesh */
-    uint8_t *owned; /* [n_elems] */
-    int32_t n_owned;
-    const pf_method_ops *ops;
-    void *method;
-    pf_block_matrix k;
-    double *f, *u; /* [part unknowns] */
-    int32_t nb3;   /* unknowns per element */
-    double penalty;
-} part;
 
 static int rank_of(void)
 {
@@ -84,9 +50,7 @@ static int ranks(void)
     return s;
 }
 
-/* Every rank learns whether any failed: its own error stays, the others get one naming the task
- * (rank 0 reports its own error when it has one). */
-static pf_status agree(pf_status st, pf_error *err)
+pf_status pf_sim_distrib_agree(pf_status st, pf_error *err)
 {
     int bad = st < 0, any = 0;
     MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
@@ -157,7 +121,8 @@ static pf_status append(pf_buffer *b, const void *bytes, size_t n, pf_error *err
 /* Part r of the mesh as one message: header, scene JSON, MESH and GRPS payloads, then per
  * element its PETSc number, whole-mesh index and ownership, and per node its whole-mesh index. */
 static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *owner,
-                           const int64_t *pelem, int32_t r, pf_buffer *out, pf_error *err)
+                           const int64_t *pelem, const cg_whole *cg, int32_t r, pf_buffer *out,
+                           pf_error *err)
 {
     int32_t ne = m->n_elems;
     uint8_t *keep = pf_calloc((size_t)ne + 1, 1);
@@ -173,10 +138,10 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
         any |= owner[e] == r;
     for (int32_t f = 0; st >= 0 && f < m->n_faces; ++f) {
         int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
-        if (a >= 0 && owner[a] == r)
-            keep[a] = 1, keep[b >= 0 ? b : a] = 1;
+        if (a >= 0 && owner[a] == r) /* CG: its own elements only, DG: with their neighbours */
+            keep[a] = 1, keep[b >= 0 && !cg ? b : a] = 1;
         if (b >= 0 && owner[b] == r)
-            keep[b] = 1, keep[a >= 0 ? a : b] = 1;
+            keep[b] = 1, keep[a >= 0 && !cg ? a : b] = 1;
     }
     if (st >= 0 && any)
         st = pf_mesh_select_elements(&sub, m, keep, emap, err);
@@ -196,7 +161,9 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
                      .all_nodes = m->n_nodes,
                      .scene_bytes = (int64_t)strlen(json),
                      .lo = {lo.x, lo.y, lo.z},
-                     .hi = {hi.x, hi.y, hi.z}};
+                     .hi = {hi.x, hi.y, hi.z},
+                     .all_free = cg ? cg->all_free : 0,
+                     .fixed_faces = cg ? cg->fixed_faces : 0};
     out->size = 0;
     if (st >= 0)
         st = append(out, &h, sizeof h, err);
@@ -218,6 +185,8 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
     for (int32_t i = 0; st >= 0 && any && i < m->n_nodes; ++i)
         if (node_id[i] >= 0)
             st = append(out, &i, sizeof i, err);
+    if (st >= 0 && any && cg)
+        st = pf_sim_distrib_cg_pack(m, cg, keep, node_id, r, out, err);
     pf_mesh_release(&sub);
     pf_buffer_release(&mesh_bytes);
     pf_buffer_release(&groups);
@@ -233,18 +202,22 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
     int64_t *owner = pf_alloc_array((size_t)m->n_elems + 1, sizeof *owner);
     int64_t *pelem = pf_alloc_array((size_t)m->n_elems + 1, sizeof *pelem);
     char *json = NULL;
+    cg_whole cg = {0};
+    bool is_cg = scene->method == PF_METHOD_CG;
     pf_status st = owner && pelem ? PF_OK
                                   : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                                                  "cannot partition %d elements", (int)m->n_elems);
     if (st >= 0)
         st = partition(m, n, owner, pelem, err);
+    if (st >= 0 && is_cg)
+        st = pf_sim_distrib_cg_whole(scene, m, owner, n, &cg, err);
     if (st >= 0)
         st = pf_scene_to_json(scene, &json, err);
-    st = agree(st, err); /* a failed partition: no parts, every rank knows */
+    st = pf_sim_distrib_agree(st, err); /* a failed partition: no parts, every rank knows */
     bool made = st >= 0;
     for (int32_t r = n - 1; r >= 0 && made; --r) {
         if (st >= 0)
-            st = pack_part(m, json, owner, pelem, r, mine, err);
+            st = pack_part(m, json, owner, pelem, is_cg ? &cg : NULL, r, mine, err);
         if (r == 0)
             break;
         int64_t size = st >= 0 ? (int64_t)mine->size : -1;
@@ -254,6 +227,7 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
                      r, 1, PETSC_COMM_WORLD);
     }
     pf_free(owner), pf_free(pelem), pf_free(json);
+    pf_sim_distrib_cg_whole_release(&cg);
     return st;
 }
 
@@ -310,22 +284,45 @@ static pf_status unpack_part(part *p, pf_buffer *b, pf_error *err)
         at += 13;
     }
     memcpy(p->gnode, at, nn * sizeof *p->gnode);
+    at += nn * sizeof *p->gnode;
+    if (p->scene.method == PF_METHOD_CG)
+        PF_TRY(pf_sim_distrib_cg_unpack(p, at, err));
     return pf_mesh_derive(&p->mesh, err);
 }
 
-/* The DG method on the part (none on a rank without elements). */
-static pf_status create_part(part *p, pf_error *err)
+/* The PETSc rows of a DG part's unknowns: element e's are its PETSc number's block. */
+static pf_status dg_rows(part *p, pf_error *err)
 {
-    int32_t fixed = 0, loaded = 0;
-    p->nb3 = 3 * pf_moment_count(p->scene.degree);
-    if (p->h.n_elems == 0)
-        return PF_OK;
-    return pf_sim_dg_create(&p->scene, &p->mesh, NULL, NULL, &p->ops, &p->method, &fixed, &loaded,
-                            err);
+    p->n_dofs = (int64_t)p->h.n_elems * p->nb3;
+    p->local_rows = (PetscInt)p->n_owned * p->nb3;
+    p->all_rows = (PetscInt)p->h.all_elems * p->nb3;
+    p->row = pf_alloc_array((size_t)p->n_dofs + 1, sizeof *p->row);
+    p->row_owned = pf_alloc_array((size_t)p->n_dofs + 1, sizeof *p->row_owned);
+    PF_CHECK(p->row && p->row_owned, err, PF_ERR_NOMEM, "cannot allocate %lld rows",
+             (long long)p->n_dofs);
+    for (int64_t i = 0; i < p->n_dofs; ++i) {
+        int64_t e = i / p->nb3;
+        p->row[i] = (PetscInt)(p->pelem[e] * p->nb3 + i % p->nb3);
+        p->row_owned[i] = p->owned[e];
+    }
+    return PF_OK;
 }
 
-/* Its penalty, and BZ's body length that of the whole mesh; the stiffness and forces. */
-static pf_status setup_part(part *p, pf_error *err)
+/* The method on the part (none on a rank without elements) and the rows of its unknowns. */
+static pf_status create_part(part *p, pf_error *err)
+{
+    if (p->scene.method == PF_METHOD_CG)
+        return pf_sim_distrib_cg_create(p, err);
+    int32_t fixed = 0, loaded = 0;
+    p->nb3 = 3 * pf_moment_count(p->scene.degree);
+    if (p->h.n_elems > 0)
+        PF_TRY(pf_sim_dg_create(&p->scene, &p->mesh, NULL, NULL, &p->ops, &p->method, &fixed,
+                                &loaded, err));
+    return dg_rows(p, err);
+}
+
+/* DG: its penalty, and BZ's body length that of the whole mesh; the count of fixed faces. */
+static pf_status dg_setup(part *p, pf_error *err)
 {
     double volume = p->method ? pf_sim_dg_owned_volume(p->method, p->owned) : 0, total = 0;
     int mine = p->method ? pf_sim_dg_owned_fixed_faces(p->method, p->owned) : 0, faces = 0;
@@ -334,68 +331,55 @@ static pf_status setup_part(part *p, pf_error *err)
     PF_CHECK(faces > 0, err, PF_ERR_INVALID,
              "a static scene needs fixed faces: no boundary face centroid lies in any 'fixed' "
              "region");
-    p->penalty =
-        p->scene.penalty > 0 ? p->scene.penalty : pf_sim_bz_default_penalty(p->scene.degree);
+    if (p->method)
+        pf_sim_dg_set_body_length(p->method, cbrt(total));
+    if (p->scene.penalty <= 0 && p->scene.flux != PF_FLUX_BZ) /* IP's automatic penalty */
+        PF_TRY(pf_sim_distrib_search_penalty(p, err));
+    else
+        p->penalty =
+            p->scene.penalty > 0 ? p->scene.penalty : pf_sim_bz_default_penalty(p->scene.degree);
+    if (p->method)
+        p->ops->set_penalty(p->method, p->penalty);
+    return PF_OK;
+}
+
+/* The part's vectors and the pattern of its matrix. */
+static pf_status allocate_part(part *p, pf_error *err)
+{
     if (!p->method)
         return PF_OK;
-    pf_sim_dg_set_body_length(p->method, cbrt(total));
-    p->ops->set_penalty(p->method, p->penalty);
-    size_t n = (size_t)p->h.n_elems * (size_t)p->nb3;
+    size_t n = (size_t)p->n_dofs;
     p->f = pf_calloc(n + 1, sizeof *p->f);
     p->u = pf_calloc(n + 1, sizeof *p->u);
     PF_CHECK(p->f && p->u, err, PF_ERR_NOMEM, "cannot allocate %zu unknowns", n);
-    PF_TRY(p->ops->pattern(p->method, &p->k, err));
+    return p->ops->pattern(p->method, &p->k, err);
+}
+
+/* The method's parameters of the whole mesh (collective); the part's stiffness and forces. */
+static pf_status setup_part(part *p, pf_error *err)
+{
+    if (p->scene.method == PF_METHOD_CG)
+        PF_CHECK(p->h.fixed_faces > 0, err, PF_ERR_INVALID,
+                 "a static scene needs fixed faces: no boundary face centroid lies in any "
+                 "'fixed' region");
+    else
+        PF_TRY(dg_setup(p, err));
+    if (!p->method)
+        return PF_OK;
     p->ops->stiffness(p->method, p->u, false, &p->k, p->f);
     p->ops->external_forces(p->method, p->f);
     return PF_OK;
 }
 
-/* Whether this rank sends the stored entry coupling elements a and b (see the top). */
-static bool sends(const part *p, int32_t a, int32_t b)
+/* dst (zeroed) from src [n_dofs]: its owned rows, or with sum (CG's right-hand side) every
+ * row of the part, the ranks' shares summed. */
+static pf_status set_rows(const part *p, const double *src, bool sum, Vec dst, pf_error *err)
 {
-    if (p->owned[a] && p->owned[b])
-        return true;
-    if (!p->owned[a] && !p->owned[b])
-        return false;
-    return p->owned[a] ? p->pelem[a] < p->pelem[b] : p->pelem[b] < p->pelem[a];
-}
-
-static PetscInt petsc_row(const part *p, int64_t i)
-{
-    int64_t e = i / p->nb3;
-    return (PetscInt)(p->pelem[e] * p->nb3 + i % p->nb3);
-}
-
-/* This rank's COO entries: i and j NULL counts them. */
-static PetscCount coo_entries(const part *p, PetscInt *ci, PetscInt *cj, PetscScalar *v)
-{
-    const pf_block_matrix *k = &p->k;
-    PetscCount q = 0;
-    for (int64_t c = 0; c < k->n; ++c)
-        for (int64_t s = k->col_ptr[c]; s < k->col_ptr[c + 1]; ++s) {
-            int64_t r = k->row_idx[s];
-            if (!sends(p, (int32_t)(r / p->nb3), (int32_t)(c / p->nb3)))
-                continue;
-            for (int t = 0; t < (r == c ? 1 : 2); ++t, ++q)
-                if (ci) {
-                    ci[q] = petsc_row(p, t ? c : r);
-                    cj[q] = petsc_row(p, t ? r : c);
-                    v[q] = k->val[s];
-                }
-        }
-    return q;
-}
-
-/* dst's owned rows from src [part unknowns]. */
-static pf_status set_owned(const part *p, const double *src, Vec dst, pf_error *err)
-{
-    for (int32_t e = 0; e < p->h.n_elems; ++e)
-        if (p->owned[e])
-            for (int32_t o = 0; o < p->nb3; ++o)
-                PETSC_TRY(VecSetValue(dst, petsc_row(p, (int64_t)e * p->nb3 + o),
-                                      src[(size_t)e * p->nb3 + o], INSERT_VALUES));
-    PETSC_TRY(VecAssemblyBegin(dst));
-    PETSC_TRY(VecAssemblyEnd(dst));
+    for (int64_t i = 0; i < p->n_dofs; ++i)
+        if (sum || p->row_owned[i])
+            PF_PETSC_TRY(VecSetValue(dst, p->row[i], src[i], ADD_VALUES));
+    PF_PETSC_TRY(VecAssemblyBegin(dst));
+    PF_PETSC_TRY(VecAssemblyEnd(dst));
     return PF_OK;
 }
 
@@ -419,16 +403,16 @@ static pf_status rigid_modes(part *p, Mat a, pf_error *err)
         }
         if (p->method)
             p->ops->affine(p->method, m, t, p->u);
-        PETSC_TRY(MatCreateVecs(a, &v[k], NULL));
-        PF_TRY(set_owned(p, p->u, v[k], err));
+        PF_PETSC_TRY(MatCreateVecs(a, &v[k], NULL));
+        PF_TRY(set_rows(p, p->u, false, v[k], err));
     }
     PF_TRY(pf_petsc_orthonormalise(v, 6, err));
     MatNullSpace space;
-    PETSC_TRY(MatNullSpaceCreate(PETSC_COMM_WORLD, PETSC_FALSE, 6, v, &space));
-    PETSC_TRY(MatSetNearNullSpace(a, space));
-    PETSC_TRY(MatNullSpaceDestroy(&space));
+    PF_PETSC_TRY(MatNullSpaceCreate(PETSC_COMM_WORLD, PETSC_FALSE, 6, v, &space));
+    PF_PETSC_TRY(MatSetNearNullSpace(a, space));
+    PF_PETSC_TRY(MatNullSpaceDestroy(&space));
     for (int k = 0; k < 6; ++k)
-        PETSC_TRY(VecDestroy(&v[k]));
+        PF_PETSC_TRY(VecDestroy(&v[k]));
     return PF_OK;
 }
 
@@ -445,53 +429,45 @@ static double peak_rss_mb(void)
     return (double)ru.ru_maxrss / 1024.0;
 }
 
-/* The matrix, the solve, and the part's solution in p->u (owned elements; zero elsewhere). */
+/* p->u [n_dofs] from x, each unknown's row (other ranks' too: CG's shared nodes, DG's halo). */
+static pf_status solution_rows(part *p, Vec x, pf_error *err)
+{
+    IS rows;
+    Vec mine;
+    VecScatter take;
+    PF_PETSC_TRY(
+        ISCreateGeneral(PETSC_COMM_SELF, (PetscInt)p->n_dofs, p->row, PETSC_USE_POINTER, &rows));
+    PF_PETSC_TRY(VecCreateSeqWithArray(PETSC_COMM_SELF, 1, (PetscInt)p->n_dofs, p->u, &mine));
+    PF_PETSC_TRY(VecScatterCreate(x, rows, mine, NULL, &take));
+    PF_PETSC_TRY(VecScatterBegin(take, x, mine, INSERT_VALUES, SCATTER_FORWARD));
+    PF_PETSC_TRY(VecScatterEnd(take, x, mine, INSERT_VALUES, SCATTER_FORWARD));
+    VecScatterDestroy(&take), VecDestroy(&mine), ISDestroy(&rows);
+    return PF_OK;
+}
+
+/* The matrix, the solve, and the part's solution in p->u. */
 static pf_status solve_part(part *p, rank_stats *rs, double cpu0, pf_error *err)
 {
-    PetscCount n_coo = coo_entries(p, NULL, NULL, NULL);
-    PetscInt *ci = pf_alloc_array((size_t)n_coo + 1, sizeof *ci);
-    PetscInt *cj = pf_alloc_array((size_t)n_coo + 1, sizeof *cj);
-    PetscScalar *v = pf_alloc_array((size_t)n_coo + 1, sizeof *v);
-    PF_CHECK(ci && cj && v, err, PF_ERR_NOMEM, "cannot allocate %lld entries", (long long)n_coo);
-    coo_entries(p, ci, cj, v);
-    PetscInt local = (PetscInt)p->n_owned * p->nb3, all = (PetscInt)p->h.all_elems * p->nb3;
     Mat a;
     Vec x, b;
     KSP ksp;
-    PETSC_TRY(MatCreate(PETSC_COMM_WORLD, &a));
-    PETSC_TRY(MatSetSizes(a, local, local, all, all));
-    PETSC_TRY(MatSetType(a, MATAIJ));
-    PETSC_TRY(MatSetBlockSize(a, 3));
-    PETSC_TRY(MatSetFromOptions(a));
-    PETSC_TRY(MatSetPreallocationCOO(a, n_coo, ci, cj));
-    pf_free(ci), pf_free(cj);
-    PETSC_TRY(MatSetValuesCOO(a, v, INSERT_VALUES));
-    pf_free(v);
+    PF_TRY(pf_sim_distrib_matrix(p, &a, err));
     pf_block_matrix_release(&p->k);
-    PETSC_TRY(MatCreateVecs(a, &x, &b));
-    PF_TRY(set_owned(p, p->f, b, err));
+    PF_PETSC_TRY(MatCreateVecs(a, &x, &b));
+    PF_TRY(set_rows(p, p->f, p->scene.method == PF_METHOD_CG, b, err));
     PF_TRY(rigid_modes(p, a, err));
     PF_TRY(pf_petsc_create_ksp(a, p->scene.solver.tolerance, &ksp, err));
     rs->setup_cpu = pf_cpu_seconds() - cpu0;
     KSPConvergedReason reason;
     PetscInt its;
     PetscReal rnorm, bnorm;
-    PETSC_TRY(KSPSolve(ksp, b, x));
-    PETSC_TRY(KSPGetConvergedReason(ksp, &reason));
-    PETSC_TRY(KSPGetIterationNumber(ksp, &its));
-    PETSC_TRY(KSPGetResidualNorm(ksp, &rnorm));
-    PETSC_TRY(VecNorm(b, NORM_2, &bnorm));
+    PF_PETSC_TRY(KSPSolve(ksp, b, x));
+    PF_PETSC_TRY(KSPGetConvergedReason(ksp, &reason));
+    PF_PETSC_TRY(KSPGetIterationNumber(ksp, &its));
+    PF_PETSC_TRY(KSPGetResidualNorm(ksp, &rnorm));
+    PF_PETSC_TRY(VecNorm(b, NORM_2, &bnorm));
     rs->iterations = its, rs->reason = reason, rs->residual = bnorm > 0 ? rnorm / bnorm : 0;
-    PetscInt first, end;
-    const PetscScalar *xs;
-    PETSC_TRY(VecGetOwnershipRange(x, &first, &end));
-    PETSC_TRY(VecGetArrayRead(x, &xs));
-    if (p->u)
-        memset(p->u, 0, (size_t)p->h.n_elems * p->nb3 * sizeof *p->u);
-    for (int32_t e = 0; e < p->h.n_elems; ++e)
-        for (int32_t o = 0; p->owned[e] && o < p->nb3; ++o)
-            p->u[(size_t)e * p->nb3 + o] = xs[petsc_row(p, (int64_t)e * p->nb3 + o) - first];
-    PETSC_TRY(VecRestoreArrayRead(x, &xs));
+    PF_TRY(solution_rows(p, x, err));
     KSPDestroy(&ksp), MatDestroy(&a), VecDestroy(&x), VecDestroy(&b);
     PF_CHECK(reason > 0, err, PF_ERR_NUMERIC,
              "PETSc's KSP stopped without converging (reason %d) after %d iterations, residual "
@@ -507,7 +483,16 @@ static pf_status gather_outputs(part *p, double *nodes, double *vm, pf_error *er
     size_t nn = (size_t)p->h.all_nodes, ne = (size_t)p->h.all_elems;
     double *sum = pf_calloc(4 * nn + 1, sizeof *sum), *mises = pf_calloc(ne + 1, sizeof *mises);
     double *local = pf_alloc_array((size_t)p->h.n_elems + 1, sizeof *local);
-    PF_CHECK(sum && mises && local, err, PF_ERR_NOMEM, "cannot allocate the outputs");
+    double *nodal = pf_alloc_array(3 * (size_t)p->h.n_nodes + 1, sizeof *nodal);
+    pf_status st =
+        sum && mises && local && nodal
+            ? PF_OK
+            : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot allocate the outputs");
+    st = pf_sim_distrib_agree(st, err); /* before the reductions, which all ranks join */
+    if (st < 0) {
+        pf_free(sum), pf_free(mises), pf_free(local), pf_free(nodal);
+        return st;
+    }
     const int64_t *off = NULL, *triple = NULL;
     const double *w = NULL;
     if (p->method) {
@@ -515,7 +500,9 @@ static pf_status gather_outputs(part *p, double *nodes, double *vm, pf_error *er
         p->ops->von_mises(p->method, p->u, local);
     }
     int32_t nb = p->nb3 / 3;
-    for (int32_t i = 0; p->method && i < p->h.n_nodes; ++i) {
+    if (p->scene.method == PF_METHOD_CG)
+        pf_sim_distrib_cg_nodal(p, sum, nodal);
+    for (int32_t i = 0; p->method && nb > 0 && i < p->h.n_nodes; ++i) {
         double elems_here = (double)(off[i + 1] - off[i]) / nb; /* w holds phi / elems_here */
         double *s = sum + 4 * (size_t)p->gnode[i];
         for (int64_t q = off[i]; q < off[i + 1]; ++q) {
@@ -531,7 +518,7 @@ static pf_status gather_outputs(part *p, double *nodes, double *vm, pf_error *er
             mises[p->gelem[e]] = local[e];
     MPI_Reduce(sum, nodes, (int)(4 * nn), MPI_DOUBLE, MPI_SUM, 0, PETSC_COMM_WORLD);
     MPI_Reduce(mises, vm, (int)ne, MPI_DOUBLE, MPI_SUM, 0, PETSC_COMM_WORLD);
-    pf_free(sum), pf_free(mises), pf_free(local);
+    pf_free(sum), pf_free(mises), pf_free(local), pf_free(nodal);
     return PF_OK;
 }
 
@@ -544,6 +531,8 @@ static void release_part(part *p)
     pf_scene_release(&p->scene);
     pf_free(p->pelem), pf_free(p->gelem), pf_free(p->gnode), pf_free(p->owned);
     pf_free(p->f), pf_free(p->u);
+    pf_free(p->row), pf_free(p->row_owned);
+    pf_sim_distrib_cg_release(p);
 }
 
 /* Every rank's half after the parts went out (st: whether they did): set-up, assembly, solve,
@@ -553,16 +542,18 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_dist
 {
     part p = {0};
     rank_stats rs = {0};
-    st = agree(st >= 0 ? unpack_part(&p, msg, err) : st, err);
+    st = pf_sim_distrib_agree(st >= 0 ? unpack_part(&p, msg, err) : st, err);
     pf_buffer_release(msg);
     if (st >= 0)
-        st = agree(create_part(&p, err), err);
+        st = pf_sim_distrib_agree(create_part(&p, err), err);
     if (st >= 0)
-        st = agree(setup_part(&p, err), err);
+        st = pf_sim_distrib_agree(allocate_part(&p, err), err);
     if (st >= 0)
-        st = agree(solve_part(&p, &rs, cpu0, err), err);
+        st = pf_sim_distrib_agree(setup_part(&p, err), err);
     if (st >= 0)
-        st = agree(gather_outputs(&p, nodes, res ? res->von_mises : NULL, err), err);
+        st = pf_sim_distrib_agree(solve_part(&p, &rs, cpu0, err), err);
+    if (st >= 0)
+        st = pf_sim_distrib_agree(gather_outputs(&p, nodes, res ? res->von_mises : NULL, err), err);
     rs.owned = p.n_owned;
     rs.cpu = pf_cpu_seconds() - cpu0;
     rs.rss_mb = peak_rss_mb();
@@ -578,7 +569,8 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_dist
         res->iterations = (int32_t)rs.iterations;
         res->residual = rs.residual;
         res->penalty = p.penalty;
-        res->dofs = (int64_t)p.h.all_elems * p.nb3;
+        res->penalty_doublings = p.doublings;
+        res->dofs = p.all_rows;
     }
     pf_free(all);
     release_part(&p);
@@ -601,14 +593,14 @@ bool pf_sim_distrib_applies(const pf_scene *scene)
     for (int32_t k = 0; k < scene->n_materials; ++k)
         lists |= is_list(&scene->materials[k].region);
     return scene->solver.method == PF_SOLVER_PETSC && scene->is_static &&
-           scene->method == PF_METHOD_DG && (scene->penalty > 0 || scene->flux == PF_FLUX_BZ) &&
-           scene->n_cuts == 0 && !lists;
+           (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) && scene->n_cuts == 0 &&
+           !lists;
 }
 
 pf_status pf_sim_distrib_serve(pf_error *err)
 {
     double cpu0 = pf_cpu_seconds();
-    pf_status st = agree(PF_OK, err); /* rank 0's partition */
+    pf_status st = pf_sim_distrib_agree(PF_OK, err); /* rank 0's partition */
     pf_buffer msg = {0};
     if (st >= 0)
         st = receive_part(&msg, err);
@@ -625,8 +617,8 @@ pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
         PF_TRY(pf_petsc_initialize(NULL, NULL, NULL, NULL, err));
     PF_CHECK(rank_of() == 0, err, PF_ERR_INVALID, "the distributed solve is driven by rank 0");
     PF_CHECK(pf_sim_distrib_applies(scene), err, PF_ERR_INVALID,
-             "the distributed assembly takes static DG scenes with the petsc solver and a given "
-             "penalty (or the BZ flux)");
+             "the distributed assembly takes static scenes with the petsc solver, without cuts "
+             "and without node or element lists");
     double cpu0 = pf_cpu_seconds();
     out->ranks = ranks();
     size_t nn = (size_t)mesh->n_nodes;

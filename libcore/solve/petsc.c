@@ -23,6 +23,7 @@
 #include "solve_petsc.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -33,14 +34,6 @@
 /* PT-Scotch's (scotch.h), which PETSc's MatPartitioning runs: restarts its random generator from
  * its fixed seed. Declared here: scotch.h wants its own integer types and MPI set up first. */
 void SCOTCH_randomReset(void);
-
-#define PETSC_TRY(call)                                                                            \
-    do {                                                                                           \
-        PetscErrorCode pe_ = (call);                                                               \
-        if (pe_)                                                                                   \
-            return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__, "PETSc error %d in %s",   \
-                                (int)pe_, #call);                                                  \
-    } while (0)
 
 enum command { CMD_EXIT = 0, CMD_CREATE, CMD_NULL_SPACE, CMD_SOLVE, CMD_DESTROY, CMD_TASK };
 
@@ -88,6 +81,18 @@ static int comm_size(void)
     return s;
 }
 
+pf_status pf_petsc_error(pf_error *err, int pe, const char *call, const char *file, int line)
+{
+    pf_status st = pf_error_set(err, PF_ERR_NUMERIC, file, line, "PETSc error %d in %s", pe, call);
+    if (comm_size() == 1)
+        return st;
+    fprintf(stderr, "pf: rank %d of %d: PETSc error %d in %s (%s:%d); ending every rank\n",
+            comm_rank(), comm_size(), pe, call, file, line);
+    fflush(stderr);
+    MPI_Abort(PETSC_COMM_WORLD, 1);
+    return st;
+}
+
 /* Rank 0 tells the serving ranks what comes. */
 static void announce(message m)
 {
@@ -116,30 +121,30 @@ static pf_status create_body(engine *e, PetscInt n, const int64_t *count, double
     PetscInt bs = n % 3 == 0 ? 3 : 1, local = 0;
     PF_TRY(local_rows(count, &local, err));
     e->n = n;
-    PETSC_TRY(MatCreate(PETSC_COMM_WORLD, &e->a));
-    PETSC_TRY(MatSetSizes(e->a, local, local, n, n));
-    PETSC_TRY(MatSetType(e->a, MATAIJ));
-    PETSC_TRY(MatSetBlockSize(e->a, bs));
-    PETSC_TRY(MatSetFromOptions(e->a));
-    PETSC_TRY(MatSetPreallocationCOO(e->a, n_coo, coo_i, coo_j));
-    PETSC_TRY(MatCreateVecs(e->a, &e->x, &e->b));
-    PETSC_TRY(VecScatterCreateToZero(e->x, &e->to_zero, &e->whole));
+    PF_PETSC_TRY(MatCreate(PETSC_COMM_WORLD, &e->a));
+    PF_PETSC_TRY(MatSetSizes(e->a, local, local, n, n));
+    PF_PETSC_TRY(MatSetType(e->a, MATAIJ));
+    PF_PETSC_TRY(MatSetBlockSize(e->a, bs));
+    PF_PETSC_TRY(MatSetFromOptions(e->a));
+    PF_PETSC_TRY(MatSetPreallocationCOO(e->a, n_coo, coo_i, coo_j));
+    PF_PETSC_TRY(MatCreateVecs(e->a, &e->x, &e->b));
+    PF_PETSC_TRY(VecScatterCreateToZero(e->x, &e->to_zero, &e->whole));
     return pf_petsc_create_ksp(e->a, tolerance, &e->ksp, err);
 }
 
 pf_status pf_petsc_create_ksp(Mat a, double tolerance, KSP *ksp, pf_error *err)
 {
-    PETSC_TRY(KSPCreate(PETSC_COMM_WORLD, ksp));
-    PETSC_TRY(KSPSetOperators(*ksp, a, a));
-    PETSC_TRY(KSPSetType(*ksp, KSPCG));
+    PF_PETSC_TRY(KSPCreate(PETSC_COMM_WORLD, ksp));
+    PF_PETSC_TRY(KSPSetOperators(*ksp, a, a));
+    PF_PETSC_TRY(KSPSetType(*ksp, KSPCG));
     PC pc;
-    PETSC_TRY(KSPGetPC(*ksp, &pc));
-    PETSC_TRY(PCSetType(pc, PCGAMG));
+    PF_PETSC_TRY(KSPGetPC(*ksp, &pc));
+    PF_PETSC_TRY(PCSetType(pc, PCGAMG));
     /* the true residual, as the pcg method judges it; no absolute floor */
-    PETSC_TRY(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
-    PETSC_TRY(KSPSetTolerances(*ksp, tolerance, 0.0, PETSC_DEFAULT, 10000));
-    PETSC_TRY(KSPSetInitialGuessNonzero(*ksp, PETSC_TRUE));
-    PETSC_TRY(KSPSetFromOptions(*ksp));
+    PF_PETSC_TRY(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
+    PF_PETSC_TRY(KSPSetTolerances(*ksp, tolerance, 0.0, PETSC_DEFAULT, 10000));
+    PF_PETSC_TRY(KSPSetInitialGuessNonzero(*ksp, PETSC_TRUE));
+    PF_PETSC_TRY(KSPSetFromOptions(*ksp));
     return PF_OK;
 }
 
@@ -158,27 +163,27 @@ static pf_status scatter_in(engine *e, const double *src, Vec dst, pf_error *err
 {
     if (comm_rank() == 0) {
         PetscScalar *w;
-        PETSC_TRY(VecGetArray(e->whole, &w));
+        PF_PETSC_TRY(VecGetArray(e->whole, &w));
         for (PetscInt i = 0; i < e->n; ++i)
             w[e->row[i]] = src[i];
-        PETSC_TRY(VecRestoreArray(e->whole, &w));
+        PF_PETSC_TRY(VecRestoreArray(e->whole, &w));
     }
-    PETSC_TRY(VecScatterBegin(e->to_zero, e->whole, dst, INSERT_VALUES, SCATTER_REVERSE));
-    PETSC_TRY(VecScatterEnd(e->to_zero, e->whole, dst, INSERT_VALUES, SCATTER_REVERSE));
+    PF_PETSC_TRY(VecScatterBegin(e->to_zero, e->whole, dst, INSERT_VALUES, SCATTER_REVERSE));
+    PF_PETSC_TRY(VecScatterEnd(e->to_zero, e->whole, dst, INSERT_VALUES, SCATTER_REVERSE));
     return PF_OK;
 }
 
 /* dst [n] on rank 0 = src (distributed). */
 static pf_status gather(engine *e, Vec src, double *dst, pf_error *err)
 {
-    PETSC_TRY(VecScatterBegin(e->to_zero, src, e->whole, INSERT_VALUES, SCATTER_FORWARD));
-    PETSC_TRY(VecScatterEnd(e->to_zero, src, e->whole, INSERT_VALUES, SCATTER_FORWARD));
+    PF_PETSC_TRY(VecScatterBegin(e->to_zero, src, e->whole, INSERT_VALUES, SCATTER_FORWARD));
+    PF_PETSC_TRY(VecScatterEnd(e->to_zero, src, e->whole, INSERT_VALUES, SCATTER_FORWARD));
     if (comm_rank() == 0) {
         const PetscScalar *w;
-        PETSC_TRY(VecGetArrayRead(e->whole, &w));
+        PF_PETSC_TRY(VecGetArrayRead(e->whole, &w));
         for (PetscInt i = 0; i < e->n; ++i)
             dst[i] = w[e->row[i]];
-        PETSC_TRY(VecRestoreArrayRead(e->whole, &w));
+        PF_PETSC_TRY(VecRestoreArrayRead(e->whole, &w));
     }
     return PF_OK;
 }
@@ -188,16 +193,16 @@ pf_status pf_petsc_orthonormalise(Vec *v, int32_t k, pf_error *err)
 {
     for (int32_t i = 0; i < k; ++i) {
         PetscReal before, after;
-        PETSC_TRY(VecNorm(v[i], NORM_2, &before));
+        PF_PETSC_TRY(VecNorm(v[i], NORM_2, &before));
         for (int32_t j = 0; j < i; ++j) {
             PetscScalar d;
-            PETSC_TRY(VecDot(v[i], v[j], &d));
-            PETSC_TRY(VecAXPY(v[i], -d, v[j]));
+            PF_PETSC_TRY(VecDot(v[i], v[j], &d));
+            PF_PETSC_TRY(VecAXPY(v[i], -d, v[j]));
         }
-        PETSC_TRY(VecNorm(v[i], NORM_2, &after));
+        PF_PETSC_TRY(VecNorm(v[i], NORM_2, &after));
         PF_CHECK(after > 1e-10 * before, err, PF_ERR_INVALID,
                  "near-null space vector %d is a combination of the ones before it", (int)i);
-        PETSC_TRY(VecScale(v[i], 1.0 / after));
+        PF_PETSC_TRY(VecScale(v[i], 1.0 / after));
     }
     return PF_OK;
 }
@@ -236,13 +241,13 @@ static pf_status solve_body(engine *e, const PetscScalar *values, const double *
                             pf_error *err)
 {
     if (values)
-        PETSC_TRY(MatSetValuesCOO(e->a, values, INSERT_VALUES));
+        PF_PETSC_TRY(MatSetValuesCOO(e->a, values, INSERT_VALUES));
     PF_TRY(scatter_in(e, b, e->b, err));
     PF_TRY(scatter_in(e, x, e->x, err));
-    PETSC_TRY(KSPSolve(e->ksp, e->b, e->x));
-    PETSC_TRY(KSPGetConvergedReason(e->ksp, reason));
-    PETSC_TRY(KSPGetIterationNumber(e->ksp, its));
-    PETSC_TRY(KSPGetResidualNorm(e->ksp, rnorm));
+    PF_PETSC_TRY(KSPSolve(e->ksp, e->b, e->x));
+    PF_PETSC_TRY(KSPGetConvergedReason(e->ksp, reason));
+    PF_PETSC_TRY(KSPGetIterationNumber(e->ksp, its));
+    PF_PETSC_TRY(KSPGetResidualNorm(e->ksp, rnorm));
     return gather(e, e->x, x, err);
 }
 
@@ -258,9 +263,9 @@ static pf_status block_graph(const pf_block_matrix *a, PetscInt **ia, PetscInt *
              "%lld block couplings exceed PETSc's %d-bit indices",
              (long long)(a->adj_offsets[nb] - nb), (int)(8 * sizeof(PetscInt)));
     PetscInt edges = (PetscInt)(2 * (a->adj_offsets[nb] - nb)), *fill;
-    PETSC_TRY(PetscCalloc1(nb + 1, ia));
-    PETSC_TRY(PetscMalloc1(edges + 1, ja));
-    PETSC_TRY(PetscMalloc1(nb + 1, &fill));
+    PF_PETSC_TRY(PetscCalloc1(nb + 1, ia));
+    PF_PETSC_TRY(PetscMalloc1(edges + 1, ja));
+    PF_PETSC_TRY(PetscMalloc1(nb + 1, &fill));
     for (PetscInt j = 0; j < nb; ++j)
         for (int64_t k = a->adj_offsets[j]; k < a->adj_offsets[j + 1] - 1; ++k) {
             (*ia)[a->adj[k] + 1]++;
@@ -275,7 +280,7 @@ static pf_status block_graph(const pf_block_matrix *a, PetscInt **ia, PetscInt *
             (*ja)[fill[j]++] = i;
             (*ja)[fill[i]++] = j;
         }
-    PETSC_TRY(PetscFree(fill));
+    PF_PETSC_TRY(PetscFree(fill));
     return PF_OK;
 }
 
@@ -290,15 +295,15 @@ static pf_status graph_parts(PetscInt n, PetscInt *ia, PetscInt *ja, PetscInt pa
     MatPartitioning mp;
     IS is;
     const PetscInt *p;
-    PETSC_TRY(MatCreateMPIAdj(PETSC_COMM_SELF, n, n, ia, ja, NULL, &adj));
-    PETSC_TRY(MatPartitioningCreate(PETSC_COMM_SELF, &mp));
-    PETSC_TRY(MatPartitioningSetAdjacency(mp, adj));
-    PETSC_TRY(MatPartitioningSetNParts(mp, parts));
-    PETSC_TRY(MatPartitioningSetType(mp, MATPARTITIONINGPTSCOTCH));
-    PETSC_TRY(MatPartitioningSetFromOptions(mp));
+    PF_PETSC_TRY(MatCreateMPIAdj(PETSC_COMM_SELF, n, n, ia, ja, NULL, &adj));
+    PF_PETSC_TRY(MatPartitioningCreate(PETSC_COMM_SELF, &mp));
+    PF_PETSC_TRY(MatPartitioningSetAdjacency(mp, adj));
+    PF_PETSC_TRY(MatPartitioningSetNParts(mp, parts));
+    PF_PETSC_TRY(MatPartitioningSetType(mp, MATPARTITIONINGPTSCOTCH));
+    PF_PETSC_TRY(MatPartitioningSetFromOptions(mp));
     SCOTCH_randomReset();
-    PETSC_TRY(MatPartitioningApply(mp, &is));
-    PETSC_TRY(ISGetIndices(is, &p));
+    PF_PETSC_TRY(MatPartitioningApply(mp, &is));
+    PF_PETSC_TRY(ISGetIndices(is, &p));
     pf_status st = PF_OK;
     for (PetscInt b = 0; b < n && st >= 0; ++b) {
         part[b] = p[b];
@@ -307,10 +312,10 @@ static pf_status graph_parts(PetscInt n, PetscInt *ia, PetscInt *ja, PetscInt pa
                               "the partitioner put vertex %d in part %d of %d", (int)b, (int)p[b],
                               (int)parts);
     }
-    PETSC_TRY(ISRestoreIndices(is, &p));
-    PETSC_TRY(ISDestroy(&is));
-    PETSC_TRY(MatPartitioningDestroy(&mp));
-    PETSC_TRY(MatDestroy(&adj)); /* frees ia and ja */
+    PF_PETSC_TRY(ISRestoreIndices(is, &p));
+    PF_PETSC_TRY(ISDestroy(&is));
+    PF_PETSC_TRY(MatPartitioningDestroy(&mp));
+    PF_PETSC_TRY(MatDestroy(&adj)); /* frees ia and ja */
     return st;
 }
 
@@ -333,8 +338,8 @@ pf_status pf_petsc_partition_graph(int32_t n, const int64_t *offsets, const int3
              "%lld graph edges exceed PETSc's %d-bit indices", (long long)offsets[n],
              (int)(8 * sizeof(PetscInt)));
     PetscInt *ia, *ja;
-    PETSC_TRY(PetscMalloc1(n + 1, &ia));
-    PETSC_TRY(PetscMalloc1(offsets[n] + 1, &ja));
+    PF_PETSC_TRY(PetscMalloc1(n + 1, &ia));
+    PF_PETSC_TRY(PetscMalloc1(offsets[n] + 1, &ja));
     for (int32_t v = 0; v <= n; ++v)
         ia[v] = (PetscInt)offsets[v];
     for (int64_t q = 0; q < offsets[n]; ++q)

@@ -30,6 +30,26 @@ pf_status pf_petsc_partition_graph(int32_t n, const int64_t *offsets, const int3
 
 #ifdef PF_HAVE_PETSC
 #include <petscksp.h>
+/* A PETSc call that failed (code pe, the call's text and where it is), collective or not: on one
+ * rank the pf_error PF_ERR_NUMERIC naming it; on several, where the other ranks may be waiting
+ * inside the same collective call (a failure on one rank would hang them), this rank prints that
+ * message on stderr ("pf: rank r of n: ...") and ends every rank by MPI_Abort with code 1. */
+pf_status pf_petsc_error(pf_error *err, int pe, const char *call, const char *file, int line);
+/* A PETSc call in a function returning pf_status with a pf_error *err in scope: a nonzero
+ * PetscErrorCode goes to pf_petsc_error and returns. PF_PETSC_TRY_TO: the same into st, skipping
+ * the call once st is an error (the caller frees what it holds, then returns st). */
+#define PF_PETSC_TRY(call)                                                                         \
+    do {                                                                                           \
+        PetscErrorCode pe_ = (call);                                                               \
+        if (pe_)                                                                                   \
+            return pf_petsc_error(err, (int)pe_, #call, __FILE__, __LINE__);                       \
+    } while (0)
+#define PF_PETSC_TRY_TO(st, call)                                                                  \
+    do {                                                                                           \
+        PetscErrorCode pe_ = (st) >= 0 ? (call) : 0;                                               \
+        if (pe_)                                                                                   \
+            (st) = pf_petsc_error(err, (int)pe_, #call, __FILE__, __LINE__);                       \
+    } while (0)
 /* The KSP every petsc solve uses on matrix a (collective): CG on the true residual to
  * tolerance, GAMG, nonzero initial guess, then PETSc's options. */
 pf_status pf_petsc_create_ksp(Mat a, double tolerance, KSP *ksp, pf_error *err);

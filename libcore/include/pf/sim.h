@@ -431,10 +431,10 @@ pf_status pf_sim_create_with(pf_sim **sim, const pf_scene *scene, const pf_mesh 
 void pf_sim_destroy(pf_sim **sim);
 
 /* ---- the static solve with every MPI rank assembling its own elements (sim_distrib.c) ----
- * Rank 0 partitions the elements and sends each rank its own with their face neighbours; each
- * rank sets up the DG method on them, assembles its rows into PETSc's distributed matrix and
- * evaluates its elements' outputs, which rank 0 receives. For static DG scenes with the petsc
- * solver and a given penalty (or the BZ flux, whose default needs no definiteness test), without
+ * Rank 0 partitions the elements and sends each rank its own (DG: with their face neighbours);
+ * each rank sets up the method on them, assembles its rows into PETSc's distributed matrix and
+ * evaluates its elements' outputs, which rank 0 receives. For static scenes with the petsc solver,
+ * CG or DG with a given penalty (or the BZ flux, whose default needs no definiteness test), without
  * node or element list files (their indices are the whole mesh's); other scenes keep rank 0
  * assembling everything (pf_sim_create). Built with PETSc only. */
 typedef struct pf_sim_distrib_rank {
@@ -445,10 +445,11 @@ typedef struct pf_sim_distrib_rank {
 } pf_sim_distrib_rank;
 
 typedef struct pf_sim_distrib_result {
-    double *u;         /* [3 n_nodes] nodal displacements (the stitched field, eq. 30) */
+    double *u;         /* [3 n_nodes] nodal displacements (DG: the stitched field, eq. 30) */
     double *von_mises; /* [n_elems] at each element's centre */
     int64_t dofs;
-    double penalty;
+    double penalty;             /* DG's; 0 for CG */
+    int32_t penalty_doublings; /* IP's automatic penalty: its doublings from 1; 0 otherwise */
     int32_t iterations;
     double residual; /* relative to the right-hand side */
     int32_t ranks;

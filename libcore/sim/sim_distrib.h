@@ -1,0 +1,101 @@
+/* A rank's part of the distributed static solve (sim_distrib.c, sim_distrib_cg.c), private to
+ * libcore/sim. */
+#ifndef PF_SIM_DISTRIB_H
+#define PF_SIM_DISTRIB_H
+
+#include <pf/io.h>
+#include <pf/sim.h>
+
+#include "method.h"
+
+#ifdef PF_HAVE_PETSC
+#include <petscksp.h>
+
+/* What the header of a part's message holds. */
+typedef struct part_header {
+    int64_t mesh_bytes, groups_bytes;
+    int32_t n_elems, n_nodes;     /* the part's */
+    int32_t all_elems, all_nodes; /* the whole mesh's */
+    int64_t scene_bytes;
+    double lo[3], hi[3]; /* the whole mesh's bounds */
+    int64_t all_free;    /* CG: the whole mesh's free nodes */
+    int32_t fixed_faces; /* CG: the whole mesh's fixed faces */
+    int32_t unused;
+} part_header;
+
+/* One rank's part and what it computes. */
+typedef struct part {
+    part_header h;
+    pf_scene scene;
+    pf_mesh mesh;
+    int64_t *pelem; /* [n_elems] PETSc number of each element */
+    int32_t *gelem; /* [n_elems] its index in the whole mesh */
+    int32_t *gnode; /* [n_nodes] each node's index in the whole mesh */
+    uint8_t *owned; /* [n_elems] */
+    int32_t n_owned;
+    const pf_method_ops *ops;
+    void *method;
+    pf_block_matrix k;
+    double *f, *u; /* [n_dofs] */
+    int32_t nb3;   /* DG: unknowns per element */
+    double penalty;
+    int32_t doublings; /* DG: the automatic penalty's, from 1 */
+    /* CG only (NULL for DG): per node its PETSc block (-1: fixed), whether this rank owns it (the
+     * lowest rank among the parts that hold it) and its prescribed displacement; per face
+     * whether it lies between parts */
+    int64_t *pnode;      /* [n_nodes] */
+    uint8_t *node_owned; /* [n_nodes] */
+    double *g;           /* [3 n_nodes] */
+    uint8_t *cut;        /* [n_faces of the part] */
+    /* both: the PETSc row of each of the part's unknowns, and whether this rank owns it */
+    int64_t n_dofs;
+    PetscInt *row;      /* [n_dofs] */
+    uint8_t *row_owned; /* [n_dofs] */
+    PetscInt local_rows, all_rows;
+} part;
+
+/* Rank 0's view of CG on the whole mesh: each node's fixed flag and displacement (CG's rule on
+ * the whole mesh), its owning part and PETSc block (free nodes numbered part by part). */
+typedef struct cg_whole {
+    uint8_t *fixed;      /* [n_nodes] */
+    double *g;           /* [3 n_nodes] */
+    int32_t *node_owner; /* [n_nodes] */
+    int64_t *pnode;      /* [n_nodes], -1 fixed */
+    int64_t all_free;
+    int32_t fixed_faces;
+} cg_whole;
+
+/* Collective: every rank learns whether any failed (st < 0 on some rank); its own error stays, the
+ * others get one saying another rank failed (rank 0 reports its own error when it has one). Before
+ * collective calls that a rank failing alone would leave the others waiting in. */
+pf_status pf_sim_distrib_agree(pf_status st, pf_error *err);
+
+/* Rank 0: w for the mesh m (derived) whose elements are in parts owner [n_elems]. */
+pf_status pf_sim_distrib_cg_whole(const pf_scene *scene, const pf_mesh *m, const int64_t *owner,
+                                  int32_t parts, cg_whole *w, pf_error *err);
+void pf_sim_distrib_cg_whole_release(cg_whole *w);
+/* Rank 0: part r's CG data appended to out: per kept node (node_id >= 0, in order) its PETSc
+ * block, ownership and displacement; per face of the part (m's faces a kept element uses, in m's
+ * order) whether it lies between parts. */
+pf_status pf_sim_distrib_cg_pack(const pf_mesh *m, const cg_whole *w, const uint8_t *keep,
+                                 const int32_t *node_id, int32_t r, pf_buffer *out, pf_error *err);
+/* Each rank: reads what pf_sim_distrib_cg_pack wrote (at: after the node ids; p->mesh decoded,
+ * not yet derived). */
+pf_status pf_sim_distrib_cg_unpack(part *p, const unsigned char *at, pf_error *err);
+/* Each rank: the CG method on its part with the whole mesh's fixed nodes, and the rows. */
+pf_status pf_sim_distrib_cg_create(part *p, pf_error *err);
+/* Each rank: per node of the whole mesh [4 all_nodes] the displacement of the nodes it owns with
+ * a count of 1 (p->u solved). */
+void pf_sim_distrib_cg_nodal(const part *p, double *sum, double *scratch);
+void pf_sim_distrib_cg_release(part *p);
+
+/* Each rank, collective (sim_distrib_mat.c): PETSc's matrix *a of all ranks' parts, from the
+ * entries of p->k this rank is the one to send (DG: see sim_distrib.c; CG: all), at the rows
+ * p->row; duplicates summed. */
+pf_status pf_sim_distrib_matrix(part *p, Mat *a, pf_error *err);
+/* Each rank, collective: DG's automatic interior penalty on the whole mesh into p->penalty (p->k's
+ * pattern made, p->u zero; p->f left zero). PF_ERR_NUMERIC when none up to 2^20 is definite. */
+pf_status pf_sim_distrib_search_penalty(part *p, pf_error *err);
+
+#endif
+#endif

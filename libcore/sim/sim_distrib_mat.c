@@ -49,21 +49,38 @@ static PetscCount coo_entries(const part *p, PetscInt *ci, PetscInt *cj, PetscSc
     return q;
 }
 
-pf_status pf_sim_distrib_matrix(part *p, Mat *a, pf_error *err)
+/* The part's entries as COO arrays (*ci, *cj, *v of *n entries), their allocation agreed by
+ * every rank before the collective calls that follow: on failure every rank returns the error
+ * and the arrays are NULL. */
+static pf_status coo_arrays(part *p, PetscCount *n, PetscInt **ci, PetscInt **cj, PetscScalar **v,
+                            pf_error *err)
 {
-    PetscCount n_coo = coo_entries(p, NULL, NULL, NULL);
-    PetscInt *ci = pf_alloc_array((size_t)n_coo + 1, sizeof *ci);
-    PetscInt *cj = pf_alloc_array((size_t)n_coo + 1, sizeof *cj);
-    PetscScalar *v = pf_alloc_array((size_t)n_coo + 1, sizeof *v);
-    pf_status st = ci && cj && v ? PF_OK
-                                 : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                                                "cannot allocate %lld entries", (long long)n_coo);
-    st = pf_sim_distrib_agree(st, err); /* before PETSc's collective calls */
+    *n = coo_entries(p, NULL, NULL, NULL);
+    *ci = pf_alloc_array((size_t)*n + 1, sizeof **ci);
+    *cj = pf_alloc_array((size_t)*n + 1, sizeof **cj);
+    *v = pf_alloc_array((size_t)*n + 1, sizeof **v);
+    pf_status st = *ci && *cj && *v ? PF_OK
+                                    : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                                   "cannot allocate %lld entries", (long long)*n);
+    st = pf_sim_distrib_agree(st, err);
     if (st < 0) {
-        pf_free(ci), pf_free(cj), pf_free(v);
+        pf_free(*ci), pf_free(*cj), pf_free(*v);
+        *ci = *cj = NULL;
+        *v = NULL;
         return st;
     }
-    coo_entries(p, ci, cj, v);
+    coo_entries(p, *ci, *cj, *v);
+    return PF_OK;
+}
+
+pf_status pf_sim_distrib_matrix(part *p, Mat *a, pf_error *err)
+{
+    PetscCount n_coo;
+    PetscInt *ci, *cj;
+    PetscScalar *v;
+    pf_status st = coo_arrays(p, &n_coo, &ci, &cj, &v, err);
+    if (st < 0)
+        return st;
     PetscInt local = p->local_rows, all = p->all_rows;
     PF_PETSC_TRY_TO(st, MatCreate(PETSC_COMM_WORLD, a));
     PF_PETSC_TRY_TO(st, MatSetSizes(*a, local, local, all, all));
@@ -79,16 +96,10 @@ pf_status pf_sim_distrib_matrix(part *p, Mat *a, pf_error *err)
 /* a's values again from p->k (the same pattern). */
 static pf_status matrix_values(part *p, Mat a, pf_error *err)
 {
-    PetscCount n_coo = coo_entries(p, NULL, NULL, NULL);
-    PetscInt *ci = pf_alloc_array((size_t)n_coo + 1, sizeof *ci);
-    PetscInt *cj = pf_alloc_array((size_t)n_coo + 1, sizeof *cj);
-    PetscScalar *v = pf_alloc_array((size_t)n_coo + 1, sizeof *v);
-    pf_status st = ci && cj && v ? PF_OK
-                                 : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                                                "cannot allocate %lld entries", (long long)n_coo);
-    st = pf_sim_distrib_agree(st, err); /* before PETSc's collective call */
-    if (st >= 0)
-        coo_entries(p, ci, cj, v);
+    PetscCount n_coo;
+    PetscInt *ci, *cj;
+    PetscScalar *v;
+    pf_status st = coo_arrays(p, &n_coo, &ci, &cj, &v, err);
     PF_PETSC_TRY_TO(st, MatSetValuesCOO(a, v, INSERT_VALUES));
     pf_free(ci), pf_free(cj), pf_free(v);
     return st;

@@ -452,7 +452,6 @@ static pf_status run_cut(run *r, pf_atomic_file *file, pf_error *err)
     PF_TRY(pf_cli_open_input(r->input, &in_file, &r->in_name, err));
     pf_stream_reader *in = NULL;
     pf_stream_writer *out = NULL;
-    char *command = pf_cli_command_line(&r->cli);
     pf_status st = pf_stream_reader_create(&in, in_file, r->in_name, err);
     FILE *f = NULL;
     const char *out_name = "stdout";
@@ -466,7 +465,7 @@ static pf_status run_cut(run *r, pf_atomic_file *file, pf_error *err)
     if (st >= 0)
         st = pf_stream_writer_create(&out, f, out_name, err);
     if (st >= 0)
-        st = pf_stream_write_info(out, "pf-cut", PF_VERSION_STRING, command ? command : "", err);
+        st = pf_cli_write_info(&r->cli, out, err);
     if (st >= 0)
         st = read_input(r, in, out, err);
     if (st >= 0)
@@ -482,7 +481,6 @@ static pf_status run_cut(run *r, pf_atomic_file *file, pf_error *err)
     pf_stream_writer_destroy(&out);
     pf_stream_reader_destroy(&in);
     pf_cli_close_input(in_file);
-    pf_free(command);
     return st;
 }
 

@@ -724,7 +724,6 @@ static pf_status run_new(run *r, pf_atomic_file *file, pf_error *err)
     const char *in_name = NULL;
     PF_TRY(pf_cli_open_input(r->input_path, &in_file, &in_name, err));
     pf_stream_reader *in = NULL;
-    char *command = pf_cli_command_line(&r->cli);
     pf_status st = pf_stream_reader_create(&in, in_file, in_name, err);
     if (st >= 0)
         st = open_output(r, file, NULL, err);
@@ -734,12 +733,11 @@ static pf_status run_new(run *r, pf_atomic_file *file, pf_error *err)
     if (st >= 0)
         st = prepare_mesh(r, in_name, err);
     if (st >= 0)
-        st = pf_stream_write_info(r->out, "pf-sim", PF_VERSION_STRING, command ? command : "", err);
+        st = pf_cli_write_info(&r->cli, r->out, err);
     if (st >= 0)
         st = write_scene(r, err);
     if (st >= 0)
         st = simulate(r, NULL, err);
-    pf_free(command);
     pf_stream_reader_destroy(&in);
     pf_cli_close_input(in_file);
     return st;

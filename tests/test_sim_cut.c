@@ -1,8 +1,9 @@
 /* sim_cut: cutting while the simulation runs (pf_sim_cut, the scene's "cuts"): the state carried
  * across a cut (DG exactly, CG exactly for the affine fields every element reproduces), a clamped
  * bar cut through whose free piece falls with gravity's acceleration, a blade that stops half way
- * (one body, a crack), an embedded surface cut with the mesh, the solver policy after a cut
- * (auto keeps pcg; frames equal direct's), and the scene's errors. */
+ * (one body, a crack), an embedded surface cut with the mesh, a blade through the sliced bunny
+ * (no surface triangle joins the two pieces), the solver policy after a cut (auto keeps pcg;
+ * frames equal direct's), and the scene's errors. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -18,6 +19,7 @@
 #include <pf/cut.h>
 #include <pf/embed.h>
 #include <pf/sim.h>
+#include <pf/io.h>
 
 #include "test_cut_requests.h"
 #include "test_sim_changes.h"
@@ -723,6 +725,102 @@ static void test_scene_errors(void **state)
     }
 }
 
+
+/* ---- a blade through the sliced bunny -----------------------------------------------------
+ */
+
+/* body[i]: the body of the elements using node i (m derived, elem_body from element_bodies). */
+static void node_bodies(const pf_mesh *m, const int32_t *elem_body, int32_t *body)
+{
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        body[i] = -1;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            for (int64_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; ++k) {
+                uint32_t n = m->face_nodes[k];
+                body[n] = body[n] == -1 || body[n] == elem_body[e] ? elem_body[e] : -2;
+            }
+        }
+}
+
+/* The triangles of the simulator's surface whose corners are not all weighted by nodes of one
+ * body (a corner weighted by two bodies counts as its own). */
+static int32_t triangles_across_bodies(const pf_sim *sim)
+{
+    const pf_mesh *m = pf_sim_mesh(sim);
+    const pf_surface *s = pf_sim_surface(sim);
+    const pf_weights *w = pf_sim_weights(sim);
+    int32_t *eb = malloc((size_t)m->n_elems * sizeof *eb);
+    int32_t *nb = malloc((size_t)m->n_nodes * sizeof *nb);
+    int32_t *vb = malloc((size_t)s->n_verts * sizeof *vb);
+    assert_true(eb && nb && vb);
+    element_bodies(m, eb);
+    node_bodies(m, eb, nb);
+    for (int32_t v = 0; v < s->n_verts; ++v) {
+        vb[v] = -1;
+        for (int64_t q = w->row_offsets[v]; q < w->row_offsets[v + 1]; ++q)
+            if (w->val[q] != 0)
+                vb[v] = vb[v] == -1 || vb[v] == nb[w->col[q]] ? nb[w->col[q]] : -2 - v;
+    }
+    int32_t across = 0;
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        const uint32_t *c = s->tri + 3 * (size_t)t;
+        across += vb[c[0]] != vb[c[1]] || vb[c[1]] != vb[c[2]] || vb[c[0]] < 0;
+    }
+    free(eb), free(nb), free(vb);
+    return across;
+}
+
+/* data/scenes/bunny_cut.json on the bunny sliced 10 across (pf-slice's defaults otherwise) with
+ * the bunny embedded (MLS): the blade crosses it between frames 6 and 18 in 9 cuts and leaves two
+ * bodies; the crack steps off the blade's plane onto element faces (the sliver rule), whose
+ * planes split the caps made on the blade's. Such a split point of an edge both sides' caps had
+ * was one vertex of both and of no side, so caps of the upper piece had corners moving with the
+ * lower one (10 triangles: a spike in the render). After every frame: the surface is closed, and
+ * every triangle's corners are weighted by nodes of one body only. */
+static void test_bunny_blade(void **state)
+{
+    (void)state;
+    pf_error err = {0};
+    pf_surface s = {0};
+    pf_mesh m = {0};
+    if (pf_import_surface(PF_TEST_DATA_DIR "/../../data/models/bunny.obj", &s, &err) != PF_OK)
+        fail_msg("bunny.obj: %s", err.msg);
+    pf_slice_params p = pf_slice_params_default();
+    p.grid.res = 10;
+    assert_int_equal(pf_mesh_slice(&m, &s, &p, NULL, &err), PF_OK);
+    assert_int_equal(pf_mesh_derive(&m, &err), PF_OK);
+    pf_weights w = {0};
+    assert_int_equal(pf_embed_compute(&m, &s, NULL, &w, NULL, &err), PF_OK);
+    pf_scene sc;
+    if (pf_scene_load(&sc, PF_TEST_DATA_DIR "/../../data/scenes/bunny_cut.json", &err) < 0)
+        fail_msg("scene: %s", err.msg);
+    pf_vec3 lo, hi;
+    pf_mesh_bounds(&m, &lo, &hi);
+    pf_scene_resolve(&sc, lo, hi);
+    pf_sim *sim = NULL;
+    assert_int_equal(pf_sim_create_embedded(&sim, &sc, &m, &s, &w, &err), PF_OK);
+    for (int f = 0; f < 19; ++f) {
+        run_frames(sim, 1);
+        pf_surface_stats ss;
+        assert_int_equal(pf_surface_compute_stats(pf_sim_surface(sim), &ss, &err), PF_OK);
+        int32_t across = triangles_across_bodies(sim);
+        if (!ss.closed || across)
+            fail_msg("frame %d: the surface is closed %d, %d triangles across bodies", f,
+                     ss.closed, (int)across);
+    }
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    print_message("bunny: %d cuts, %d bodies, %d surface triangles\n", (int)st->cuts,
+                  (int)st->bodies, (int)pf_sim_surface(sim)->n_tris);
+    assert_int_equal(st->bodies, 2);
+    pf_sim_destroy(&sim);
+    pf_weights_release(&w);
+    pf_scene_release(&sc);
+    pf_surface_release(&s);
+    pf_mesh_release(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -733,6 +831,7 @@ int main(void)
         cmocka_unit_test(test_embedded_surface_cut),
         cmocka_unit_test(test_embedded_progressive),
         cmocka_unit_test(test_surface_follows_its_piece),
+        cmocka_unit_test(test_bunny_blade),
         cmocka_unit_test(test_solver_after_cut),
         cmocka_unit_test(test_scene_errors),
     };

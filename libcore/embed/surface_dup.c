@@ -121,12 +121,25 @@ static int edge_dir(const sc_surface *s, int32_t t, uint32_t v, uint32_t w)
     return 0;
 }
 
+/* The triangles among tris[k] (those at v) with the edge v-w. */
+static int32_t edge_valence(const sc_surface *s, const int32_t *tris, int32_t k, uint32_t v,
+                            uint32_t w)
+{
+    int32_t n = 0;
+    for (int32_t i = 0; i < k; ++i)
+        n += edge_dir(s, tris[i], v, w) != 0;
+    return n;
+}
+
 /* Triangles a and b sharing the edge v-w lie on the same side of the cut around v: across a
  * slit, a cap and a triangle of the surface traversing it the opposite ways (the cap closes that
  * triangle's side); across another edge, two triangles of the surface, or a cap and a surface
  * triangle traversing it the opposite ways. Two caps: of one plane, facing the same way and not
- * across a slit; of two planes, traversing it the opposite ways. */
-static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t w, bool slit)
+ * across a slit, or facing the opposite ways across an edge that only they have when v is on no
+ * slit (inside: the crack front inside the material, where both sides' caps meet); of two
+ * planes, traversing it the opposite ways. tris[k]: the triangles at v. */
+static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t w, bool slit,
+                   bool inside, const int32_t *tris, int32_t k)
 {
     const sc_surface *s = c->s;
     int da = edge_dir(s, a, v, w), db = edge_dir(s, b, v, w);
@@ -142,7 +155,9 @@ static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t
         double d = pf_v3_dot(na, nb);
         if (fabs(d) < (1 - 1e-9) * pf_v3_norm(na) * pf_v3_norm(nb))
             return da == -db;
-        return !slit && d > 0;
+        if (slit)
+            return false;
+        return d > 0 || (inside && da == -db && edge_valence(s, tris, k, v, w) == 2);
     }
     if (slit)
         return cap_a != cap_b && da == -db;
@@ -151,8 +166,20 @@ static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t
     return da == -db;
 }
 
-/* The groups of triangles around vertex v and a vertex for each. */
-static pf_status split_vertex(sc_state *c, dup_work *d, uint32_t v, pf_error *err)
+/* Whether tris[k] are all caps facing one way: a vertex inside the caps of one side (a point
+ * where a later plane split them), whose side is the caps' inward normal. */
+static bool one_facing_caps(const sc_surface *s, const int32_t *tris, int32_t k)
+{
+    for (int32_t i = 0; i < k; ++i)
+        if (s->src[tris[i]] >= 0 || pf_v3_dot(pf_v3_load(s->normal + 3 * (size_t)tris[i]),
+                                              pf_v3_load(s->normal + 3 * (size_t)tris[0])) <= 0)
+            return false;
+    return k > 0;
+}
+
+/* The groups of triangles around vertex v and a vertex for each (inside: v is on no slit, a
+ * corner of caps only). */
+static pf_status split_vertex(sc_state *c, dup_work *d, uint32_t v, bool inside, pf_error *err)
 {
     sc_surface *s = c->s;
     const int32_t *tris = d->tris + d->off[v];
@@ -177,7 +204,7 @@ static pf_status split_vertex(sc_state *c, dup_work *d, uint32_t v, pf_error *er
                 continue;
             bool slit = is_slit(c, v, w);
             for (int32_t j = 0; j < i; ++j)
-                if (joined(c, tris[i], tris[j], v, w, slit)) {
+                if (joined(c, tris[i], tris[j], v, w, slit, inside, tris, k)) {
                     int32_t a = find_root(d->parent, i), b = find_root(d->parent, j);
                     d->parent[a > b ? a : b] = a < b ? a : b;
                 }
@@ -213,6 +240,8 @@ static pf_status split_vertex(sc_state *c, dup_work *d, uint32_t v, pf_error *er
         }
         if (n_comp > 1)
             pf_v3_store(pf_v3_add(base, dir), s->side + 3 * (size_t)id);
+        else if (pf_v3_norm(base) == 0 && one_facing_caps(s, tris, k))
+            pf_v3_store(dir, s->side + 3 * (size_t)id);
         PF_TRY(push_record(d, id, dir, err));
         for (int32_t i = 0; i < k && ci > 0; ++i)
             if (d->root_comp[find_root(d->parent, i)] == ci) {
@@ -251,11 +280,17 @@ pf_status pf_sc_duplicate(sc_state *c, pf_error *err)
             d.first[v] = -1, d.count[v] = 0;
         for (int64_t i = 0; i < c->n_slit; ++i)
             on_slit[c->slit[i] >> 32] = on_slit[c->slit[i] & 0xffffffffu] = 1;
+        /* and the corners of caps: a later plane splitting an edge both sides' caps had (they
+         * share the points of the section until here) makes a point of both, on no slit */
+        for (int32_t t = 0; t < s->n_tris; ++t)
+            for (int q = 0; q < 3 && s->src[t] < 0; ++q)
+                if (!on_slit[s->tri[3 * (size_t)t + q]])
+                    on_slit[s->tri[3 * (size_t)t + q]] = 2;
         st = incidence(c, on_slit, &d, err);
     }
     for (int32_t v = 0; v < nv && st >= 0; ++v)
         if (on_slit[v])
-            st = split_vertex(c, &d, (uint32_t)v, err);
+            st = split_vertex(c, &d, (uint32_t)v, on_slit[v] == 2, err);
     pf_free(on_slit);
     dup_work_release(&d);
     return st;

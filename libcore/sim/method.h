@@ -44,9 +44,8 @@ typedef struct pf_method_ops {
      * on the clamped beam of bench_solver (4.53 per solve against 4.09); with the body's mean
      * rotation fewer there (3.81) and on a box spinning at 20 rad/s (7.03 against 9.79), but
      * more on small spinning boxes (4 x 2 x 2 hexes: 98 factorisations in 100 steps against
-     * 58), for no CPU time gained on the beam. last: the rotations this gave at the last step
-     * (the starting guess of an iterative polar decomposition), or NULL. */
-    void (*triple_rotations)(const void *m, const double *last, double *rot);
+     * 58), for no CPU time gained on the beam. */
+    void (*triple_rotations)(const void *m, double *rot);
     /* Drops what the corotated stiffness keeps from the last step as the next one's starting
      * guess (CG: the element rotations), so that the next stiffness depends on u alone: at a
      * checkpoint's restart point and after a failed step (pf_sim_forget_trend). NULL: none. */

@@ -34,8 +34,7 @@ static pf_status allocate_state(pf_sim *s, pf_error *err)
      * dynamics */
     if (s->ops->triple_rotations && s->scene->corotation && !s->scene->is_static) {
         s->rot = pf_alloc_array(3 * n + 1, sizeof *s->rot);
-        s->rot_last = pf_alloc_array(3 * n + 1, sizeof *s->rot_last);
-        PF_CHECK(s->rot && s->rot_last, err, PF_ERR_NOMEM,
+        PF_CHECK(s->rot, err, PF_ERR_NOMEM,
                  "cannot allocate the rotations of %zu unknowns", n);
     }
     return PF_OK;
@@ -44,7 +43,6 @@ static pf_status allocate_state(pf_sim *s, pf_error *err)
 void pf_sim_forget_trend(pf_sim *s)
 {
     s->trend = 0;
-    s->rot_warm = false;
     if (s->method && s->ops->forget_rotations)
         s->ops->forget_rotations(s->method);
 }
@@ -322,10 +320,8 @@ void pf_sim_release(pf_sim *s)
         *vectors[k] = NULL;
     }
     pf_free(s->rot);
-    pf_free(s->rot_last);
-    s->rot = s->rot_last = NULL;
+    s->rot = NULL;
     s->trend = 0;
-    s->rot_warm = false;
     pf_block_matrix_release(&s->k);
     pf_solver_destroy(&s->solver);
     pf_contact_destroy(&s->contact);
@@ -404,12 +400,8 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
     s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
     if (s->rot && pf_solver_get_stats(s->solver)->method == PF_SOLVER_PCG) {
-        s->ops->triple_rotations(s->method, s->rot_warm ? s->rot_last : NULL, s->rot);
+        s->ops->triple_rotations(s->method, s->rot);
         PF_TRY(pf_solver_set_rotations(s->solver, s->rot, err));
-        double *now = s->rot; /* the next step's guess */
-        s->rot = s->rot_last;
-        s->rot_last = now;
-        s->rot_warm = true;
     }
     s->stats.assemble_seconds += pf_time_seconds() - t0;
     s->stats.assemble_cpu_seconds += pf_cpu_seconds() - cpu0;

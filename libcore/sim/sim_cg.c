@@ -76,10 +76,9 @@ static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *
  * hexes spinning at (0, 1, 5) rad/s 2.9 and 1 against 4.5 and 6; with the body's mean rotation
  * instead of the nodes' the beam needed 3.89 and 5. The polar factor of the sum instead of
  * Bjorck's step: the same iterations, at 1 ms a step more on the beam. */
-static void triple_rotations(const void *m, const double *last, double *rot)
+static void triple_rotations(const void *m, double *rot)
 {
     const cg_method *c = m;
-    (void)last;
     memset(rot, 0, 9 * (size_t)c->map.n_free * sizeof *rot);
     for (int32_t e = 0; e < c->cg.n_elems; ++e) {
         const int32_t *nodes;

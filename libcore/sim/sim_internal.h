@@ -44,10 +44,8 @@ struct pf_sim {
      * steps (0, 1 or 2; pf_sim_forget_trend) */
     double *dv, *dv2;
     int32_t trend;
-    /* [3 n] the rotation of every unknown triple (pcg's warp), now and at the last step (the
-     * next one's starting guess when rot_warm) */
-    double *rot, *rot_last;
-    bool rot_warm;
+    /* [3 n] the rotation of every unknown triple (pcg's warp) */
+    double *rot;
     pf_block_matrix k;
     pf_solver *solver;
     bool assembled;      /* the system matrix has been assembled once (it changes afterwards only

@@ -1,11 +1,15 @@
-/* base: errors, allocation counter, arena, buffer. */
+/* base: errors, allocation counter, arena, buffer, whole-file reading. */
+#define _POSIX_C_SOURCE 200809L /* mkstemp */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <pf/base.h>
 
@@ -118,12 +122,57 @@ static void test_buffer(void **state)
     assert_int_equal(pf_alloc_live_bytes(), 0);
 }
 
+/* A whole file read into a buffer, appended after what it holds; the limit, a directory and a
+ * missing file are errors naming the path. 200,000 bytes cross the 64 KiB read pieces. */
+static void test_read_file(void **state)
+{
+    (void)state;
+    char path[] = "pf_base_test_XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    enum { N = 200000 };
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    for (int i = 0; i < N; ++i)
+        assert_int_equal(fputc('a' + i % 26, f), 'a' + i % 26);
+    assert_int_equal(fclose(f), 0);
+
+    pf_buffer b = {0};
+    pf_error err = {0};
+    assert_int_equal(pf_buffer_append(&b, "x", 1, &err), PF_OK);
+    assert_int_equal(pf_buffer_read_file(&b, path, N, &err), PF_OK);
+    assert_int_equal(b.size, N + 1);
+    assert_int_equal(b.data[0], 'x');
+    assert_int_equal(b.data[1 + 70001], 'a' + 70001 % 26);
+    pf_buffer_release(&b);
+
+    assert_int_equal(pf_buffer_read_file(&b, path, N - 1, &err), PF_ERR_TOO_LARGE);
+    char expected[128];
+    snprintf(expected, sizeof expected, "%s: larger than %d bytes", path, N - 1);
+    assert_string_equal(err.msg, expected);
+    pf_buffer_release(&b);
+
+    assert_int_equal(pf_buffer_read_file(&b, ".", 100, &err), PF_ERR_IO);
+    assert_memory_equal(err.msg, ".: cannot read: ", 16);
+    pf_buffer_release(&b);
+
+    assert_int_equal(remove(path), 0);
+    assert_int_equal(pf_buffer_read_file(&b, path, 100, &err), PF_ERR_IO);
+    snprintf(expected, sizeof expected, "%s: cannot open: ", path);
+    assert_memory_equal(err.msg, expected, strlen(expected));
+    assert_int_equal(b.size, 0);
+    pf_buffer_release(&b);
+    assert_int_equal(pf_alloc_live_bytes(), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_check_and_try),  cmocka_unit_test(test_long_messages_are_cut),
         cmocka_unit_test(test_alloc_counter),  cmocka_unit_test(test_overflow_is_refused),
         cmocka_unit_test(test_arena),          cmocka_unit_test(test_buffer),
+        cmocka_unit_test(test_read_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -106,25 +106,26 @@ static void parse_cap_color(const pf_cli *cli, const char *text, options *o)
         o->p.cap_rgb[c] = (float)pf_srgb_to_linear((double)((v >> (16 - 8 * c)) & 0xff) / 255.0);
 }
 
-/* The camera: inline JSON, or a file holding it. */
+/* The camera: inline JSON, or a file holding it (a camera is a few hundred bytes; a file of
+ * more than 64 KiB is not one). */
 static void parse_camera(const pf_cli *cli, const char *text, options *o)
 {
     if (strcmp(text, "auto") == 0)
         return;
-    char buf[4096];
+    pf_error err = {0};
+    pf_buffer file = {0};
     const char *json = text;
     if (text[strspn(text, " \t\r\n")] != '{') {
-        FILE *f = fopen(text, "rb");
-        if (!f)
-            pf_cli_usage_error(cli, "--camera: '%s' is neither auto, JSON nor a readable file",
-                               text);
-        size_t n = fread(buf, 1, sizeof buf - 1, f);
-        fclose(f);
-        buf[n] = '\0';
-        json = buf;
+        if (pf_buffer_read_file(&file, text, (size_t)64 << 10, &err) < 0 ||
+            pf_buffer_append(&file, "", 1, &err) < 0)
+            pf_cli_usage_error(cli, "--camera: '%s' is neither auto, JSON nor a readable camera "
+                                    "file (%s)",
+                               text, err.msg);
+        json = (const char *)file.data;
     }
-    pf_error err = {0};
-    if (pf_camera_parse_json(json, &o->p.camera, &err) != PF_OK)
+    pf_status st = pf_camera_parse_json(json, &o->p.camera, &err);
+    pf_buffer_release(&file);
+    if (st != PF_OK)
         pf_cli_usage_error(cli, "--camera: %s", err.msg);
     o->p.has_camera = true;
 }

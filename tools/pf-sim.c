@@ -279,7 +279,12 @@ static void build_scene(run *r, pf_scene *scene)
 {
     pf_error err = {0};
     if (r->scene_path) {
-        if (pf_scene_load(scene, r->scene_path, &err) < 0)
+        pf_buffer text = {0};
+        pf_status st = pf_buffer_read_file(&text, r->scene_path, PF_SCENE_MAX_BYTES, &err);
+        if (st == PF_OK)
+            st = pf_scene_parse(scene, (const char *)text.data, text.size, r->scene_path, &err);
+        pf_buffer_release(&text);
+        if (st < 0)
             pf_cli_fail(&r->cli, &err);
     } else {
         pf_scene_default(scene);

@@ -67,16 +67,9 @@ void pf_cli_sim_summary(const pf_sim *sim, bool embedded, int32_t input_elems)
             st->assemble_cpu_seconds, st->factor_seconds, (long long)st->factorisations,
             st->solve_seconds, (int)st->contact_points, embedded ? "surface vertices" : "nodes",
             samples, (long long)st->contacts, st->contact_seconds, st->embed_seconds);
-    if (is_cg)
-        fprintf(stderr,
-                "pf-sim: error indicator %.3g (largest boundary error of the shape functions, "
-                "docs/basis.md)\n",
-                pf_sim_error_indicator(sim));
-    else
-        fprintf(stderr,
-                "pf-sim: error indicator %.3g (largest jump between elements at a node over the "
-                "largest displacement)\n",
-                pf_sim_error_indicator(sim));
+    const char *meaning;
+    pf_sim_error_measure(sim, &meaning);
+    fprintf(stderr, "pf-sim: error indicator %.3g (%s)\n", pf_sim_error_indicator(sim), meaning);
     if (st->refinements > 0)
         fprintf(stderr,
                 "pf-sim: mesh changes: %d (%lld elements split, %lld groups merged back; %d -> "

@@ -9,30 +9,18 @@
 #include <string.h>
 
 /* Longest token taken as a number: far beyond any %.17g output or 64-bit integer. */
-enum { NUMBER_MAX = 64, READ_PIECE = 64 * 1024 };
+enum { NUMBER_MAX = 64 };
 
 static bool is_blank(char c)
 {
     return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
 }
 
-static pf_status read_all(FILE *f, const char *path, pf_buffer *b, pf_error *err)
-{
-    char piece[READ_PIECE];
-    for (size_t n; (n = fread(piece, 1, sizeof piece, f)) > 0;)
-        PF_TRY(pf_buffer_append(b, piece, n, err));
-    PF_CHECK(!ferror(f), err, PF_ERR_IO, "%s: cannot read: %s", path, strerror(errno));
-    return PF_OK;
-}
-
 pf_status pf_text_reader_open(text_reader *r, const char *path, char comment, pf_error *err)
 {
     memset(r, 0, sizeof *r);
-    FILE *f = fopen(path, "rb");
-    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     pf_buffer b = {0};
-    pf_status s = read_all(f, path, &b, err);
-    fclose(f);
+    pf_status s = pf_buffer_read_file(&b, path, SIZE_MAX, err);
     if (s == PF_OK && b.size == 0)
         s = pf_error_set(err, PF_ERR_FORMAT, __FILE__, __LINE__, "%s:1: empty file", path);
     if (s < 0) {

@@ -90,6 +90,12 @@ typedef struct pf_method_ops {
     void (*affine)(const void *m, const double a[9], const double b[3], double *u);
     /* Largest disagreement between elements at a node (0 for a conforming method). */
     double (*max_node_jump)(const void *m, const double *u);
+    /* The method's a-posteriori error indicator for the field u (pf_sim_error_indicator; NAN when
+     * it cannot be computed), the name of its measure in statistics and what it measures, in
+     * words for a summary line. */
+    double (*error_indicator)(const void *m, const double *u);
+    const char *error_measure;
+    const char *error_meaning;
     /* Refinement (sim_refine.c). For every element e, the principal stress of largest magnitude
      * (corotated, sampled at its centroid and vertices) in value[e] and its direction in the rest
      * frame in direction[e]. */

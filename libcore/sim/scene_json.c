@@ -1,10 +1,9 @@
 /* Strict JSON syntax check for scene files: cJSON builds the tree, this decides validity and says
- * where a text goes wrong; and reading a scene file whole (pf_scene_load). */
+ * where a text goes wrong. */
 #include "scene_json.h"
 
 #include <pf/sim.h>
 
-#include <errno.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
@@ -325,39 +324,4 @@ pf_status pf_scene_json_check(const char *text, size_t len, const char *name, si
         return pf_scene_json_error_at(text, len, skip + pos, name, why, err);
     *start = skip;
     return PF_OK;
-}
-
-/* ---- files ------------------------------------------------------------------------------------
- */
-
-enum { SCENE_MAX_BYTES = 64 << 20 };
-
-pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err)
-{
-    memset(s, 0, sizeof *s);
-    pf_scene_default(s);
-    PF_CHECK(path, err, PF_ERR_INVALID, "scene: no file name");
-    FILE *f = fopen(path, "rb");
-    PF_CHECK(f, err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    /* Read to the end in growing chunks: works for pipes and process substitution too. */
-    pf_buffer buf = {0};
-    pf_status st = PF_OK;
-    char chunk[8192];
-    size_t n;
-    while (st == PF_OK && (n = fread(chunk, 1, sizeof chunk, f)) > 0) {
-        st = pf_buffer_append(&buf, chunk, n, err);
-        if (st == PF_OK && buf.size > SCENE_MAX_BYTES)
-            st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
-                              "%s: larger than %d bytes: not a scene file", path, SCENE_MAX_BYTES);
-    }
-    if (st == PF_OK && ferror(f))
-        st = pf_error_set(err, PF_ERR_IO, __FILE__, __LINE__, "%s: read failed: %s", path,
-                          strerror(errno));
-    fclose(f);
-    if (st == PF_OK)
-        st = pf_scene_parse(s, (const char *)buf.data, buf.size, path, err);
-    else if (st == PF_ERR_NOMEM)
-        pf_error_prefix(err, "%s", path);
-    pf_buffer_release(&buf);
-    return st;
 }

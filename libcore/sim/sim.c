@@ -703,17 +703,12 @@ double pf_sim_max_node_jump(const pf_sim *s)
 
 double pf_sim_error_indicator(const pf_sim *s)
 {
-    if (s->scene->method == PF_METHOD_CG)
-        return s->stats.basis_error;
-    double *u = pf_alloc_array(3 * (size_t)s->mesh->n_nodes, sizeof *u);
-    if (!u)
-        return NAN;
-    s->ops->nodal_displacements(s->method, s->u, u);
-    double umax = 0;
-    for (int32_t i = 0; i < s->mesh->n_nodes; ++i)
-        umax = fmax(umax, sqrt(u[3 * i] * u[3 * i] + u[3 * i + 1] * u[3 * i + 1] +
-                               u[3 * i + 2] * u[3 * i + 2]));
-    pf_free(u);
-    double jump = s->ops->max_node_jump(s->method, s->u);
-    return umax > 0 ? jump / umax : 0;
+    return s->ops->error_indicator(s->method, s->u);
+}
+
+const char *pf_sim_error_measure(const pf_sim *s, const char **meaning)
+{
+    if (meaning)
+        *meaning = s->ops->error_meaning;
+    return s->ops->error_measure;
 }

@@ -360,6 +360,18 @@ static double max_node_jump(const void *m, const double *u)
     return 0;
 }
 
+/* The largest boundary error of the current elements' shape functions (0 when every element
+ * has closed forms): how far the method is from conforming, whatever the field. */
+static double error_indicator(const void *m, const double *u)
+{
+    (void)u;
+    const pf_basis *basis = &((const cg_method *)m)->cg.basis;
+    double largest = 0;
+    for (int32_t e = 0; e < basis->n_elems; ++e)
+        largest = fmax(largest, basis->stats[e].boundary_error);
+    return largest;
+}
+
 /* The corotated principal stress of element e at x from the nodal displacements u [3 n_nodes],
  * kept in *best (and its direction) when it is larger in magnitude. */
 static void stress_sample(const cg_method *c, const double *u, int32_t e, pf_vec3 x, double *best,
@@ -518,6 +530,9 @@ static const pf_method_ops CG_OPS = {
     .momentum = momentum,
     .affine = affine,
     .max_node_jump = max_node_jump,
+    .error_indicator = error_indicator,
+    .error_measure = "basis_boundary_error",
+    .error_meaning = "largest boundary error of the shape functions, docs/basis.md",
     .principal_stresses = principal_stresses,
     .transfer = transfer,
     .setup_stats = setup_stats,

@@ -286,6 +286,24 @@ static double max_node_jump(const void *m, const double *u)
     return largest;
 }
 
+/* The largest jump between elements at a node relative to the largest stitched nodal
+ * displacement (0 when nothing moves). */
+static double error_indicator(const void *m, const double *u)
+{
+    const pf_dg *dg = &((const dg_method *)m)->dg;
+    double *stitched = pf_alloc_array(3 * (size_t)dg->n_nodes, sizeof *stitched);
+    if (!stitched)
+        return NAN;
+    pf_dg_stitch(dg, u, stitched);
+    double umax = 0;
+    for (int32_t i = 0; i < dg->n_nodes; ++i)
+        umax = fmax(umax, pf_v3_norm(pf_v3(stitched[3 * (size_t)i], stitched[3 * (size_t)i + 1],
+                                           stitched[3 * (size_t)i + 2])));
+    pf_free(stitched);
+    double jump = max_node_jump(m, u);
+    return umax > 0 ? jump / umax : 0;
+}
+
 /* The corotated principal stress of element e at x, kept in *best (and its direction) when it
  * is larger in magnitude. */
 static void stress_sample(const pf_dg *dg, const double *u, int32_t e, pf_vec3 x, double *best,
@@ -407,6 +425,9 @@ static const pf_method_ops DG_OPS = {
     .momentum = momentum,
     .affine = affine,
     .max_node_jump = max_node_jump,
+    .error_indicator = error_indicator,
+    .error_measure = "node_jump_over_displacement",
+    .error_meaning = "largest jump between elements at a node over the largest displacement",
     .principal_stresses = principal_stresses,
     .transfer = transfer,
     .setup_stats = setup_stats,

@@ -59,12 +59,9 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
         add_int(root, "contact_points", st->contact_points);
         add_int(root, "contact_samples", st->contact_samples);
         add_int(root, "contacts", st->contacts);
-        /* cg elements are closed forms or harmonic; dg counts neither */
-        bool is_cg = st->closed_form_elems + st->harmonic_elems > 0;
         cJSON *ind = cJSON_AddObjectToObject(root, "error_indicator");
         cJSON_AddNumberToObject(ind, "value", pf_sim_error_indicator(sim));
-        cJSON_AddStringToObject(ind, "measure",
-                                is_cg ? "basis_boundary_error" : "node_jump_over_displacement");
+        cJSON_AddStringToObject(ind, "measure", pf_sim_error_measure(sim, NULL));
         cJSON *cg = cJSON_AddObjectToObject(root, "cg");
         add_int(cg, "closed_form_elements", st->closed_form_elems);
         add_int(cg, "harmonic_elements", st->harmonic_elems);
@@ -133,8 +130,7 @@ pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, p
     double indicator = pf_sim_error_indicator(sim);
     if (isfinite(indicator))
         PF_TRY(pf_stats_data_set_number(d, "error_indicator", indicator, err));
-    PF_TRY(pf_stats_data_set_text(
-        d, "error_measure", dg ? "node_jump_over_displacement" : "basis_boundary_error", err));
+    PF_TRY(pf_stats_data_set_text(d, "error_measure", pf_sim_error_measure(sim, NULL), err));
     PF_TRY(pf_stats_data_set_number(d, "elements", pf_sim_mesh(sim)->n_elems, err));
     PF_TRY(pf_stats_data_set_number(d, "unknowns", (double)st->dofs, err));
     PF_TRY(pf_stats_data_set_number(d, "frames", pf_sim_frame_index(sim), err));

@@ -131,6 +131,11 @@ typedef struct pf_buffer {
 pf_status pf_buffer_append(pf_buffer *b, const void *bytes, size_t n, pf_error *err);
 pf_status pf_buffer_reserve(pf_buffer *b, size_t capacity, pf_error *err);
 void pf_buffer_release(pf_buffer *b);
+/* Appends the whole file at path to b, reading to its end (so pipes and process substitution
+ * work). PF_ERR_IO "path: cannot open: reason" or "path: cannot read: reason" (a directory opens
+ * but cannot be read); PF_ERR_TOO_LARGE "path: larger than N bytes" when more than max_bytes
+ * arrive (the bytes read so far stay in b); PF_ERR_NOMEM naming path. */
+pf_status pf_buffer_read_file(pf_buffer *b, const char *path, size_t max_bytes, pf_error *err);
 
 /* Wall-clock seconds from a monotonic clock, for timing reports. */
 double pf_time_seconds(void);

@@ -250,9 +250,10 @@ bool pf_scene_changes_mesh(const pf_scene *s);
 pf_status pf_scene_parse(pf_scene *s, const char *text, size_t len, const char *name,
                          pf_error *err);
 
-/* Reads and parses a file; its path is the name in messages. PF_ERR_IO naming it when it cannot
- * be read, PF_ERR_TOO_LARGE beyond 64 MiB. Reads to end of file, so pipes work. */
-pf_status pf_scene_load(pf_scene *s, const char *path, pf_error *err);
+/* The largest scene text a tool reads (pf_buffer_read_file, then pf_scene_parse with the file's
+ * path as the name): a scene of 64 MiB is not a scene. The simulator reads no file: a tool reads
+ * the scene and the obstacles' meshes and hands them over. */
+#define PF_SCENE_MAX_BYTES ((size_t)64 << 20)
 
 /* A command-line override of one common key: key is one of method (dg|cg), degree, flux (ip|bz),
  * mass (consistent|lumped), edge_samples, frames, dt, static, E, nu, density, penalty, substeps,
@@ -523,6 +524,10 @@ double pf_sim_max_node_jump(const pf_sim *sim);
  * functions of the current elements (pf/basis.h; 0 when every element has closed forms): how
  * far the method is from conforming; it does not depend on the state. */
 double pf_sim_error_indicator(const pf_sim *sim);
+/* The name of the indicator's measure ("node_jump_over_displacement" for dg,
+ * "basis_boundary_error" for cg), as statistics name it; *meaning (when not NULL) says what it
+ * measures in words. Both are static strings. */
+const char *pf_sim_error_measure(const pf_sim *sim, const char **meaning);
 
 /* Volume of the deformed body: the mesh's elements with the stitched displacement applied to
  * their nodes, model units cubed. */

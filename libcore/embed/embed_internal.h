@@ -49,6 +49,28 @@ static inline int64_t bucket_grid_index(const bucket_grid *g, int32_t i, int32_t
 {
     return ((int64_t)k * g->n[1] + j) * g->n[0] + i;
 }
+/* Calls visit(ctx, item) for the items of every cell that the cube of half side reach around x
+ * overlaps (clamped to the grid; reach 0: x's cell), cell by cell, an item once per cell it is
+ * in. Stops at the first call that returns non-zero and returns its value; 0 when all returned
+ * 0. Inline, so that a walk with a constant visit compiles to the plain loops. */
+static inline int pf_bucket_grid_visit(const bucket_grid *g, pf_vec3 x, double reach,
+                                       int (*visit)(void *ctx, int32_t item), void *ctx)
+{
+    int32_t lo[3], hi[3];
+    pf_bucket_grid_cell(g, pf_v3_sub(x, pf_v3(reach, reach, reach)), lo);
+    pf_bucket_grid_cell(g, pf_v3_add(x, pf_v3(reach, reach, reach)), hi);
+    for (int32_t k = lo[2]; k <= hi[2]; ++k)
+        for (int32_t j = lo[1]; j <= hi[1]; ++j)
+            for (int32_t i = lo[0]; i <= hi[0]; ++i) {
+                int64_t cell = bucket_grid_index(g, i, j, k);
+                for (int64_t q = g->offsets[cell]; q < g->offsets[cell + 1]; ++q) {
+                    int r = visit(ctx, g->items[q]);
+                    if (r)
+                        return r;
+                }
+            }
+    return 0;
+}
 
 /* Point location in the elements of a mesh. */
 typedef struct locator {

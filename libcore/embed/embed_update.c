@@ -97,25 +97,28 @@ static bool reaches(const pf_mesh *m, const double *radius, int32_t j, pf_vec3 x
 /* Whether a changed node of the new mesh reaches x at the row's scale (or below: the supports
  * grow with the scale). Its box, of half side its radius, holds x at scale 1; grown, the node
  * lies within scale * r_max of x. */
+typedef struct reach_query {
+    const node_changes *nc;
+    const pf_mesh *m;
+    const double *radius;
+    pf_vec3 x;
+    double scale;
+} reach_query;
+
+static int changed_node_reaches(void *ctx, int32_t item)
+{
+    const reach_query *q = ctx;
+    return reaches(q->m, q->radius, q->nc->changed[item], q->x, q->scale);
+}
+
 static bool new_node_reaches(const node_changes *nc, const pf_mesh *m, const double *radius,
                              pf_vec3 x, double scale)
 {
     if (nc->n_changed == 0)
         return false;
-    const bucket_grid *g = &nc->grid;
+    reach_query q = {nc, m, radius, x, scale};
     double reach = scale == 1 ? 0 : scale * nc->r_max;
-    int32_t lo[3], hi[3];
-    pf_bucket_grid_cell(g, pf_v3_sub(x, pf_v3(reach, reach, reach)), lo);
-    pf_bucket_grid_cell(g, pf_v3_add(x, pf_v3(reach, reach, reach)), hi);
-    for (int32_t k = lo[2]; k <= hi[2]; ++k)
-        for (int32_t j = lo[1]; j <= hi[1]; ++j)
-            for (int32_t i = lo[0]; i <= hi[0]; ++i) {
-                int64_t cl = bucket_grid_index(g, i, j, k);
-                for (int64_t q = g->offsets[cl]; q < g->offsets[cl + 1]; ++q)
-                    if (reaches(m, radius, nc->changed[g->items[q]], x, scale))
-                        return true;
-            }
-    return false;
+    return pf_bucket_grid_visit(&nc->grid, x, reach, changed_node_reaches, &q) != 0;
 }
 
 /* The old row of v renumbered into col (false when it must be recomputed: it holds a changed

@@ -179,33 +179,30 @@ static pf_status build_points(mls_context *c, pf_error *err)
 /* The nodes whose (scaled) support holds x, in the order of their indices: at scale 1 the
  * candidates of x's cell of the support grid; grown, every cell of the point grid within
  * scale * r_max. */
+typedef struct gather_query {
+    mls_context *c;
+    pf_vec3 x;
+    double scale;
+    pf_error *err;
+} gather_query;
+
+static int consider_item(void *ctx, int32_t node)
+{
+    gather_query *q = ctx;
+    return consider(q->c, node, q->x, q->scale, q->err);
+}
+
 static pf_status gather(mls_context *c, pf_vec3 x, double scale, pf_error *err)
 {
     c->s.n = 0;
     c->hidden = 0;
-    int32_t cell[3];
-    if (scale == 1) {
-        const bucket_grid *g = &c->supports;
-        pf_bucket_grid_cell(g, x, cell);
-        int64_t k = bucket_grid_index(g, cell[0], cell[1], cell[2]);
-        for (int64_t q = g->offsets[k]; q < g->offsets[k + 1]; ++q)
-            PF_TRY(consider(c, g->items[q], x, scale, err));
-    } else {
-        if (!c->points_built)
-            PF_TRY(build_points(c, err));
-        const bucket_grid *g = &c->points;
-        double reach = scale * c->r_max;
-        int32_t lo[3], hi[3];
-        pf_bucket_grid_cell(g, pf_v3_sub(x, pf_v3(reach, reach, reach)), lo);
-        pf_bucket_grid_cell(g, pf_v3_add(x, pf_v3(reach, reach, reach)), hi);
-        for (int32_t k = lo[2]; k <= hi[2]; ++k)
-            for (int32_t j = lo[1]; j <= hi[1]; ++j)
-                for (int32_t i = lo[0]; i <= hi[0]; ++i) {
-                    int64_t cl = bucket_grid_index(g, i, j, k);
-                    for (int64_t q = g->offsets[cl]; q < g->offsets[cl + 1]; ++q)
-                        PF_TRY(consider(c, g->items[q], x, scale, err));
-                }
-    }
+    if (scale != 1 && !c->points_built)
+        PF_TRY(build_points(c, err));
+    gather_query q = {c, x, scale, err};
+    const bucket_grid *g = scale == 1 ? &c->supports : &c->points;
+    int st = pf_bucket_grid_visit(g, x, scale == 1 ? 0 : scale * c->r_max, consider_item, &q);
+    if (st < 0)
+        return (pf_status)st;
     sort_support(&c->s);
     normalise_support(c, scale);
     return PF_OK;

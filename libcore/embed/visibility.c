@@ -229,6 +229,24 @@ static bool box_overlap(const double *a, const double *b)
     return true;
 }
 
+typedef struct face_query {
+    visibility *v;
+    double box[6];
+} face_query;
+
+/* A face of the grid's cells, a candidate once when its box overlaps the query's. */
+static int take_face(void *ctx, int32_t b)
+{
+    face_query *q = ctx;
+    visibility *v = q->v;
+    if (v->stamp[b] != v->now) {
+        v->stamp[b] = v->now;
+        if (box_overlap(v->box + 6 * (size_t)b, q->box))
+            v->cand[v->n_cand++] = b;
+    }
+    return 0;
+}
+
 int32_t pf_visibility_gather(visibility *v, pf_vec3 x, double reach)
 {
     v->n_cand = 0;
@@ -238,24 +256,9 @@ int32_t pf_visibility_gather(visibility *v, pf_vec3 x, double reach)
         memset(v->stamp, 0, (size_t)v->n_faces * sizeof *v->stamp);
         v->now = 1;
     }
-    double q[6] = {x.x - reach, x.y - reach, x.z - reach, x.x + reach, x.y + reach, x.z + reach};
-    const bucket_grid *g = &v->grid;
-    int32_t lo[3], hi[3];
-    pf_bucket_grid_cell(g, pf_v3_load(q), lo);
-    pf_bucket_grid_cell(g, pf_v3_load(q + 3), hi);
-    for (int32_t k = lo[2]; k <= hi[2]; ++k)
-        for (int32_t j = lo[1]; j <= hi[1]; ++j)
-            for (int32_t i = lo[0]; i <= hi[0]; ++i) {
-                int64_t c = bucket_grid_index(g, i, j, k);
-                for (int64_t t = g->offsets[c]; t < g->offsets[c + 1]; ++t) {
-                    int32_t b = g->items[t];
-                    if (v->stamp[b] == v->now)
-                        continue;
-                    v->stamp[b] = v->now;
-                    if (box_overlap(v->box + 6 * (size_t)b, q))
-                        v->cand[v->n_cand++] = b;
-                }
-            }
+    face_query q = {v, {x.x - reach, x.y - reach, x.z - reach, x.x + reach, x.y + reach,
+                        x.z + reach}};
+    pf_bucket_grid_visit(&v->grid, x, reach, take_face, &q);
     /* candidates in face order, whatever the grid's cell order */
     for (int32_t a = 1; a < v->n_cand; ++a)
         for (int32_t c = a; c > 0 && v->cand[c - 1] > v->cand[c]; --c) {

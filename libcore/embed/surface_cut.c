@@ -412,6 +412,60 @@ pf_status pf_sc_push_slit(sc_state *c, int32_t u, int32_t v, pf_error *err)
     return PF_OK;
 }
 
+/* ---- closedness -------------------------------------------------------------------------------
+ */
+
+static int compare_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Whether the surface is closed once its vertices at one position are taken as one: every edge
+ * traversed as often one way as the other. An earlier cut leaves a surface closed in this sense
+ * where its vertex copies do not join up exactly; its caps still bound the solid, so the inside
+ * of the caps to come is decided by the section's parity as for a closed surface. */
+static pf_status closed_by_position(const pf_surface *s, bool *closed, pf_error *err)
+{
+    int32_t nv = s->n_verts;
+    int64_t ne = 3 * (int64_t)s->n_tris;
+    int32_t *order = NULL, *tmp = NULL, *to = NULL;
+    uint64_t *keys = NULL;
+    *closed = false;
+    if (!PF_ALLOC_N(order, (size_t)nv + 1) || !PF_ALLOC_N(tmp, (size_t)nv + 1) ||
+        !PF_ALLOC_N(to, (size_t)nv + 1) || !PF_ALLOC_N(keys, (size_t)ne + 1)) {
+        pf_free(order), pf_free(tmp), pf_free(to);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory welding %d surface vertices", (int)nv);
+    }
+    for (int32_t v = 0; v < nv; ++v)
+        order[v] = v;
+    sort_nodes(order, nv, s->x, tmp);
+    for (int32_t i = 0; i < nv; ++i)
+        to[order[i]] = i > 0 && memcmp(s->x + 3 * (size_t)order[i], s->x + 3 * (size_t)order[i - 1],
+                                       3 * sizeof(double)) == 0
+                           ? to[order[i - 1]]
+                           : order[i];
+    int64_t n = 0;
+    for (int64_t i = 0; i < ne; ++i) {
+        uint64_t p = (uint64_t)to[s->tri[i]], q = (uint64_t)to[s->tri[i - i % 3 + (i + 1) % 3]];
+        if (p != q)
+            keys[n++] = ((p < q ? p << 32 | q : q << 32 | p) << 1) | (p > q);
+    }
+    qsort(keys, (size_t)n, sizeof *keys, compare_u64);
+    bool ok = n > 0;
+    for (int64_t i = 0; i < n && ok;) {
+        int64_t j = i, fwd = 0;
+        while (j < n && keys[j] >> 1 == keys[i] >> 1)
+            fwd += (keys[j++] & 1) == 0;
+        ok = 2 * fwd == j - i;
+        i = j;
+    }
+    *closed = ok;
+    pf_free(order), pf_free(tmp), pf_free(to), pf_free(keys);
+    return PF_OK;
+}
+
 /* ---- entry point --------------------------------------------------------------------------------
  */
 
@@ -556,6 +610,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     c.m = m;
     c.s = &work;
     c.closed = ss.closed;
+    if (!c.closed)
+        PF_TRY(closed_by_position(s, &c.closed, err));
     c.in = s;
     c.stats = so;
     pf_status st = PF_OK;

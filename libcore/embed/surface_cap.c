@@ -337,13 +337,14 @@ static bool surface_edge(const cap_buf *b, int32_t u, int32_t v)
            bsearch(&key, b->in_edges, (size_t)b->n_in_edges, sizeof key, compare_u64) != NULL;
 }
 
-/* The direction into the material at vertex v: the sum of its triangles' inward unit normals. */
+/* The direction into the material at vertex v: the sum of the inward unit normals of its
+ * triangles of the input surface (the caps this cut made so far face both of its sides). */
 static pf_vec3 vertex_inward(const sc_surface *s, int32_t v)
 {
     pf_vec3 in = pf_v3(0, 0, 0);
     for (int32_t t = 0; t < s->n_tris; ++t) {
         const uint32_t *tv = s->tri + 3 * (size_t)t;
-        if (tv[0] != (uint32_t)v && tv[1] != (uint32_t)v && tv[2] != (uint32_t)v)
+        if (s->src[t] < 0 || (tv[0] != (uint32_t)v && tv[1] != (uint32_t)v && tv[2] != (uint32_t)v))
             continue;
         pf_vec3 a = pf_v3_load(s->x + 3 * (size_t)tv[0]);
         pf_vec3 n = pf_v3_cross(pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[1]), a),

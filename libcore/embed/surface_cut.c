@@ -412,6 +412,103 @@ pf_status pf_sc_push_slit(sc_state *c, int32_t u, int32_t v, pf_error *err)
     return PF_OK;
 }
 
+/* ---- vertices at one point --------------------------------------------------------------------
+ */
+
+typedef struct x_key {
+    double x;
+    int32_t v;
+} x_key;
+
+static int compare_x_keys(const void *a, const void *b)
+{
+    const x_key *p = a, *q = b;
+    if (p->x != q->x)
+        return p->x < q->x ? -1 : 1;
+    return (p->v > q->v) - (p->v < q->v);
+}
+
+/* to[v] for the vertices v of [n0, n): the lowest of [n0, n) within tol of it (through chains
+ * of such), v itself for the others. */
+static pf_status weld_map(const double *x, int32_t n0, int32_t n, double tol, int32_t *to,
+                          pf_error *err)
+{
+    for (int32_t i = 0; i < n; ++i)
+        to[i] = i;
+    if (n - n0 < 2)
+        return PF_OK;
+    x_key *keys = NULL;
+    PF_CHECK(PF_ALLOC_N(keys, (size_t)(n - n0)), err, PF_ERR_NOMEM,
+             "out of memory welding %d vertices", (int)(n - n0));
+    int32_t nk = n - n0;
+    for (int32_t i = 0; i < nk; ++i)
+        keys[i] = (x_key){x[3 * (size_t)(n0 + i)], n0 + i};
+    qsort(keys, (size_t)nk, sizeof *keys, compare_x_keys);
+    for (int32_t i = 0; i < nk; ++i) {
+        int32_t v = keys[i].v;
+        pf_vec3 xv = pf_v3_load(x + 3 * (size_t)v);
+        for (int32_t j = i - 1; j >= 0 && keys[i].x - keys[j].x <= tol; --j) {
+            int32_t w = keys[j].v;
+            if (to[w] == w && pf_v3_dist(xv, pf_v3_load(x + 3 * (size_t)w)) <= tol &&
+                (to[v] == v || w < to[v]))
+                to[v] = w;
+        }
+    }
+    for (int32_t i = 0; i < nk; ++i) { /* the lowest of a chain */
+        int32_t v = keys[i].v;
+        while (to[to[v]] != to[v])
+            to[v] = to[to[v]];
+    }
+    pf_free(keys);
+    return PF_OK;
+}
+
+/* ---- closedness -------------------------------------------------------------------------------
+ */
+
+static int compare_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Whether the surface is closed once its vertices within tol of one another are taken as one:
+ * every edge traversed as often one way as the other. An earlier cut leaves a surface closed in
+ * this sense where its vertex copies do not join up exactly; its caps still bound the solid, so
+ * the inside of the caps to come is decided by the section's parity as for a closed surface. */
+static pf_status closed_by_position(const pf_surface *s, double tol, bool *closed, pf_error *err)
+{
+    int64_t ne = 3 * (int64_t)s->n_tris;
+    int32_t *to = NULL;
+    uint64_t *keys = NULL;
+    *closed = false;
+    if (!PF_ALLOC_N(to, (size_t)s->n_verts + 1) || !PF_ALLOC_N(keys, (size_t)ne + 1)) {
+        pf_free(to);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory welding %d surface vertices", (int)s->n_verts);
+    }
+    pf_status st = weld_map(s->x, 0, s->n_verts, tol, to, err);
+    int64_t n = 0;
+    for (int64_t i = 0; i < ne && st >= 0; ++i) {
+        uint64_t p = (uint64_t)to[s->tri[i]], q = (uint64_t)to[s->tri[i - i % 3 + (i + 1) % 3]];
+        if (p != q)
+            keys[n++] = ((p < q ? p << 32 | q : q << 32 | p) << 1) | (p > q);
+    }
+    qsort(keys, (size_t)n, sizeof *keys, compare_u64);
+    bool ok = st >= 0 && n > 0;
+    for (int64_t i = 0; i < n && ok;) {
+        int64_t j = i, fwd = 0;
+        while (j < n && keys[j] >> 1 == keys[i] >> 1)
+            fwd += (keys[j++] & 1) == 0;
+        ok = 2 * fwd == j - i;
+        i = j;
+    }
+    *closed = ok;
+    pf_free(to);
+    pf_free(keys);
+    return st;
+}
+
 /* ---- entry point --------------------------------------------------------------------------------
  */
 
@@ -556,6 +653,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
     c.m = m;
     c.s = &work;
     c.closed = ss.closed;
+    if (!c.closed)
+        PF_TRY(closed_by_position(s, SC_PLANE_TOL * pf_v3_dist(ss.lo, ss.hi), &c.closed, err));
     c.in = s;
     c.stats = so;
     pf_status st = PF_OK;

@@ -2,7 +2,9 @@
  * a slit, its triangles fall into groups joined by the edges that are not slits; each group gets
  * a vertex of its own. Where a slit ends (the crack front) the triangles stay joined around it
  * and the vertex is shared; where slits of two planes meet (a crack bending from one plane of
- * opened faces to another) the groups follow the material, whatever the planes. */
+ * opened faces to another) the groups follow the material, whatever the planes. Where more than
+ * two sheets meet at an edge (cracks of two planes crossing), only sheets next to one another
+ * about the edge, with material between them, are joined. */
 #include "surface_cut_internal.h"
 
 #include <stdlib.h>
@@ -131,6 +133,56 @@ static int32_t edge_valence(const sc_surface *s, const int32_t *tris, int32_t k,
     return n;
 }
 
+/* The third corner of triangle t (which has the edge v-w). */
+static uint32_t third_corner(const sc_surface *s, int32_t t, uint32_t v, uint32_t w)
+{
+    const uint32_t *c = s->tri + 3 * (size_t)t;
+    return c[0] != v && c[0] != w ? c[0] : c[1] != v && c[1] != w ? c[1] : c[2];
+}
+
+static pf_vec3 tri_normal(const sc_surface *s, int32_t t)
+{
+    const uint32_t *v = s->tri + 3 * (size_t)t;
+    pf_vec3 a = pf_v3_load(s->x + 3 * (size_t)v[0]);
+    return pf_v3_cross(pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[1]), a),
+                       pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)v[2]), a));
+}
+
+/* Of the triangles at edge v-w, the first that triangle a meets turning about the edge from its
+ * own half-plane towards its inside (against its normal): the one bounding the same wedge of
+ * material. Of two met at one angle (both sides' caps of a plane), the one facing away from a;
+ * a triangle in a's own half-plane is met last (its inside lies the other way). Angles within
+ * 1e-9 radians are one. */
+static int32_t first_around(const sc_surface *s, int32_t a, uint32_t v, uint32_t w,
+                            const int32_t *tris, int32_t k)
+{
+    pf_vec3 xv = pf_v3_load(s->x + 3 * (size_t)v);
+    pf_vec3 e = pf_v3_normalize(pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)w), xv));
+    pf_vec3 p = pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)third_corner(s, a, v, w)), xv);
+    pf_vec3 u = pf_v3_normalize(pf_v3_sub(p, pf_v3_scale(e, pf_v3_dot(p, e))));
+    pf_vec3 na = tri_normal(s, a);
+    pf_vec3 in = pf_v3_normalize(pf_v3_scale(pf_v3_sub(na, pf_v3_scale(e, pf_v3_dot(na, e))), -1));
+    pf_vec3 axis = pf_v3_cross(u, in);
+    int32_t best = -1;
+    double best_angle = INFINITY;
+    bool best_away = false;
+    const double eps = 1e-9, turn = 2 * acos(-1.0);
+    for (int32_t i = 0; i < k; ++i) {
+        int32_t t = tris[i];
+        if (t == a || edge_dir(s, t, v, w) == 0)
+            continue;
+        pf_vec3 q = pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)third_corner(s, t, v, w)), xv);
+        q = pf_v3_normalize(pf_v3_sub(q, pf_v3_scale(e, pf_v3_dot(q, e))));
+        double angle = atan2(pf_v3_dot(q, in), pf_v3_dot(q, u));
+        if (angle <= eps)
+            angle += turn;
+        bool away = pf_v3_dot(tri_normal(s, t), pf_v3_cross(axis, q)) > 0;
+        if (angle < best_angle - eps || (angle <= best_angle + eps && away && !best_away))
+            best = t, best_angle = angle, best_away = away;
+    }
+    return best;
+}
+
 /* Triangles a and b sharing the edge v-w lie on the same side of the cut around v: across a
  * slit, a cap and a triangle of the surface traversing it the opposite ways (the cap closes that
  * triangle's side); across another edge, two triangles of the surface, or a cap and a surface
@@ -144,6 +196,10 @@ static bool joined(const sc_state *c, int32_t a, int32_t b, uint32_t v, uint32_t
     const sc_surface *s = c->s;
     int da = edge_dir(s, a, v, w), db = edge_dir(s, b, v, w);
     if (da == 0 || db == 0)
+        return false;
+    /* more than two sheets at the edge: only neighbours about it bound one wedge */
+    if (edge_valence(s, tris, k, v, w) > 2 &&
+        (first_around(s, a, v, w, tris, k) != b || first_around(s, b, v, w, tris, k) != a))
         return false;
     bool cap_a = s->src[a] < 0, cap_b = s->src[b] < 0;
     if (cap_a && cap_b) {

@@ -2,17 +2,20 @@
 # unknowns, meshes refined by stress against uniform ones, CG and DG degree 1 and 2 (bench_adapt
 # accuracy);
 # (b) CPU milliseconds per split element of a refinement, by part, on the bending and twisting
-# bars (bench_adapt events).
+# bars (bench_adapt events); (c) CPU seconds of a CG run's mesh changes with the set-up copying
+# what the change did not touch ("reuse") and with every set-up from scratch ("rebuild")
+# (bench_adapt reuse).
 # gnuplot bench/adapt.gp   (writes adapt.png)
-# optional: -e "accuracy='...csv'; events='...csv'; out='other.png'"
+# optional: -e "accuracy='...csv'; events='...csv'; reuse='...csv'; out='other.png'"
 if (!exists("accuracy")) accuracy = 'bench/results/adapt_accuracy.csv'
 if (!exists("events")) events = 'bench/results/adapt_events.csv'
+if (!exists("reuse")) reuse = 'bench/results/adapt_reuse.csv'
 if (!exists("out")) out = 'adapt.png'
-set terminal pngcairo size 1300,520
+set terminal pngcairo size 1900,560
 set output out
 set datafile separator ','
 set datafile commentschars '#'
-set multiplot layout 1,2
+set multiplot layout 1,3
 set grid
 set key bottom left
 
@@ -44,3 +47,11 @@ set xtics rotate by -30
 plot events using 11:xtic(sprintf("%s %s %s", strcol(1), strcol(2), strcol(3))) every ::1 title 'mesh', \
      '' using 12 every ::1 title 'method', '' using 13 every ::1 title 'set-up', \
      '' using 14 every ::1 title 'transfer', '' using 15 every ::1 title 'factorisation'
+
+# columns: 1 case, 2 fraction, 3 mode, 8 change_cpu_s, 9 method_cpu_s (after the header, the warm-up row: skipped)
+set title 'CPU s of the mesh changes of a CG run'
+set ylabel 's'
+plot reuse using 9:xtic(sprintf("%s %s %s", strcol(1), strcol(2), strcol(3))) every ::2 \
+       title 'method set-up', \
+     '' using ($8 - $9) every ::2 title 'rest of the changes'
+unset multiplot

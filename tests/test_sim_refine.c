@@ -469,6 +469,40 @@ static void test_bend_and_release(void **state)
     pf_mesh_release(&m);
 }
 
+/* A split of a split on a bar at rest (no stress): with coarsen_after 3 the deeper family merges
+ * at the third frame and the one above it at the fourth, since the element merged back has been
+ * calm as long as its children; it does not wait coarsen_after frames more per level. */
+static void test_merge_levels_in_a_row(void **state)
+{
+    (void)state;
+    pf_mesh m = {0};
+    make_box(&m, pf_v3(4, 1, 1), 8, 2, 2);
+    pf_scene sc;
+    parse(&sc, "{\"fixed\": [{\"plane\": {\"point\": [0, 0, 0], \"normal\": [1, 0, 0]}}],"
+               " \"ground\": false, \"gravity\": [0, 0, 0],"
+               " \"refine\": {\"threshold\": 1e9, \"coarsen_after\": 3}}");
+    pf_sim *sim = create(&sc, &m);
+    pf_error err = {0};
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_OCTS};
+    if (pf_sim_split(sim, &req, 1, NULL, &err) < 0 || pf_sim_split(sim, &req, 1, NULL, &err) < 0)
+        fail_msg("split: %s", err.msg);
+    assert_int_equal(pf_sim_mesh(sim)->n_elems, 32 + 7 + 7);
+    int32_t after[4];
+    for (int f = 0; f < 4; ++f) {
+        if (pf_sim_frame(sim, &err) < 0)
+            fail_msg("frame: %s", err.msg);
+        after[f] = pf_sim_mesh(sim)->n_elems;
+    }
+    print_message("    elements after frames 1-4: %d %d %d %d\n", (int)after[0], (int)after[1],
+                  (int)after[2], (int)after[3]);
+    assert_int_equal(after[1], 46);
+    assert_int_equal(after[2], 39);
+    assert_int_equal(after[3], 32);
+    pf_sim_destroy(&sim);
+    pf_scene_release(&sc);
+    pf_mesh_release(&m);
+}
+
 /* The DG integrals a refined mesh copies from the old set-up (pf_dg_create_reusing, with the
  * refinement's face map) equal those a fresh set-up computes, to round-off (1e-12 of each
  * array's largest entry: the same integrals summed in another order over subdivided faces), and
@@ -813,6 +847,7 @@ int main(void)
         cmocka_unit_test(test_refine_then_merge),
         cmocka_unit_test(test_merge_bent),
         cmocka_unit_test(test_bend_and_release),
+        cmocka_unit_test(test_merge_levels_in_a_row),
         cmocka_unit_test(test_dg_reuse_matches_fresh),
         cmocka_unit_test(test_cg_reuse_matches_fresh),
         cmocka_unit_test(test_cg_reuse_after_merge),

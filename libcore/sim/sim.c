@@ -661,6 +661,19 @@ void pf_sim_von_mises(const pf_sim *s, double *out)
     s->ops->von_mises(s->method, s->u, out);
 }
 
+void pf_sim_principal_stresses(const pf_sim *s, double *value, pf_vec3 *direction)
+{
+    s->ops->principal_stresses(s->method, s->u, value, direction);
+}
+
+double pf_sim_load_work(const pf_sim *s)
+{
+    double w = 0;
+    for (int64_t i = 0; i < s->n; ++i)
+        w += s->f_ext[i] * s->u[i];
+    return w;
+}
+
 void pf_sim_momentum(const pf_sim *s, double *kinetic, pf_vec3 *linear, pf_vec3 *angular)
 {
     s->ops->momentum(s->method, s->u, s->v, kinetic, linear, angular);

@@ -168,6 +168,24 @@ pf_status pf_sim_split(pf_sim *s, const pf_refine_request *req, int32_t n_req, i
     return st;
 }
 
+/* A merged element has been calm as long as the least calm of the elements merged into it (each
+ * below the coarsening stress that many frames, and its field is their projection), so that the
+ * family above it can merge as soon as the rest of that family is calm too, instead of waiting
+ * coarsen_after frames more per level. Its own stress is measured at the next criterion before
+ * any further merge, and resets the count when it is not calm. */
+static void merged_calm(const pf_sim *old, const int32_t *merged_into, int32_t n_old,
+                        int32_t *calm)
+{
+    if (!old->calm)
+        return;
+    for (int32_t q = 0; q < n_old; ++q)
+        if (merged_into[q] >= 0)
+            calm[merged_into[q]] = INT32_MAX;
+    for (int32_t q = 0; q < n_old; ++q)
+        if (merged_into[q] >= 0 && old->calm[q] < calm[merged_into[q]])
+            calm[merged_into[q]] = old->calm[q];
+}
+
 pf_status pf_sim_merge(pf_sim *s, const int32_t *group, int32_t *n_merged, pf_error *err)
 {
     double t0 = pf_cpu_seconds();
@@ -212,6 +230,7 @@ pf_status pf_sim_merge(pf_sim *s, const int32_t *group, int32_t *n_merged, pf_er
             fam[e] = merged && f >= 0 ? families(old)[f].parent_family : merged ? -1 : f;
             calm[e] = merged || !old->calm ? 0 : old->calm[p];
         }
+        merged_calm(old, merged_into, n_old, calm);
         install_bookkeeping(s, old, level, fam, calm);
         level = fam = calm = NULL;
         s->stats.elements_merged += res.n_merged;

@@ -39,6 +39,19 @@ for png in "$tmp/png-range"/*.png; do
   check "render --frames 10:12: $(basename "$png") as in the whole run" cmp -s "$png" "$tmp/png/$(basename "$png")"
 done
 
+# the scene's whole run on its bar of 36 hexes (9 x 2 x 2): the sphere presses it (44 elements)
+# and goes back; once the bar has calmed down every split is merged and it ends on its 36 hexes
+"$bin/pf-shape" box --extent 4,1,1 --cells 9,2,2 >"$tmp/bar36.pfs"
+expect 0 "" "$bin/pf-sim" "$scene" --quiet --input "$tmp/bar36.pfs"
+"$bin/pf-info" "$tmp/out" >"$tmp/info36.txt" 2>&1
+counts=$(sed -n 's/^ *mesh [0-9]* (MESH at byte [0-9]*): [0-9]* nodes, \([0-9]*\) elements.*/\1/p' \
+  "$tmp/info36.txt" | tr '\n' ' ')
+most=$(echo "$counts" | tr ' ' '\n' | sort -n | tail -1)
+final=$(echo "$counts" | awk '{print $NF}')
+check "the pressed bar: 36 -> 44 elements ($counts)" test "${most:-0}" = 44
+check "the released bar ends on its 36 hexes ($counts)" test "${final:-0}" = 36
+check "its last frame is frame 50" grep -q ' 51 frames$' "$tmp/info36.txt"
+
 # an embedded surface: new weights follow each new mesh (pf-info checks each WGHT against its MESH)
 "$bin/pf-shape" sphere --segments 12 | "$bin/pf-voxelize" --res 4 --quiet | "$bin/pf-embed" --quiet >"$tmp/ball.pfs"
 printf '{"refine": {"threshold": 1000, "max_level": 1, "max_elements": 120}, "time": {"frames": 10}}' >"$tmp/drop.json"

@@ -588,6 +588,19 @@ pf_status pf_sim_apply_cuts(pf_sim *sim, double t0, double t1, int32_t *n_cut, p
  * refines. *n_changed (may be NULL): the elements split or groups merged. */
 pf_status pf_sim_refine(pf_sim *sim, int32_t *n_changed, pf_error *err);
 
+/* The refinement criterion's stress of every element (pf_sim_refine compares it with the
+ * threshold): value [n_elems] the corotated principal stress of largest magnitude at the
+ * element's centroid and vertices (signed, stress units), direction [n_elems] its direction in
+ * the rest frame (unit). For a threshold relative to the largest value now (bench/bench_adapt.c,
+ * tests/test_sim_refine_accuracy.c). */
+void pf_sim_principal_stresses(const pf_sim *sim, double *value, pf_vec3 *direction);
+
+/* The work of the scene's constant loads and body forces (tractions, gravity) on the current
+ * displacement, f . u, force times length. After pf_sim_solve_static it is the compliance, twice
+ * the elastic energy: for a conforming method (CG) it approaches the exact value from below under
+ * refinement, the gap being the squared energy norm of the error. */
+double pf_sim_load_work(const pf_sim *sim);
+
 /* The run's statistics as a JSON object (docs/scene.md, "Run statistics"): pf_sim_get_stats with
  * the solver's factorisations by reason, PCG iterations (mean and largest), seconds per phase
  * (wall, and CPU where measured), frames and simulated time, and the whole run's wall_seconds and

@@ -346,6 +346,43 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
 
 static const double IDENTITY[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 
+static inline lanes_d load_lanes(const double *p)
+{
+    lanes_d v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/* z = K y for a symmetric n x n K, by K's rows: z_p = sum_q K_qp y_q added in the order of q
+ * (as a scalar loop does), eight and then four entries of z at a time. */
+PF_KERNEL_CLONES
+static void symmetric_mul(const double *ke, int32_t n, const double *y, double *z)
+{
+    int32_t p = 0;
+    for (; p + 8 <= n; p += 8) {
+        lanes_d z0 = {0, 0, 0, 0}, z1 = z0;
+        for (int32_t q = 0; q < n; ++q) {
+            const double *kq = ke + (size_t)q * n + p;
+            z0 += load_lanes(kq) * y[q];
+            z1 += load_lanes(kq + 4) * y[q];
+        }
+        memcpy(z + p, &z0, sizeof z0);
+        memcpy(z + p + 4, &z1, sizeof z1);
+    }
+    for (; p + 4 <= n; p += 4) {
+        lanes_d z0 = {0, 0, 0, 0};
+        for (int32_t q = 0; q < n; ++q)
+            z0 += load_lanes(ke + (size_t)q * n + p) * y[q];
+        memcpy(z + p, &z0, sizeof z0);
+    }
+    for (; p < n; ++p) {
+        double zp = 0;
+        for (int32_t q = 0; q < n; ++q)
+            zp += ke[(size_t)q * n + p] * y[q];
+        z[p] = zp;
+    }
+}
+
 /* f_a -= R_e K_e (R_e^T x - X) over e's free nodes a (x = X + u, u [3 n_nodes] with the fixed
  * nodes at their prescribed displacements; R_e = I: f -= K_e u exactly). y, z [3 k] scratch. */
 static void subtract_elastic_force(const int32_t *block, const int32_t *nodes, int32_t kn,
@@ -364,12 +401,7 @@ static void subtract_elastic_force(const int32_t *block, const int32_t *nodes, i
         for (int i = 0; i < 3; ++i)
             y[3 * a + i] = (r[i] * x[0] + r[3 + i] * x[1] + r[6 + i] * x[2]) - xa[i];
     }
-    memset(z, 0, (size_t)n * sizeof *z); /* z = K y by K's rows (K_e symmetric) */
-    for (int32_t q = 0; q < n; ++q) {
-        const double *kq = ke + (size_t)q * n;
-        for (int32_t p = 0; p < n; ++p)
-            z[p] += kq[p] * y[q];
-    }
+    symmetric_mul(ke, n, y, z);
     for (int32_t a = 0; a < kn; ++a) {
         int32_t i = block[nodes[a]];
         if (i < 0)
@@ -389,16 +421,20 @@ static void add_mass_times(const int32_t *block, const int32_t *nodes, int32_t k
         int32_t i = block[nodes[a]];
         if (i < 0)
             continue;
-        double sum[3] = {0, 0, 0};
+        double s0 = 0, s1 = 0, s2 = 0;
         for (int32_t c = 0; c < kn; ++c) {
             int32_t j = block[nodes[c]];
             if (j < 0)
                 continue;
-            for (int d = 0; d < 3; ++d)
-                sum[d] += me[a * kn + c] * v[3 * (size_t)j + d];
+            double m = me[a * kn + c];
+            const double *vj = v + 3 * (size_t)j;
+            s0 += m * vj[0];
+            s1 += m * vj[1];
+            s2 += m * vj[2];
         }
-        for (int d = 0; d < 3; ++d)
-            mv[3 * (size_t)i + d] += sum[d];
+        mv[3 * (size_t)i] += s0;
+        mv[3 * (size_t)i + 1] += s1;
+        mv[3 * (size_t)i + 2] += s2;
     }
 }
 

@@ -160,6 +160,43 @@ void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, bool wa
 
 /* ---- stiffness ---------------------------------------------------------------------------- */
 
+static inline lanes_d load_lanes(const double *p)
+{
+    lanes_d v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/* z = K y for a symmetric n x n K, by K's rows: z_p = sum_q K_qp y_q added in the order of q
+ * (as a scalar loop does), eight and then four entries of z at a time. */
+PF_KERNEL_CLONES
+static void symmetric_mul(const double *ke, int32_t n, const double *y, double *z)
+{
+    int32_t p = 0;
+    for (; p + 8 <= n; p += 8) {
+        lanes_d z0 = {0, 0, 0, 0}, z1 = z0;
+        for (int32_t q = 0; q < n; ++q) {
+            const double *kq = ke + (size_t)q * n + p;
+            z0 += load_lanes(kq) * y[q];
+            z1 += load_lanes(kq + 4) * y[q];
+        }
+        memcpy(z + p, &z0, sizeof z0);
+        memcpy(z + p + 4, &z1, sizeof z1);
+    }
+    for (; p + 4 <= n; p += 4) {
+        lanes_d z0 = {0, 0, 0, 0};
+        for (int32_t q = 0; q < n; ++q)
+            z0 += load_lanes(ke + (size_t)q * n + p) * y[q];
+        memcpy(z + p, &z0, sizeof z0);
+    }
+    for (; p < n; ++p) {
+        double zp = 0;
+        for (int32_t q = 0; q < n; ++q)
+            zp += ke[(size_t)q * n + p] * y[q];
+        z[p] = zp;
+    }
+}
+
 /* out = R K_ac R^T for the 3 x 3 block at (a, c) of K (row stride n; R row-major). */
 static void warp_block(const double *r, const double *kk, int32_t n, double out[9])
 {
@@ -281,14 +318,7 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
                 for (int i = 0; i < 3; ++i)
                     y[3 * a + i] = xa[i] - (r[i] * xa[0] + r[3 + i] * xa[1] + r[6 + i] * xa[2]);
             }
-            /* z = K y as a sum of K's rows (K_e symmetric): independent updates, not one chain
-             * of additions per row (the element's matrix streams through once) */
-            memset(z, 0, (size_t)n * sizeof *z);
-            for (int32_t q = 0; q < n; ++q) {
-                const double *kq = ke + (size_t)q * n;
-                for (int32_t p = 0; p < n; ++p)
-                    z[p] += kq[p] * y[q];
-            }
+            symmetric_mul(ke, n, y, z);
             for (int32_t a = 0; a < kn; ++a)
                 for (int i = 0; i < 3; ++i)
                     y[3 * a + i] = r[3 * i] * z[3 * a] + r[3 * i + 1] * z[3 * a + 1] +
@@ -345,43 +375,6 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
 /* ---- the step's system in one pass -------------------------------------------------------- */
 
 static const double IDENTITY[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-
-static inline lanes_d load_lanes(const double *p)
-{
-    lanes_d v;
-    memcpy(&v, p, sizeof v);
-    return v;
-}
-
-/* z = K y for a symmetric n x n K, by K's rows: z_p = sum_q K_qp y_q added in the order of q
- * (as a scalar loop does), eight and then four entries of z at a time. */
-PF_KERNEL_CLONES
-static void symmetric_mul(const double *ke, int32_t n, const double *y, double *z)
-{
-    int32_t p = 0;
-    for (; p + 8 <= n; p += 8) {
-        lanes_d z0 = {0, 0, 0, 0}, z1 = z0;
-        for (int32_t q = 0; q < n; ++q) {
-            const double *kq = ke + (size_t)q * n + p;
-            z0 += load_lanes(kq) * y[q];
-            z1 += load_lanes(kq + 4) * y[q];
-        }
-        memcpy(z + p, &z0, sizeof z0);
-        memcpy(z + p + 4, &z1, sizeof z1);
-    }
-    for (; p + 4 <= n; p += 4) {
-        lanes_d z0 = {0, 0, 0, 0};
-        for (int32_t q = 0; q < n; ++q)
-            z0 += load_lanes(ke + (size_t)q * n + p) * y[q];
-        memcpy(z + p, &z0, sizeof z0);
-    }
-    for (; p < n; ++p) {
-        double zp = 0;
-        for (int32_t q = 0; q < n; ++q)
-            zp += ke[(size_t)q * n + p] * y[q];
-        z[p] = zp;
-    }
-}
 
 /* f_a -= R_e K_e (R_e^T x - X) over e's free nodes a (x = X + u, u [3 n_nodes] with the fixed
  * nodes at their prescribed displacements; R_e = I: f -= K_e u exactly). y, z [3 k] scratch. */

@@ -160,6 +160,43 @@ void pf_cg_rotations(const pf_cg *cg, const double *x0, const double *u, bool wa
 
 /* ---- stiffness ---------------------------------------------------------------------------- */
 
+static inline lanes_d load_lanes(const double *p)
+{
+    lanes_d v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/* z = K y for a symmetric n x n K, by K's rows: z_p = sum_q K_qp y_q added in the order of q
+ * (as a scalar loop does), eight and then four entries of z at a time. */
+PF_KERNEL_CLONES
+static void symmetric_mul(const double *ke, int32_t n, const double *y, double *z)
+{
+    int32_t p = 0;
+    for (; p + 8 <= n; p += 8) {
+        lanes_d z0 = {0, 0, 0, 0}, z1 = z0;
+        for (int32_t q = 0; q < n; ++q) {
+            const double *kq = ke + (size_t)q * n + p;
+            z0 += load_lanes(kq) * y[q];
+            z1 += load_lanes(kq + 4) * y[q];
+        }
+        memcpy(z + p, &z0, sizeof z0);
+        memcpy(z + p + 4, &z1, sizeof z1);
+    }
+    for (; p + 4 <= n; p += 4) {
+        lanes_d z0 = {0, 0, 0, 0};
+        for (int32_t q = 0; q < n; ++q)
+            z0 += load_lanes(ke + (size_t)q * n + p) * y[q];
+        memcpy(z + p, &z0, sizeof z0);
+    }
+    for (; p < n; ++p) {
+        double zp = 0;
+        for (int32_t q = 0; q < n; ++q)
+            zp += ke[(size_t)q * n + p] * y[q];
+        z[p] = zp;
+    }
+}
+
 /* out = R K_ac R^T for the 3 x 3 block at (a, c) of K (row stride n; R row-major). */
 static void warp_block(const double *r, const double *kk, int32_t n, double out[9])
 {
@@ -217,16 +254,18 @@ static inline void add_block_columns(pf_block_matrix *k, int64_t slot, int32_t i
 
 /* The warped blocks (a, c), c >= a, of element e's free node pairs added to k: the stored block
  * (i, j), i <= j, is K'_ac when i = block(a) <= j = block(c) (its columns: the rows of
- * K'_ac^T = R K_ca R^T), else K'_ca (the rows of K'_ac = R K_ac R^T). */
+ * K'_ac^T = R K_ca R^T), else K'_ca (the rows of K'_ac = R K_ac R^T); each scaled by s (folded
+ * into R's columns: exact for s = 1), plus, with the element's mass me (k x k, NULL: none),
+ * mscale me_ac I (rotation invariant: R (m I) R^T = m I). */
 PF_KERNEL_CLONES
 static void scatter_free_pairs(const int32_t *block, const int32_t *nodes, int32_t kn,
-                               const double *ke, const double *r, const int64_t *slot,
-                               pf_block_matrix *k)
+                               const double *ke, const double *r, double s, const double *me,
+                               double mscale, const int64_t *slot, pf_block_matrix *k)
 {
     int32_t n = 3 * kn;
     lanes_d col[3];
     for (int q = 0; q < 3; ++q)
-        col[q] = (lanes_d){r[q], r[3 + q], r[6 + q], 0};
+        col[q] = (lanes_d){s * r[q], s * r[3 + q], s * r[6 + q], 0};
     for (int32_t a = 0; a < kn; ++a) {
         int32_t i = block[nodes[a]];
         if (i < 0)
@@ -236,13 +275,16 @@ static void scatter_free_pairs(const int32_t *block, const int32_t *nodes, int32
             if (j < 0)
                 continue;
             lanes_d w[3];
-            if (i <= j) {
+            if (i <= j)
                 warp_rows(r, col, ke + (size_t)3 * c * n + 3 * a, n, w);
-                add_block_columns(k, slot[a * kn + c], i, j, w);
-            } else {
+            else
                 warp_rows(r, col, ke + (size_t)3 * a * n + 3 * c, n, w);
-                add_block_columns(k, slot[a * kn + c], j, i, w);
+            if (me) {
+                double m = mscale * me[a * kn + c];
+                for (int d = 0; d < 3; ++d)
+                    w[d][d] += m;
             }
+            add_block_columns(k, slot[a * kn + c], i <= j ? i : j, i <= j ? j : i, w);
         }
     }
 }
@@ -276,14 +318,7 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
                 for (int i = 0; i < 3; ++i)
                     y[3 * a + i] = xa[i] - (r[i] * xa[0] + r[3 + i] * xa[1] + r[6 + i] * xa[2]);
             }
-            /* z = K y as a sum of K's rows (K_e symmetric): independent updates, not one chain
-             * of additions per row (the element's matrix streams through once) */
-            memset(z, 0, (size_t)n * sizeof *z);
-            for (int32_t q = 0; q < n; ++q) {
-                const double *kq = ke + (size_t)q * n;
-                for (int32_t p = 0; p < n; ++p)
-                    z[p] += kq[p] * y[q];
-            }
+            symmetric_mul(ke, n, y, z);
             for (int32_t a = 0; a < kn; ++a)
                 for (int i = 0; i < 3; ++i)
                     y[3 * a + i] = r[3 * i] * z[3 * a] + r[3 * i + 1] * z[3 * a + 1] +
@@ -295,7 +330,7 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
          * node adds its term of -K'_fc g_c instead */
         const int64_t *slot = map->slot + cg->me_offsets[e];
         if (r)
-            scatter_free_pairs(map->node_block, nodes, kn, ke, r, slot, k);
+            scatter_free_pairs(map->node_block, nodes, kn, ke, r, 1, NULL, 0, slot, k);
         for (int32_t a = 0; a < kn; ++a) {
             int32_t i = map->node_block[nodes[a]];
             for (int32_t c = a; c < kn; ++c) {
@@ -334,6 +369,90 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
                     for (int c = 0; c < 3; ++c)
                         f[3 * (size_t)i + c] += y[3 * a + c];
             }
+    }
+}
+
+/* ---- the step's system in one pass -------------------------------------------------------- */
+
+static const double IDENTITY[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+
+/* f_a -= R_e K_e (R_e^T x - X) over e's free nodes a (x = X + u, u [3 n_nodes] with the fixed
+ * nodes at their prescribed displacements; R_e = I: f -= K_e u exactly). y, z [3 k] scratch. */
+static void subtract_elastic_force(const int32_t *block, const int32_t *nodes, int32_t kn,
+                                   const double *ke, const double *r, const double *x0,
+                                   const double *u, double *y, double *z, double *f)
+{
+    int32_t n = 3 * kn;
+    for (int32_t a = 0; a < kn; ++a) {
+        const double *ua = u + 3 * (size_t)nodes[a];
+        if (!r) {
+            memcpy(y + 3 * a, ua, 3 * sizeof *y);
+            continue;
+        }
+        const double *xa = x0 + 3 * (size_t)nodes[a];
+        double x[3] = {xa[0] + ua[0], xa[1] + ua[1], xa[2] + ua[2]};
+        for (int i = 0; i < 3; ++i)
+            y[3 * a + i] = (r[i] * x[0] + r[3 + i] * x[1] + r[6 + i] * x[2]) - xa[i];
+    }
+    symmetric_mul(ke, n, y, z);
+    for (int32_t a = 0; a < kn; ++a) {
+        int32_t i = block[nodes[a]];
+        if (i < 0)
+            continue;
+        const double *za = z + 3 * a;
+        for (int d = 0; d < 3; ++d)
+            f[3 * (size_t)i + d] -=
+                r ? r[3 * d] * za[0] + r[3 * d + 1] * za[1] + r[3 * d + 2] * za[2] : za[d];
+    }
+}
+
+/* mv_a += sum_c me_ac v_c over e's free nodes a, c. */
+static void add_mass_times(const int32_t *block, const int32_t *nodes, int32_t kn,
+                           const double *me, const double *v, double *mv)
+{
+    for (int32_t a = 0; a < kn; ++a) {
+        int32_t i = block[nodes[a]];
+        if (i < 0)
+            continue;
+        double s0 = 0, s1 = 0, s2 = 0;
+        for (int32_t c = 0; c < kn; ++c) {
+            int32_t j = block[nodes[c]];
+            if (j < 0)
+                continue;
+            double m = me[a * kn + c];
+            const double *vj = v + 3 * (size_t)j;
+            s0 += m * vj[0];
+            s1 += m * vj[1];
+            s2 += m * vj[2];
+        }
+        mv[3 * (size_t)i] += s0;
+        mv[3 * (size_t)i + 1] += s1;
+        mv[3 * (size_t)i + 2] += s2;
+    }
+}
+
+void pf_cg_assemble_step(const pf_cg *cg, const pf_cg_map *map, const pf_cg_step *in,
+                         double *scratch, pf_block_matrix *k, double *f, double *mv)
+{
+    pf_block_matrix_zero(k);
+    const pf_basis *b = &cg->basis;
+    const int32_t *block = map->node_block;
+    double *y = scratch, *z = y + 3 * (size_t)cg->max_nodes;
+    for (int32_t e = 0; e < cg->n_elems; ++e) {
+        const int32_t *nodes;
+        int32_t kn = pf_basis_elem_nodes(b, e, &nodes);
+        const double *ke = pf_cg_elem_stiffness(cg, e);
+        const double *r = in->rot ? in->rot + 9 * (size_t)e : NULL;
+        const double *me = in->lumped ? NULL : pf_cg_elem_mass(cg, e);
+        subtract_elastic_force(block, nodes, kn, ke, r, in->x0, in->u, y, z, f);
+        scatter_free_pairs(block, nodes, kn, ke, r ? r : IDENTITY, in->kscale, me, in->mscale,
+                           map->slot + cg->me_offsets[e], k);
+        if (me)
+            add_mass_times(block, nodes, kn, me, in->v, mv);
+    }
+    if (in->lumped) {
+        pf_cg_add_mass(cg, map, true, in->mscale, k);
+        pf_cg_mass_mul(cg, map, true, 1, in->v, mv);
     }
 }
 

@@ -36,6 +36,11 @@ typedef struct pf_method_ops {
      * the warping terms R K (I - R^T) X0) added to f. corotate: rotations from u. */
     void (*stiffness)(void *m, const double *u, bool corotate, pf_block_matrix *k, double *f);
     void (*add_mass)(const void *m, double alpha, pf_block_matrix *k);
+    /* The implicit step's system at state u in one pass: k := kscale K + mscale M (K as stiffness
+     * gives it at u), f += stiffness's constant terms - K u (the elastic force at u), mv += M v.
+     * NULL: the driver composes it from stiffness, add_mass and mass_mul. */
+    void (*step_system)(void *m, const double *u, const double *v, bool corotate, double kscale,
+                        double mscale, pf_block_matrix *k, double *f, double *mv);
     /* y += alpha M x */
     void (*mass_mul)(const void *m, double alpha, const double *x, double *y);
     /* The rotation of every unknown triple [n / 3][9] (row-major) of the last corotated

@@ -397,8 +397,17 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
         contacts = pf_contact_detect(s->contact, s->time + h, s->u, s->v, h);
     int64_t cracks = s->crack ? pf_crack_detect(s->crack, s->u, s->v, h) : 0;
     double t0 = pf_time_seconds(), cpu0 = pf_cpu_seconds();
+    /* k := (h beta + h^2) K + (1 + h alpha) M; ku: M v where the method builds it in the same
+     * pass (step_system), f then with the elastic force -K u */
+    double kscale = h * sc->damping_beta + h * h, mscale = 1 + h * sc->damping_alpha;
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
-    s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
+    if (s->ops->step_system) {
+        memset(s->ku, 0, n * sizeof *s->ku);
+        s->ops->step_system(s->method, s->u, s->v, sc->corotation, kscale, mscale, &s->k, s->f,
+                            s->ku);
+    } else {
+        s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
+    }
     if (s->rot && pf_solver_get_stats(s->solver)->method == PF_SOLVER_PCG) {
         s->ops->triple_rotations(s->method, s->rot);
         PF_TRY(pf_solver_set_rotations(s->solver, s->rot, err));
@@ -421,14 +430,18 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     cpu0 = pf_cpu_seconds();
     /* rhs = M v + h (f - K u), f with the contact forces at u; then
      * k := (h beta + h^2) (K + C) + (1 + h alpha) M, C the contact stiffness */
-    double kscale = h * sc->damping_beta + h * h;
-    pf_block_matrix_mul(&s->k, 1, s->u, 0, s->ku);
-    for (size_t q = 0; q < n; ++q)
-        s->rhs[q] = h * (s->f[q] - s->ku[q]);
-    s->ops->mass_mul(s->method, 1, s->v, s->rhs);
-    for (int64_t q = 0; q < s->k.col_ptr[s->k.n]; ++q)
-        s->k.val[q] *= kscale;
-    s->ops->add_mass(s->method, 1 + h * sc->damping_alpha, &s->k);
+    if (s->ops->step_system) {
+        for (size_t q = 0; q < n; ++q)
+            s->rhs[q] = h * s->f[q] + s->ku[q];
+    } else {
+        pf_block_matrix_mul(&s->k, 1, s->u, 0, s->ku);
+        for (size_t q = 0; q < n; ++q)
+            s->rhs[q] = h * (s->f[q] - s->ku[q]);
+        s->ops->mass_mul(s->method, 1, s->v, s->rhs);
+        for (int64_t q = 0; q < s->k.col_ptr[s->k.n]; ++q)
+            s->k.val[q] *= kscale;
+        s->ops->add_mass(s->method, mscale, &s->k);
+    }
     if (contacts > 0)
         pf_contact_add_stiffness(s->contact, kscale, &s->k);
     if (cracks > 0)

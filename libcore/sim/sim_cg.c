@@ -67,6 +67,25 @@ static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *
                              c->scratch, k, f);
 }
 
+static void step_system(void *m, const double *u, const double *v, bool corotate, double kscale,
+                        double mscale, pf_block_matrix *k, double *f, double *mv)
+{
+    cg_method *c = m;
+    to_nodal(c, u, c->u_full);
+    if (corotate) {
+        pf_cg_rotations(&c->cg, c->mesh->x, c->u_full, c->rot_warm, c->rot);
+        c->rot_warm = true;
+    }
+    pf_cg_step in = {.rot = corotate ? c->rot : NULL,
+                     .x0 = c->mesh->x,
+                     .u = c->u_full,
+                     .v = v,
+                     .lumped = c->lumped,
+                     .kscale = kscale,
+                     .mscale = mscale};
+    pf_cg_assemble_step(&c->cg, &c->map, &in, c->scratch, k, f, mv);
+}
+
 /* The warp's rotations (method.h): a free node turns with its elements, by the mean of theirs
  * made orthogonal by one step of Bjorck's iteration, Q (3 I - Q^T Q) / 2 (Q the mean scaled to
  * |Q|_F^2 = 3): orthogonal to the square of the elements' disagreement, which is all a
@@ -513,6 +532,7 @@ static const pf_method_ops CG_OPS = {
     .pattern = pattern,
     .stiffness = stiffness,
     .add_mass = add_mass,
+    .step_system = step_system,
     .mass_mul = mass_mul,
     .triple_rotations = triple_rotations,
     .forget_rotations = forget_rotations,

@@ -479,6 +479,21 @@ void pf_cg_assemble_stiffness(const pf_cg *cg, const pf_cg_map *map, const doubl
                               const double *x0, const double *g, double *scratch,
                               pf_block_matrix *k, double *f);
 
+/* The implicit step's system in one element pass: k := kscale K + mscale M (zeroed first; K the
+ * stiffness of pf_cg_assemble_stiffness, M as pf_cg_add_mass), f [3 n_free] += the elastic force
+ * at u, -R K_e (R^T x - X) per element (R = I without rotations: -K u), and mv [3 n_free] += M v.
+ * scratch [pf_cg_scratch_size]. */
+typedef struct pf_cg_step {
+    const double *rot; /* [9 n_elems] element rotations, row-major; NULL: linear elasticity */
+    const double *x0;  /* [3 n_nodes] rest positions X */
+    const double *u;   /* [3 n_nodes] nodal displacements, the fixed nodes' prescribed ones */
+    const double *v;   /* [3 n_free] velocities of the free unknowns */
+    bool lumped;       /* lumped mass (the diagonal of row sums), else consistent */
+    double kscale, mscale;
+} pf_cg_step;
+void pf_cg_assemble_step(const pf_cg *cg, const pf_cg_map *map, const pf_cg_step *in,
+                         double *scratch, pf_block_matrix *k, double *f, double *mv);
+
 /* Adds alpha M to k (consistent, or lumped: the diagonal of row sums); y += alpha M x for free
  * unknowns x, y [3 n_free]. */
 void pf_cg_add_mass(const pf_cg *cg, const pf_cg_map *map, bool lumped, double alpha,

@@ -484,13 +484,19 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
     return st;
 }
 
-/* A static scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
+/* A frame of pf_sim_distrib_run, written unless --frames A:B leaves it out. */
+static pf_status distributed_frame(void *ctx, const pf_sim_distrib_result *res, pf_error *err)
+{
+    run *r = ctx;
+    return res->frame >= r->first_written ? pf_cli_distrib_frame(r->out, &r->mesh, res, err)
+                                          : PF_OK;
+}
+
+/* A scene on PETSc where every rank assembles its own elements (pf_sim_distrib_run). */
 static pf_status simulate_distributed(run *r, pf_error *err)
 {
     pf_sim_distrib_result res;
-    pf_status st = pf_sim_distrib_static(&r->scene, &r->mesh, &res, err);
-    if (st >= 0 && r->first_written == 0)
-        st = pf_cli_distrib_frame(r->out, &r->mesh, &res, err);
+    pf_status st = pf_sim_distrib_run(&r->scene, &r->mesh, distributed_frame, r, &res, err);
     if (st >= 0 && !r->quiet)
         pf_cli_distrib_summary(&res, r->mesh.n_elems, r->scene.method == PF_METHOD_CG);
     pf_sim_distrib_result_release(&res);
@@ -516,9 +522,9 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
         /* that path has no pf_sim whose statistics or state could be written */
         PF_CHECK(!r->stats_path && !(r->checkpoint_given && r->checkpoint_every > 0), err,
                  PF_ERR_INVALID,
-                 "--stats and --checkpoint-every are not available for a static scene on petsc, "
-                 "where every rank assembles its own elements; PF_SIM_RANK0_ASSEMBLY=1 has rank "
-                 "0 assemble all and writes both");
+                 "--stats and --checkpoint-every are not available for a scene on petsc where "
+                 "every rank assembles its own elements (static scenes, dynamic DG ones without "
+                 "contact); PF_SIM_RANK0_ASSEMBLY=1 has rank 0 assemble all and writes both");
         return simulate_distributed(r, err);
     }
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);

@@ -523,7 +523,7 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
         PF_CHECK(!r->stats_path && !(r->checkpoint_given && r->checkpoint_every > 0), err,
                  PF_ERR_INVALID,
                  "--stats and --checkpoint-every are not available for a scene on petsc where "
-                 "every rank assembles its own elements (static scenes, dynamic DG ones without "
+                 "every rank assembles its own elements (static scenes, dynamic ones without "
                  "contact); PF_SIM_RANK0_ASSEMBLY=1 has rank 0 assemble all and writes both");
         return simulate_distributed(r, err);
     }

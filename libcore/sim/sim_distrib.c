@@ -362,7 +362,7 @@ static pf_status allocate_part(part *p, pf_error *err)
 static pf_status setup_part(part *p, pf_error *err)
 {
     if (p->scene.method == PF_METHOD_CG)
-        PF_CHECK(p->h.fixed_faces > 0, err, PF_ERR_INVALID,
+        PF_CHECK(p->h.fixed_faces > 0 || !p->scene.is_static, err, PF_ERR_INVALID,
                  "a static scene needs fixed faces: no boundary face centroid lies in any "
                  "'fixed' region");
     else
@@ -607,9 +607,8 @@ bool pf_sim_distrib_applies(const pf_scene *scene)
         lists |= is_list(&scene->loads[k].region);
     for (int32_t k = 0; k < scene->n_materials; ++k)
         lists |= is_list(&scene->materials[k].region);
-    /* dynamics: DG without contact (no ground, no obstacles) and with a fixed mesh */
-    bool dynamic = scene->method == PF_METHOD_DG && !scene->ground && scene->n_obstacles == 0 &&
-                   !pf_scene_changes_mesh(scene);
+    /* dynamics: without contact (no ground, no obstacles) and with a fixed mesh */
+    bool dynamic = !scene->ground && scene->n_obstacles == 0 && !pf_scene_changes_mesh(scene);
     return scene->solver.method == PF_SOLVER_PETSC && (scene->is_static || dynamic) &&
            (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) && scene->n_cuts == 0 &&
            !lists;
@@ -637,7 +636,7 @@ pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
     PF_CHECK(rank_of() == 0, err, PF_ERR_INVALID, "the distributed solve is driven by rank 0");
     PF_CHECK(pf_sim_distrib_applies(scene), err, PF_ERR_INVALID,
              "the distributed assembly takes scenes with the petsc solver without node or element "
-             "lists: static ones, and dynamic DG ones without contact, cuts or refinement");
+             "lists: static ones, and dynamic ones without contact, cuts or refinement");
     double cpu0 = pf_cpu_seconds();
     out->ranks = ranks();
     size_t nn = (size_t)mesh->n_nodes;

@@ -113,7 +113,7 @@ pf_status pf_sim_distrib_outputs(part *p, const distrib_out *o, pf_error *err);
 /* Each rank, collective: the six rigid modes (about the whole mesh's centre) as a's near-null
  * space; p->u is the scratch and is left zero. */
 pf_status pf_sim_distrib_rigid_modes(part *p, Mat a, pf_error *err);
-/* Each rank, collective (sim_distrib_dyn.c): the dynamic frames of a DG part (set up, penalty
+/* Each rank, collective (sim_distrib_dyn.c): the dynamic frames of a part (set up; DG: penalty
  * chosen), each frame's outputs to o; rs gets the solves' counts and the set-up's CPU seconds
  * (from cpu0). */
 pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs, double cpu0,

@@ -1,7 +1,8 @@
 /* Dynamics with each MPI rank assembling its own elements (sim_distrib.h,
- * pf_sim_distrib_dynamics): sim.c's semi-implicit Euler on a DG part, without contact,
+ * pf_sim_distrib_dynamics): sim.c's semi-implicit Euler on a part, without contact,
  *     ((1 + h alpha) M + (h beta + h^2) K) v' = M v + h (f - K u),     u' = u + h v'.
  *
+ * DG:
  * Each rank keeps the state of its part: its own elements and the halo (their face neighbours),
  * a halo element's state a copy of what its owner holds. The corotated stiffness of the part at u
  * (sim_dg.c: each element's rotation from its own coefficients, DG paper sec. 6.1, a face's terms
@@ -12,7 +13,13 @@
  * each rank v' at all its part's unknowns, and u' = u + h v' follows there by the owner's
  * arithmetic, so the halo's copies stay exact. sim.c's checks, as reductions over the owned
  * elements: a non-finite or absurd state after each step, and at each frame's end the kinetic
- * energy against what the body had and was given. */
+ * energy against what the body had and was given.
+ *
+ * CG: a part is its own elements, whose nodes on the cuts other parts hold too (sim_distrib_cg.c).
+ * Every term of a step is a sum over elements (M v, f, K u, the warping forces; an element's
+ * rotation from its own nodes), so each rank computes its elements' share at all of its part's
+ * nodes and PETSc sums the shares (ADD_VALUES), as for the matrix; the kinetic energy and the
+ * forces' work are sums over elements too. The scatter gives each rank v' at all of its nodes. */
 #include "sim_distrib.h"
 
 #include <math.h>
@@ -95,14 +102,34 @@ static pf_status owned_rows(const dyn *d, const double *src, const double *add, 
     return PF_OK;
 }
 
-/* The sum over the ranks of the kinetic energy 1/2 vel^T M vel of their owned elements. */
+/* Whether unknown i of the part counts in sums over elements on this rank: DG the owned
+ * elements', CG all (each element is in one part; shared nodes carry each part's share). */
+static bool counts(const dyn *d, int64_t i)
+{
+    return d->p->scene.method == PF_METHOD_CG || d->p->row_owned[i];
+}
+
+/* A right-hand side's rows from src [n_dofs]: DG the owned rows, CG the parts' shares summed. */
+static pf_status rhs_rows(const dyn *d, const double *src, Vec dst, pf_error *err)
+{
+    const part *p = d->p;
+    if (p->scene.method != PF_METHOD_CG)
+        return owned_rows(d, src, NULL, dst, err);
+    PF_PETSC_TRY(VecZeroEntries(dst));
+    PF_PETSC_TRY(VecSetValues(dst, (PetscInt)p->n_dofs, p->row, src, ADD_VALUES));
+    PF_PETSC_TRY(VecAssemblyBegin(dst));
+    PF_PETSC_TRY(VecAssemblyEnd(dst));
+    return PF_OK;
+}
+
+/* The sum over the ranks of the kinetic energy 1/2 vel^T M vel of the elements each counts. */
 static double kinetic_energy(dyn *d, const double *vel)
 {
     part *p = d->p;
     double mine = 0, all = 0;
     if (p->method) {
         for (int64_t i = 0; i < p->n_dofs; ++i)
-            d->masked[i] = p->row_owned[i] ? vel[i] : 0;
+            d->masked[i] = counts(d, i) ? vel[i] : 0;
         pf_vec3 linear, angular;
         p->ops->momentum(p->method, p->u, d->masked, &mine, &linear, &angular);
     }
@@ -133,7 +160,7 @@ static pf_status start_energy(dyn *d, pf_error *err)
         p->ops->stiffness(p->method, p->u, false, &p->k, d->f);
     }
     PF_TRY(pf_sim_distrib_matrix_values(p, d->a, err));
-    PF_TRY(owned_rows(d, d->f, NULL, d->b, err));
+    PF_TRY(rhs_rows(d, d->f, d->b, err));
     PF_PETSC_TRY(VecZeroEntries(d->x));
     PF_PETSC_TRY(KSPSolve(d->ksp, d->b, d->x));
     PetscScalar e = 0;
@@ -152,7 +179,7 @@ static pf_status assemble(dyn *d, double h, pf_error *err)
     if (p->method) {
         memcpy(d->f, d->f_ext, n * sizeof *d->f);
         p->ops->stiffness(p->method, p->u, sc->corotation, &p->k, d->f);
-        pf_block_matrix_mul(&p->k, 1, p->u, 0, d->ku); /* its owned rows are K's */
+        pf_block_matrix_mul(&p->k, 1, p->u, 0, d->ku); /* DG: its owned rows are K's */
         for (size_t q = 0; q < n; ++q)
             d->rhs[q] = h * (d->f[q] - d->ku[q]);
         p->ops->mass_mul(p->method, 1, d->v, d->rhs);
@@ -165,7 +192,7 @@ static pf_status assemble(dyn *d, double h, pf_error *err)
     if (!d->assembled || sc->corotation)
         PF_TRY(pf_sim_distrib_matrix_values(p, d->a, err));
     d->assembled = true;
-    return owned_rows(d, d->rhs, NULL, d->b, err);
+    return rhs_rows(d, d->rhs, d->b, err);
 }
 
 /* v' from the velocity extrapolated through the last steps' (sim.c: v + 2 dv - dv2, linear or
@@ -210,7 +237,7 @@ static void advance(dyn *d, double h)
     for (int64_t q = 0; q < p->n_dofs; ++q) {
         p->u[q] += h * d->v[q];
         d->dv[q] = d->v[q] - d->v_old[q];
-        if (p->row_owned[q])
+        if (counts(d, q))
             power += d->f_ext[q] * d->v[q];
     }
     d->trend = d->trend < 2 ? d->trend + 1 : 2;
@@ -235,7 +262,7 @@ static pf_status check_state(dyn *d, pf_error *err)
         double s = isfinite(p->u[q]) && isfinite(d->v[q]) ? fabs(p->u[q]) : INFINITY;
         bad |= !(s <= 1e3 * d->model_size);
         if (s > mine.score)
-            mine.score = s, mine.element = p->gelem[q / p->nb3];
+            mine.score = s, mine.element = p->gelem[p->ops->element_of_dof(p->method, q)];
     }
     int any = 0, mine_bad = bad;
     MPI_Allreduce(&mine_bad, &any, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);

@@ -434,8 +434,8 @@ void pf_sim_destroy(pf_sim **sim);
  * Rank 0 partitions the elements and sends each rank its own (DG: with their face neighbours);
  * each rank sets up the method on them, assembles its rows into PETSc's distributed matrix and
  * evaluates its elements' outputs, which rank 0 receives. Static scenes with the petsc solver, CG
- * or DG, without node or element list files (their indices are the whole mesh's); dynamic DG
- * scenes without contact (no ground, obstacles, cuts or refinement), each time step's corotated
+ * or DG, without node or element list files (their indices are the whole mesh's), and dynamic
+ * ones without contact (no ground, obstacles, cuts or refinement), each time step's corotated
  * stiffness assembled by each rank on its elements, the state kept distributed. Other scenes keep
  * rank 0 assembling everything (pf_sim_create). Built with PETSc only. */
 typedef struct pf_sim_distrib_rank {

@@ -497,6 +497,14 @@ static pf_status simulate_distributed(run *r, pf_error *err)
 {
     pf_sim_distrib_result res;
     pf_status st = pf_sim_distrib_run(&r->scene, &r->mesh, distributed_frame, r, &res, err);
+    if (st >= 0 || err->status == PF_ERR_NUMERIC) { /* also after a diverged frame */
+        pf_error stat_err = {0};
+        pf_status ss = pf_cli_distrib_stat(r->out, &r->scene, r->mesh.n_elems, &res, &stat_err);
+        if (ss < 0 && st >= 0) {
+            *err = stat_err;
+            st = ss;
+        }
+    }
     if (st >= 0 && !r->quiet)
         pf_cli_distrib_summary(&res, r->mesh.n_elems, r->scene.method == PF_METHOD_CG);
     pf_sim_distrib_result_release(&res);

@@ -27,6 +27,17 @@ pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
     return st;
 }
 
+pf_status pf_cli_distrib_stat(pf_stream_writer *out, const pf_scene *scene, int32_t elements,
+                              const pf_sim_distrib_result *res, pf_error *err)
+{
+    pf_stats_data d = {0};
+    pf_status st = pf_sim_distrib_stats_entries(scene, elements, res, &d, err);
+    if (st >= 0)
+        st = pf_stream_write_stats(out, &d, err);
+    pf_stats_data_release(&d);
+    return st;
+}
+
 void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements, bool cg)
 {
     char penalty[64] = "";

@@ -9,6 +9,10 @@
 pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
                                const pf_sim_distrib_result *res, pf_error *err);
 
+/* The run's STAT chunk (pf_sim_distrib_stats_entries) for scene on a mesh of elements. */
+pf_status pf_cli_distrib_stat(pf_stream_writer *out, const pf_scene *scene, int32_t elements,
+                              const pf_sim_distrib_result *res, pf_error *err);
+
 /* The summary on stderr: the method (cg: CG, else DG), unknowns, DG's penalty, solve, and per
  * rank its elements, set-up CPU and peak memory; for dynamics the steps, iterations per step and
  * the last frame's kinetic energy. */

@@ -532,6 +532,75 @@ pf_status pf_sim_distrib_outputs(part *p, const distrib_out *o, pf_error *err)
     return o->frame ? o->frame(o->ctx, o->res, err) : PF_OK;
 }
 
+/* DG: the largest distance at a node between an owned element's field and the stitched field
+ * avg [3 all_nodes] (eq. 30). */
+static double node_jump(const part *p, const double *avg)
+{
+    if (!p->method)
+        return 0;
+    const int64_t *off, *triple;
+    const double *w;
+    p->ops->nodal_map(p->method, &off, &triple, &w);
+    int32_t nb = p->nb3 / 3;
+    double largest = 0;
+    for (int32_t i = 0; i < p->h.n_nodes; ++i) {
+        double elems_here = (double)(off[i + 1] - off[i]) / nb; /* w holds phi / elems_here */
+        const double *a = avg + 3 * (size_t)p->gnode[i];
+        for (int64_t q = off[i]; q < off[i + 1]; q += nb) { /* an element's nb triples */
+            if (!p->owned[triple[q] / nb])
+                continue;
+            double d2 = 0;
+            for (int c = 0; c < 3; ++c) {
+                double value = 0;
+                for (int32_t t = 0; t < nb; ++t)
+                    value += w[q + t] * elems_here * p->u[3 * triple[q + t] + c];
+                d2 += (value - a[c]) * (value - a[c]);
+            }
+            largest = fmax(largest, sqrt(d2));
+        }
+    }
+    return largest;
+}
+
+/* pf_sim_error_indicator of the part's state into rank 0's res (collective, after the outputs):
+ * CG the largest boundary error of the shape functions over all ranks' elements; DG the largest
+ * node jump of the owned elements (against rank 0's stitched field, sent to every rank) over the
+ * largest stitched displacement. */
+static pf_status error_indicator(part *p, const distrib_out *o, pf_error *err)
+{
+    double mine = 0, all = 0;
+    if (p->scene.method == PF_METHOD_CG) {
+        pf_sim_stats st = {0};
+        if (p->method)
+            p->ops->setup_stats(p->method, &st);
+        MPI_Reduce(&st.basis_error, &all, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
+        if (o)
+            o->res->error_indicator = all;
+        return PF_OK;
+    }
+    size_t nn = (size_t)p->h.all_nodes;
+    double *u = o ? o->res->u : pf_alloc_array(3 * nn + 1, sizeof *u);
+    pf_status st = u ? PF_OK
+                     : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                    "cannot allocate the displacements of %zu nodes", nn);
+    st = pf_sim_distrib_agree(st, err);
+    if (st >= 0) {
+        MPI_Bcast(u, (int)(3 * nn), MPI_DOUBLE, 0, PETSC_COMM_WORLD);
+        mine = node_jump(p, u);
+        MPI_Reduce(&mine, &all, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
+    }
+    if (!o) {
+        pf_free(u);
+        return st;
+    }
+    double umax = 0;
+    for (size_t i = 0; i < nn; ++i)
+        umax = fmax(umax, sqrt(u[3 * i] * u[3 * i] + u[3 * i + 1] * u[3 * i + 1] +
+                               u[3 * i + 2] * u[3 * i + 2]));
+    o->res->error_indicator = umax > 0 ? all / umax : 0;
+    return st;
+}
+
 static void release_part(part *p)
 {
     if (p->ops)
@@ -569,6 +638,10 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, const distr
         st = pf_sim_distrib_agree(solve_part(&p, &rs, cpu0, err), err);
     if (st >= 0 && p.scene.is_static)
         st = pf_sim_distrib_agree(pf_sim_distrib_outputs(&p, o, err), err);
+    if (res)
+        res->error_indicator = NAN;
+    if (st >= 0)
+        st = error_indicator(&p, o, err);
     rs.owned = p.n_owned;
     rs.cpu = pf_cpu_seconds() - cpu0;
     rs.rss_mb = peak_rss_mb();
@@ -585,6 +658,9 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, const distr
         res->residual = rs.residual;
         res->penalty = p.penalty;
         res->penalty_doublings = p.doublings;
+        bool searched = p.scene.method == PF_METHOD_DG && p.scene.penalty <= 0 &&
+                        p.scene.flux != PF_FLUX_BZ;
+        res->factorisations = searched ? p.doublings + 1 : 0; /* MUMPS's definiteness tests */
         res->dofs = p.all_rows;
     }
     pf_free(all);

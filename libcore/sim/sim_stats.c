@@ -115,36 +115,75 @@ void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c)
     c->pcg_iterations = (uint64_t)st->solver.iterations;
 }
 
-pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
-                               pf_error *err)
+/* What a STAT chunk holds of a run, whichever path made it. */
+typedef struct run_entries {
+    double indicator; /* non-finite: left out */
+    int32_t elements, frames, mesh_changes, cuts;
+    int64_t dofs;
+    double time;
+    pf_run_counts counts;
+    pf_solver_method solver;
+} run_entries;
+
+static pf_status set_entries(const pf_scene *sc, const run_entries *r, pf_stats_data *d,
+                             pf_error *err)
 {
-    const pf_sim_stats *st = pf_sim_get_stats(sim);
-    const pf_scene *sc = sim->scene;
     bool dg = sc->method == PF_METHOD_DG;
-    pf_run_counts own;
-    pf_sim_run_counts(sim, &own);
-    if (!counts)
-        counts = &own;
     PF_TRY(pf_stats_data_set_text(d, "method", dg ? "dg" : "cg", err));
     if (dg) {
         PF_TRY(pf_stats_data_set_number(d, "degree", sc->degree, err));
         PF_TRY(pf_stats_data_set_text(d, "flux", sc->flux == PF_FLUX_BZ ? "bz" : "ip", err));
     }
-    double indicator = pf_sim_error_indicator(sim);
-    if (isfinite(indicator))
-        PF_TRY(pf_stats_data_set_number(d, "error_indicator", indicator, err));
+    if (isfinite(r->indicator))
+        PF_TRY(pf_stats_data_set_number(d, "error_indicator", r->indicator, err));
     PF_TRY(pf_stats_data_set_text(
         d, "error_measure", dg ? "node_jump_over_displacement" : "basis_boundary_error", err));
-    PF_TRY(pf_stats_data_set_number(d, "elements", pf_sim_mesh(sim)->n_elems, err));
-    PF_TRY(pf_stats_data_set_number(d, "unknowns", (double)st->dofs, err));
-    PF_TRY(pf_stats_data_set_number(d, "frames", pf_sim_frame_index(sim), err));
-    if (isfinite(pf_sim_time(sim)))
-        PF_TRY(pf_stats_data_set_number(d, "simulated_time", pf_sim_time(sim), err));
-    PF_TRY(pf_stats_data_set_number(d, "steps", (double)counts->steps, err));
-    PF_TRY(pf_stats_data_set_number(d, "factorisations", (double)counts->factorisations, err));
-    PF_TRY(pf_stats_data_set_number(d, "solves", (double)counts->solves, err));
-    PF_TRY(pf_stats_data_set_number(d, "pcg_iterations", (double)counts->pcg_iterations, err));
-    PF_TRY(pf_stats_data_set_text(d, "solver", pf_solver_method_name(st->solver.method), err));
-    PF_TRY(pf_stats_data_set_number(d, "mesh_changes", st->refinements, err));
-    return pf_stats_data_set_number(d, "cuts", st->cuts, err);
+    PF_TRY(pf_stats_data_set_number(d, "elements", r->elements, err));
+    PF_TRY(pf_stats_data_set_number(d, "unknowns", (double)r->dofs, err));
+    PF_TRY(pf_stats_data_set_number(d, "frames", r->frames, err));
+    if (isfinite(r->time))
+        PF_TRY(pf_stats_data_set_number(d, "simulated_time", r->time, err));
+    PF_TRY(pf_stats_data_set_number(d, "steps", (double)r->counts.steps, err));
+    PF_TRY(pf_stats_data_set_number(d, "factorisations", (double)r->counts.factorisations, err));
+    PF_TRY(pf_stats_data_set_number(d, "solves", (double)r->counts.solves, err));
+    PF_TRY(pf_stats_data_set_number(d, "pcg_iterations", (double)r->counts.pcg_iterations, err));
+    PF_TRY(pf_stats_data_set_text(d, "solver", pf_solver_method_name(r->solver), err));
+    PF_TRY(pf_stats_data_set_number(d, "mesh_changes", r->mesh_changes, err));
+    return pf_stats_data_set_number(d, "cuts", r->cuts, err);
+}
+
+pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
+                               pf_error *err)
+{
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    run_entries r = {.indicator = pf_sim_error_indicator(sim),
+                     .elements = pf_sim_mesh(sim)->n_elems,
+                     .frames = pf_sim_frame_index(sim),
+                     .mesh_changes = st->refinements,
+                     .cuts = st->cuts,
+                     .dofs = st->dofs,
+                     .time = pf_sim_time(sim),
+                     .solver = st->solver.method};
+    pf_sim_run_counts(sim, &r.counts);
+    if (counts)
+        r.counts = *counts;
+    return set_entries(sim->scene, &r, d, err);
+}
+
+pf_status pf_sim_distrib_stats_entries(const pf_scene *scene, int32_t elements,
+                                       const pf_sim_distrib_result *res, pf_stats_data *d,
+                                       pf_error *err)
+{
+    bool dynamic = !scene->is_static;
+    run_entries r = {.indicator = res->error_indicator,
+                     .elements = elements,
+                     .frames = dynamic ? res->frame : 1,
+                     .dofs = res->dofs,
+                     .time = res->time,
+                     .counts = {.steps = (uint64_t)res->steps,
+                                .factorisations = (uint64_t)res->factorisations,
+                                .solves = (uint64_t)(dynamic ? res->steps : 1),
+                                .pcg_iterations = (uint64_t)res->iterations},
+                     .solver = PF_SOLVER_PETSC};
+    return set_entries(scene, &r, d, err);
 }

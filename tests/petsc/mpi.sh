@@ -106,6 +106,28 @@ same_frames() {
     d = $k - $(k + 3); if (d < 0) d = -d; if (d > dm) dm = d; a = $k < 0 ? -$k : $k; if (a > am) am = a } }
     END { exit !(n == lines && am > floor && dm <= t * am) }'
 }
+# A run where every rank assembles its own elements writes STAT (pf_sim_distrib_stats_entries)
+# with the one-process run's entries (file $2): the same counts and sizes, the error indicator to
+# 1e-8 relative (DG: the largest node jump over the largest displacement, measured within
+# 3.2e-10 of CHOLMOD's on 1, 2 and 4 ranks; CG: the basis error), the solver petsc with its
+# iterations and MUMPS's definiteness tests (the automatic IP penalty: one per doubling and one)
+# in place of the direct solver's.
+same_stat() {
+  python3 - "$bin/pf-info" "$1" "$2" <<'PY'
+import json, subprocess, sys
+def stat(path):
+    out = subprocess.run([sys.argv[1], "--json", path], capture_output=True, text=True).stdout
+    found = [json.loads(l)["stats"] for l in out.splitlines() if '"chunk":"STAT"' in l]
+    assert len(found) == 1, "%s: %d STAT chunks" % (path, len(found))
+    return found[0]
+a, b = stat(sys.argv[2]), stat(sys.argv[3])
+differ = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+assert set(differ) <= {"error_indicator", "factorisations", "pcg_iterations", "solver"}, differ
+assert a["solver"] == "petsc" and a["pcg_iterations"] > 0, a
+x, y = a["error_indicator"], b["error_indicator"]
+assert abs(x - y) <= 1e-8 * abs(y), (x, y)
+PY
+}
 for case in swing:0.02:100 swing_bz:0.2:120 swing_cg:0.2:120 swing_cgl:0.5:120; do
   name=${case%%:*} rest=${case#*:}
   floor=${rest%%:*} steps=${rest#*:}
@@ -121,6 +143,7 @@ for case in swing:0.02:100 swing_bz:0.2:120 swing_cg:0.2:120 swing_cgl:0.5:120; 
     frames "$tmp/swing$n.pfs" >"$tmp/fp"
     check "$name on $n ranks: $lines frame probes equal direct's to 1e-8 of the largest" \
       same_frames "$tmp/fd" "$tmp/fp" 1e-8 "$floor" "$lines"
+    check "$name on $n ranks: STAT as direct's" same_stat "$tmp/swing$n.pfs" "$tmp/swing_direct.pfs"
   done
 done
 # against rank 0 assembling the same system on 2 ranks: the same partition and solves, equal but
@@ -163,6 +186,9 @@ for case in ip8:1e-11 bz:1e-11 auto:1e-11; do
     got=$(tip "$tmp/own$n.pfs" 4,0.5,0.5)
     check "$name assembled on $n ranks: tip $got equals direct's $ref to $tol" close "$got" "$ref" "$tol"
     [ "$name" = bz ] || check "$name on $n ranks: penalty 8" grep -q "penalty 8\(, \| (3 doublings), \)assembled" "$tmp/err"
+    check "$name on $n ranks: STAT as direct's" same_stat "$tmp/own$n.pfs" "$tmp/direct.pfs"
+    [ "$name" = auto ] && check "auto on $n ranks: 4 definiteness tests" \
+      grep -q '"factorisations":4,' <("$bin/pf-info" --json "$tmp/own$n.pfs")
     check "$name on $n ranks: $n shares, each rank some of the 32 elements, all of them once" \
       test "$(shares "$tmp/err" | wc -l)" = "$n" -a "$(shares "$tmp/err" | awk '$1 > 0' | wc -l)" = "$n" \
       -a "$(shares "$tmp/err" | awk '{ s += $1 } END { print s }')" = 32

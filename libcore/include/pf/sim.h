@@ -457,6 +457,8 @@ typedef struct pf_sim_distrib_result {
     double residual;           /* relative to the right-hand side; dynamics: the largest */
     int64_t steps;             /* dynamics: the time steps taken */
     double kinetic;            /* dynamics: the kinetic energy of the last frame */
+    int32_t factorisations;    /* MUMPS's, the definiteness tests of IP's automatic penalty */
+    double error_indicator;    /* of the last frame, as pf_sim_error_indicator (NAN: none) */
     int32_t ranks;
     pf_sim_distrib_rank *rank; /* [ranks] */
 } pf_sim_distrib_result;
@@ -619,6 +621,12 @@ void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c);
  * there are replaced). A non-finite indicator (a diverged state) is left out. PF_ERR_NOMEM. */
 pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
                                pf_error *err);
+/* The same entries for a run of pf_sim_distrib_run on a mesh of elements (res: its result, the
+ * last frame's): steps, solves (static: 1), PETSc's iterations as pcg_iterations, MUMPS's
+ * definiteness tests as factorisations. */
+pf_status pf_sim_distrib_stats_entries(const pf_scene *scene, int32_t elements,
+                                       const pf_sim_distrib_result *res, pf_stats_data *d,
+                                       pf_error *err);
 
 #ifdef __cplusplus
 }

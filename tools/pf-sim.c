@@ -507,6 +507,20 @@ static pf_status simulate_distributed(run *r, pf_error *err)
     }
     if (st >= 0 && !r->quiet)
         pf_cli_distrib_summary(&res, r->mesh.n_elems, r->scene.method == PF_METHOD_CG);
+    if (r->stats_path && (st >= 0 || err->status == PF_ERR_NUMERIC)) {
+        char *json = NULL;
+        pf_error stats_err = {0};
+        pf_status ss = pf_sim_distrib_stats_json(&r->scene, &res, pf_time_seconds() - r->wall0,
+                                                 pf_cpu_seconds() - r->cpu0, &json, &stats_err);
+        if (ss >= 0)
+            ss = pf_write_file_atomic(r->stats_path, json, strlen(json), "statistics",
+                                      &stats_err);
+        pf_free(json);
+        if (ss < 0 && st >= 0) {
+            *err = stats_err;
+            st = ss;
+        }
+    }
     pf_sim_distrib_result_release(&res);
     return st;
 }
@@ -527,12 +541,11 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
     if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY")) {
-        /* that path has no pf_sim whose statistics or state could be written */
-        PF_CHECK(!r->stats_path && !(r->checkpoint_given && r->checkpoint_every > 0), err,
-                 PF_ERR_INVALID,
-                 "--stats and --checkpoint-every are not available for a scene on petsc where "
-                 "every rank assembles its own elements (static scenes, dynamic ones without "
-                 "contact); PF_SIM_RANK0_ASSEMBLY=1 has rank 0 assemble all and writes both");
+        /* that path has no pf_sim whose state a checkpoint could hold */
+        PF_CHECK(!(r->checkpoint_given && r->checkpoint_every > 0), err, PF_ERR_INVALID,
+                 "--checkpoint-every is not available for a scene on petsc where every rank "
+                 "assembles its own elements (static scenes, dynamic ones without contact); "
+                 "PF_SIM_RANK0_ASSEMBLY=1 has rank 0 assemble all and writes checkpoints");
         return simulate_distributed(r, err);
     }
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);

@@ -460,6 +460,7 @@ static pf_status solve_part(part *p, rank_stats *rs, double cpu0, pf_error *err)
     PetscInt its;
     PetscReal rnorm, bnorm;
     PF_PETSC_TRY(KSPSolve(ksp, b, x));
+    rs->solve_cpu = pf_cpu_seconds() - cpu0 - rs->setup_cpu;
     PF_PETSC_TRY(KSPGetConvergedReason(ksp, &reason));
     PF_PETSC_TRY(KSPGetIterationNumber(ksp, &its));
     PF_PETSC_TRY(KSPGetResidualNorm(ksp, &rnorm));
@@ -651,6 +652,8 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, const distr
     for (int32_t r = 0; all && r < res->ranks; ++r)
         res->rank[r] = (pf_sim_distrib_rank){.elements = (int32_t)all[r].owned,
                                              .setup_cpu_seconds = all[r].setup_cpu,
+                                             .assembly_cpu_seconds = all[r].assembly_cpu,
+                                             .solve_cpu_seconds = all[r].solve_cpu,
                                              .cpu_seconds = all[r].cpu,
                                              .peak_rss_mb = all[r].rss_mb};
     if (res) {

@@ -68,10 +68,11 @@ typedef struct cg_whole {
 } cg_whole;
 
 /* What a rank reports to rank 0: its owned elements, CPU seconds of its set-up (receiving the
- * part, the method, assembly and matrix) and of all, peak RSS in MB, and the solves' outcome
- * (dynamics: iterations summed, the largest residual). */
+ * part, the method, assembly and matrix), of the steps' assembly (dynamics), of PETSc's solves
+ * and of all, peak RSS in MB, and the solves' outcome (dynamics: iterations summed, the largest
+ * residual). */
 typedef struct rank_stats {
-    double owned, setup_cpu, cpu, rss_mb, iterations, residual, reason;
+    double owned, setup_cpu, assembly_cpu, solve_cpu, cpu, rss_mb, iterations, residual, reason;
 } rank_stats;
 
 /* Rank 0's outputs: the result, the sums [4 all_nodes] its nodal displacements are made of, and

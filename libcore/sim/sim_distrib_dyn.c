@@ -293,9 +293,13 @@ static pf_status frame(dyn *d, int32_t index, rank_stats *rs, pf_error *err)
     const pf_scene *sc = &d->p->scene;
     double h = sc->dt / sc->substeps;
     for (int32_t k = 0; k < sc->substeps; ++k) {
+        double cpu0 = pf_cpu_seconds();
         pf_status st = assemble(d, h, err);
+        double cpu1 = pf_cpu_seconds();
+        rs->assembly_cpu += cpu1 - cpu0;
         if (st >= 0)
             st = solve(d, rs, err);
+        rs->solve_cpu += pf_cpu_seconds() - cpu1;
         if (st >= 0) {
             advance(d, h);
             st = check_state(d, err);

@@ -106,6 +106,58 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
     return pf_sim_json_print(root, "the run's statistics", json, err);
 }
 
+pf_status pf_sim_distrib_stats_json(const pf_scene *scene, const pf_sim_distrib_result *res,
+                                    double wall_seconds, double cpu_seconds, char **json,
+                                    pf_error *err)
+{
+    bool dynamic = !scene->is_static;
+    int64_t solves = dynamic ? res->steps : 1;
+    cJSON *root = cJSON_CreateObject();
+    if (root) {
+        add_int(root, "frames", dynamic ? res->frame : 1);
+        cJSON_AddNumberToObject(root, "simulated_time", res->time);
+        add_int(root, "steps", res->steps);
+        add_int(root, "dofs", res->dofs);
+        cJSON_AddNumberToObject(root, "penalty", res->penalty);
+        add_int(root, "penalty_doublings", res->penalty_doublings);
+        cJSON *ind = cJSON_AddObjectToObject(root, "error_indicator");
+        cJSON_AddNumberToObject(ind, "value", res->error_indicator);
+        cJSON_AddStringToObject(ind, "measure", scene->method == PF_METHOD_CG
+                                                    ? "basis_boundary_error"
+                                                    : "node_jump_over_displacement");
+        const pf_sim_distrib_rank *r0 = res->ranks > 0 ? &res->rank[0] : NULL;
+        cJSON *sec = cJSON_AddObjectToObject(root, "seconds"); /* rank 0's */
+        wall_cpu(sec, "run", wall_seconds, cpu_seconds);
+        cJSON_AddNumberToObject(sec, "setup_cpu", r0 ? r0->setup_cpu_seconds : 0);
+        cJSON_AddNumberToObject(sec, "assembly_cpu", r0 ? r0->assembly_cpu_seconds : 0);
+        cJSON_AddNumberToObject(sec, "solves_cpu", r0 ? r0->solve_cpu_seconds : 0);
+        cJSON *s = cJSON_AddObjectToObject(root, "solver");
+        cJSON_AddStringToObject(s, "method", "petsc");
+        add_int(s, "solves", solves);
+        add_int(s, "factorisations", res->factorisations);
+        add_int(s, "pcg_iterations", res->iterations);
+        cJSON_AddNumberToObject(s, "pcg_iterations_mean",
+                                solves > 0 ? (double)res->iterations / (double)solves : 0);
+        cJSON_AddNumberToObject(s, "residual_max", res->residual);
+        cJSON *ranks = cJSON_AddArrayToObject(root, "ranks");
+        for (int32_t k = 0; ranks && k < res->ranks; ++k) {
+            const pf_sim_distrib_rank *r = &res->rank[k];
+            cJSON *o = cJSON_CreateObject();
+            if (!o || !cJSON_AddItemToArray(ranks, o)) {
+                cJSON_Delete(o);
+                break;
+            }
+            add_int(o, "elements", r->elements);
+            cJSON_AddNumberToObject(o, "setup_cpu", r->setup_cpu_seconds);
+            cJSON_AddNumberToObject(o, "assembly_cpu", r->assembly_cpu_seconds);
+            cJSON_AddNumberToObject(o, "solves_cpu", r->solve_cpu_seconds);
+            cJSON_AddNumberToObject(o, "cpu", r->cpu_seconds);
+            cJSON_AddNumberToObject(o, "peak_rss_mb", r->peak_rss_mb);
+        }
+    }
+    return pf_sim_json_print(root, "the run's statistics", json, err);
+}
+
 void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c)
 {
     const pf_sim_stats *st = pf_sim_get_stats(sim);

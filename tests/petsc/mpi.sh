@@ -248,17 +248,23 @@ for n in 1 2; do
   check "the message is printed once on $n ranks" test "$(grep -c 'needs fixed faces' "$tmp/err")" = 1
 done
 
-# --stats and --checkpoint-every have nothing to write on that path (static, and dynamics
-# without contact): refused, every rank exits 1
-for opt in "--stats $tmp/stats.json" "--checkpoint-every 1"; do
-  for scene in bz swing; do
-    expect 1 "are not available for a scene on petsc where every rank assembles" mpi 2 \
-      "$bin/pf-sim" "$tmp/$scene.json" --solver petsc --input "$tmp/beam.pfs" \
-      --output "$tmp/never.pfs" $opt
-    check "refused ${opt%% *} ($scene): the message once" test "$(grep -c 'not available' "$tmp/err")" = 1
-  done
+# --stats on that path (static, and dynamics without contact): rank 0's CPU by phase and every
+# rank's share as JSON; --checkpoint-every has no state to write there: refused, every rank exits 1
+for scene in bz swing; do
+  expect 0 "assembled on 2 ranks" mpi 2 "$bin/pf-sim" "$tmp/$scene.json" --solver petsc \
+    --input "$tmp/beam.pfs" --output "$tmp/stats.pfs" --stats "$tmp/stats.json"
+  check "--stats ($scene): 2 ranks' shares of the 32 elements, the solves and their iterations" \
+    python3 -c "import json, sys; d = json.load(open(sys.argv[1])); r = d['ranks']
+assert len(r) == 2 and sum(x['elements'] for x in r) == 32 and min(x['elements'] for x in r) > 0
+assert d['solver']['method'] == 'petsc' and d['solver']['pcg_iterations'] > 0
+assert d['solver']['solves'] == (1 if sys.argv[2] == 'bz' else 100) == max(d['steps'], 1)
+assert 0 < d['seconds']['solves_cpu'] <= d['seconds']['run']['cpu']" "$tmp/stats.json" "$scene"
+  rm -f "$tmp/stats.json"
+  expect 1 "--checkpoint-every is not available for a scene on petsc where every rank assembles" \
+    mpi 2 "$bin/pf-sim" "$tmp/$scene.json" --solver petsc --input "$tmp/beam.pfs" \
+    --output "$tmp/never.pfs" --checkpoint-every 1
+  check "refused --checkpoint-every ($scene): the message once" test "$(grep -c 'not available' "$tmp/err")" = 1
 done
-check "no statistics written" test ! -e "$tmp/stats.json"
 
 # An error on rank 0 (a missing scene file) ends all ranks: exit 1, the message once, no hang.
 expect 1 "missing.json: cannot open" mpi 2 "$bin/pf-sim" "$tmp/missing.json" --solver petsc \

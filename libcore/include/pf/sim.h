@@ -441,7 +441,9 @@ void pf_sim_destroy(pf_sim **sim);
 typedef struct pf_sim_distrib_rank {
     int32_t elements;         /* the elements it owned and assembled */
     double setup_cpu_seconds; /* its part's arrival, set-up, assembly and PETSc's matrix */
-    double cpu_seconds;       /* all of its share */
+    double assembly_cpu_seconds; /* dynamics: each step's system and its values sent to PETSc */
+    double solve_cpu_seconds;    /* PETSc's solves, the preconditioner's set-up included */
+    double cpu_seconds;          /* all of its share */
     double peak_rss_mb;       /* its process's peak resident memory */
 } pf_sim_distrib_rank;
 
@@ -627,6 +629,13 @@ pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, p
 pf_status pf_sim_distrib_stats_entries(const pf_scene *scene, int32_t elements,
                                        const pf_sim_distrib_result *res, pf_stats_data *d,
                                        pf_error *err);
+/* pf-sim --stats of a run of pf_sim_distrib_run (res its result) as JSON (*json: pf_free):
+ * frames, steps, unknowns, penalty, the indicator, rank 0's CPU seconds by phase (set-up,
+ * assembly, PETSc's solves) beside the run's wall and CPU (wall_seconds, cpu_seconds), the solves
+ * and iterations, and per rank its elements, CPU by phase and peak RSS. PF_ERR_NOMEM. */
+pf_status pf_sim_distrib_stats_json(const pf_scene *scene, const pf_sim_distrib_result *res,
+                                    double wall_seconds, double cpu_seconds, char **json,
+                                    pf_error *err);
 
 #ifdef __cplusplus
 }

@@ -489,15 +489,43 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
     return st;
 }
 
-/* A static scene on PETSc: every rank assembles its own elements (pf_sim_distrib_static). */
+/* A frame of pf_sim_distrib_run, written unless --frames A:B leaves it out. */
+static pf_status distributed_frame(void *ctx, const pf_sim_distrib_result *res, pf_error *err)
+{
+    run *r = ctx;
+    return res->frame >= r->first_written ? pf_cli_distrib_frame(r->out, &r->mesh, res, err)
+                                          : PF_OK;
+}
+
+/* A scene on PETSc where every rank assembles its own elements (pf_sim_distrib_run). */
 static pf_status simulate_distributed(run *r, pf_error *err)
 {
     pf_sim_distrib_result res;
-    pf_status st = pf_sim_distrib_static(&r->scene, &r->mesh, &res, err);
-    if (st >= 0 && r->first_written == 0)
-        st = pf_cli_distrib_frame(r->out, &r->mesh, &res, err);
+    pf_status st = pf_sim_distrib_run(&r->scene, &r->mesh, distributed_frame, r, &res, err);
+    if (st >= 0 || err->status == PF_ERR_NUMERIC) { /* also after a diverged frame */
+        pf_error stat_err = {0};
+        pf_status ss = pf_cli_distrib_stat(r->out, &r->scene, r->mesh.n_elems, &res, &stat_err);
+        if (ss < 0 && st >= 0) {
+            *err = stat_err;
+            st = ss;
+        }
+    }
     if (st >= 0 && !r->quiet)
         pf_cli_distrib_summary(&res, r->mesh.n_elems, r->scene.method == PF_METHOD_CG);
+    if (r->stats_path && (st >= 0 || err->status == PF_ERR_NUMERIC)) {
+        char *json = NULL;
+        pf_error stats_err = {0};
+        pf_status ss = pf_sim_distrib_stats_json(&r->scene, &res, pf_time_seconds() - r->wall0,
+                                                 pf_cpu_seconds() - r->cpu0, &json, &stats_err);
+        if (ss >= 0)
+            ss = pf_write_file_atomic(r->stats_path, json, strlen(json), "statistics",
+                                      &stats_err);
+        pf_free(json);
+        if (ss < 0 && st >= 0) {
+            *err = stats_err;
+            st = ss;
+        }
+    }
     pf_sim_distrib_result_release(&res);
     return st;
 }
@@ -518,12 +546,11 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
     if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY")) {
-        /* that path has no pf_sim whose statistics or state could be written */
-        PF_CHECK(!r->stats_path && !(r->checkpoint_given && r->checkpoint_every > 0), err,
-                 PF_ERR_INVALID,
-                 "--stats and --checkpoint-every are not available for a static scene on petsc, "
-                 "where every rank assembles its own elements; PF_SIM_RANK0_ASSEMBLY=1 has rank "
-                 "0 assemble all and writes both");
+        /* that path has no pf_sim whose state a checkpoint could hold */
+        PF_CHECK(!(r->checkpoint_given && r->checkpoint_every > 0), err, PF_ERR_INVALID,
+                 "--checkpoint-every is not available for a scene on petsc where every rank "
+                 "assembles its own elements (static scenes, dynamic ones without contact); "
+                 "PF_SIM_RANK0_ASSEMBLY=1 has rank 0 assemble all and writes checkpoints");
         return simulate_distributed(r, err);
     }
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);

@@ -1,4 +1,4 @@
-/* pf-sim's output of a distributed static solve (sim_distrib_out.h). */
+/* pf-sim's output of a run with every rank assembling its own elements (sim_distrib_out.h). */
 #include "sim_distrib_out.h"
 
 #include <stdio.h>
@@ -14,8 +14,8 @@ pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
         st = pf_stress_data_alloc(&s, m->n_elems, 1, err);
     if (st >= 0) {
         f.mesh_id = s.mesh_id = m->id;
-        f.index = s.frame = 0;
-        f.time = 0;
+        f.index = s.frame = (uint32_t)res->frame;
+        f.time = res->time;
         memcpy(f.u, res->u, 3 * (size_t)m->n_nodes * sizeof *f.u);
         memcpy(s.values, res->von_mises, (size_t)m->n_elems * sizeof *s.values);
         st = pf_stream_write_frame(out, &f, err);
@@ -24,6 +24,17 @@ pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
         st = pf_stream_write_stress(out, &s, err);
     pf_frame_data_release(&f);
     pf_stress_data_release(&s);
+    return st;
+}
+
+pf_status pf_cli_distrib_stat(pf_stream_writer *out, const pf_scene *scene, int32_t elements,
+                              const pf_sim_distrib_result *res, pf_error *err)
+{
+    pf_stats_data d = {0};
+    pf_status st = pf_sim_distrib_stats_entries(scene, elements, res, &d, err);
+    if (st >= 0)
+        st = pf_stream_write_stats(out, &d, err);
+    pf_stats_data_release(&d);
     return st;
 }
 
@@ -37,9 +48,15 @@ void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements, 
         snprintf(penalty, sizeof penalty, ", penalty %g", res->penalty);
     fprintf(stderr,
             "pf-sim: %s, %d elements, %lld unknowns%s, assembled on %d ranks; solver petsc: %d "
-            "iterations, residual %.3g\n",
+            "iterations%s, residual %.3g%s\n",
             cg ? "cg" : "dg", (int)elements, (long long)res->dofs, penalty, (int)res->ranks,
-            (int)res->iterations, res->residual);
+            (int)res->iterations, res->steps > 0 ? " in all" : "", res->residual,
+            res->steps > 0 ? " at most" : "");
+    if (res->steps > 0)
+        fprintf(stderr,
+                "pf-sim: %lld steps, %.2f iterations per step; kinetic energy %.6g at the last "
+                "frame\n",
+                (long long)res->steps, (double)res->iterations / (double)res->steps, res->kinetic);
     for (int32_t r = 0; r < res->ranks; ++r)
         fprintf(stderr,
                 "pf-sim: rank %d: %d elements assembled, set-up %.3f s cpu, %.3f s cpu in all, "

@@ -205,6 +205,13 @@ typedef pf_status (*pf_method_create_fn)(const pf_scene *scene, const pf_mesh *m
                                          int32_t *fixed_faces, int32_t *loaded_faces,
                                          pf_error *err);
 
+/* The operations of a method (the registry of sim.c: NULL for a method pf does not have), and
+ * each method's own, for what needs them without a method context (statistics of a run on
+ * several ranks: the name of the error measure). */
+const pf_method_ops *pf_method_ops_of(pf_method method);
+const pf_method_ops *pf_sim_dg_ops(void);
+const pf_method_ops *pf_sim_cg_ops(void);
+
 pf_status pf_sim_dg_create(const pf_scene *scene, const pf_mesh *mesh, const pf_method_reuse *reuse,
                            const pf_progress_hook *progress, const pf_method_ops **ops, void **ctx,
                            int32_t *fixed_faces, int32_t *loaded_faces, pf_error *err);

@@ -104,8 +104,8 @@ static bool definite_at(pf_sim *s, const double *u, double shift)
  * 4 x 1 x 1 box of 256 hexes under gravity explode (tip at 20 and 2660 model units after 30 and
  * 40 frames), while 2 x and 4 x that eta settle at the CG answer (5.2-5.5 and 7.2-7.5; CG 5.2
  * and 7.6). Corotated dynamics therefore take 8 x the smallest definite eta, one doubling of
- * margin beyond the largest failure seen; the DG paper reports 10-100 in practice. */
-enum { COROTATED_PENALTY_MARGIN = 8 };
+ * margin beyond the largest failure seen (PF_SIM_COROTATED_PENALTY_MARGIN); the DG paper reports
+ * 10-100 in practice. */
 static pf_status choose_penalty(pf_sim *s, double given, pf_error *err)
 {
     if (!s->ops->set_penalty)
@@ -125,7 +125,7 @@ static pf_status choose_penalty(pf_sim *s, double given, pf_error *err)
         if (definite_at(s, s->u, shift)) {
             /* corotated dynamics need a margin over definiteness at rest (see above) */
             if (s->scene->corotation && !s->scene->is_static)
-                eta *= COROTATED_PENALTY_MARGIN;
+                eta *= PF_SIM_COROTATED_PENALTY_MARGIN;
             s->ops->set_penalty(s->method, eta);
             s->stats.penalty = eta;
             return PF_OK;
@@ -211,7 +211,17 @@ pf_status pf_sim_create_embedded(pf_sim **out, const pf_scene *scene, const pf_m
 static const struct {
     pf_method method;
     pf_method_create_fn create;
-} METHODS[] = {{PF_METHOD_DG, pf_sim_dg_create}, {PF_METHOD_CG, pf_sim_cg_create}};
+    const pf_method_ops *(*ops)(void);
+} METHODS[] = {{PF_METHOD_DG, pf_sim_dg_create, pf_sim_dg_ops},
+               {PF_METHOD_CG, pf_sim_cg_create, pf_sim_cg_ops}};
+
+const pf_method_ops *pf_method_ops_of(pf_method method)
+{
+    for (size_t k = 0; k < sizeof METHODS / sizeof *METHODS; ++k)
+        if (METHODS[k].method == method)
+            return METHODS[k].ops();
+    return NULL;
+}
 
 /* The scene's solver, except that auto keeps pcg once it chose it on the mesh before a change
  * (solver_before.method, set by pf_sim_change_mesh): auto weighs a factorisation against PCG

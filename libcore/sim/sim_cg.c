@@ -559,6 +559,11 @@ static const pf_method_ops CG_OPS = {
     .destroy = destroy,
 };
 
+const pf_method_ops *pf_sim_cg_ops(void)
+{
+    return &CG_OPS;
+}
+
 int32_t pf_sim_cg_fixed_nodes(const pf_scene *sc, const pf_mesh *mesh, uint8_t *fixed, double *g,
                               int32_t *loaded_faces)
 {

@@ -434,6 +434,11 @@ static const pf_method_ops DG_OPS = {
     .destroy = destroy,
 };
 
+const pf_method_ops *pf_sim_dg_ops(void)
+{
+    return &DG_OPS;
+}
+
 /* Boundary faces in a fixed region get weak Dirichlet to that region's displacement; counts the
  * faces fixed and loaded. */
 static pf_status select_faces(dg_method *d, int32_t *fixed_faces, int32_t *loaded_faces,

@@ -1,5 +1,5 @@
-/* The static solve with each MPI rank assembling its own elements (pf/sim.h,
- * pf_sim_distrib_static): DG here, CG's differences in sim_distrib_cg.c.
+/* Each MPI rank assembling its own elements (pf/sim.h, pf_sim_distrib_run): the parts and the
+ * static solve, DG here, CG's differences in sim_distrib_cg.c, dynamics in sim_distrib_dyn.c.
  *
  * Rank 0 partitions the elements (PT-Scotch on their face adjacency, pf_petsc_partition_graph)
  * and sends each rank its part: its elements and their face neighbours (the halo) as a mesh of
@@ -321,21 +321,24 @@ static pf_status create_part(part *p, pf_error *err)
     return dg_rows(p, err);
 }
 
-/* DG: its penalty, and BZ's body length that of the whole mesh; the count of fixed faces. */
+/* DG: its penalty (corotated dynamics: IP's automatic one with pf_sim's margin), and BZ's body
+ * length that of the whole mesh; the count of fixed faces (a static scene needs some). */
 static pf_status dg_setup(part *p, pf_error *err)
 {
     double volume = p->method ? pf_sim_dg_owned_volume(p->method, p->owned) : 0, total = 0;
     int mine = p->method ? pf_sim_dg_owned_fixed_faces(p->method, p->owned) : 0, faces = 0;
     MPI_Allreduce(&volume, &total, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
     MPI_Allreduce(&mine, &faces, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
-    PF_CHECK(faces > 0, err, PF_ERR_INVALID,
+    PF_CHECK(faces > 0 || !p->scene.is_static, err, PF_ERR_INVALID,
              "a static scene needs fixed faces: no boundary face centroid lies in any 'fixed' "
              "region");
     if (p->method)
         pf_sim_dg_set_body_length(p->method, cbrt(total));
-    if (p->scene.penalty <= 0 && p->scene.flux != PF_FLUX_BZ) /* IP's automatic penalty */
+    if (p->scene.penalty <= 0 && p->scene.flux != PF_FLUX_BZ) { /* IP's automatic penalty */
         PF_TRY(pf_sim_distrib_search_penalty(p, err));
-    else
+        if (p->scene.corotation && !p->scene.is_static)
+            p->penalty *= PF_SIM_COROTATED_PENALTY_MARGIN;
+    } else
         p->penalty =
             p->scene.penalty > 0 ? p->scene.penalty : pf_sim_bz_default_penalty(p->scene.degree);
     if (p->method)
@@ -359,7 +362,7 @@ static pf_status allocate_part(part *p, pf_error *err)
 static pf_status setup_part(part *p, pf_error *err)
 {
     if (p->scene.method == PF_METHOD_CG)
-        PF_CHECK(p->h.fixed_faces > 0, err, PF_ERR_INVALID,
+        PF_CHECK(p->h.fixed_faces > 0 || !p->scene.is_static, err, PF_ERR_INVALID,
                  "a static scene needs fixed faces: no boundary face centroid lies in any "
                  "'fixed' region");
     else
@@ -383,8 +386,7 @@ static pf_status set_rows(const part *p, const double *src, bool sum, Vec dst, p
     return PF_OK;
 }
 
-/* The six rigid modes (about the whole mesh's centre) as GAMG's near-null space. */
-static pf_status rigid_modes(part *p, Mat a, pf_error *err)
+pf_status pf_sim_distrib_rigid_modes(part *p, Mat a, pf_error *err)
 {
     double c[3];
     for (int k = 0; k < 3; ++k)
@@ -413,14 +415,10 @@ static pf_status rigid_modes(part *p, Mat a, pf_error *err)
     PF_PETSC_TRY(MatNullSpaceDestroy(&space));
     for (int k = 0; k < 6; ++k)
         PF_PETSC_TRY(VecDestroy(&v[k]));
+    if (p->u)
+        memset(p->u, 0, (size_t)p->n_dofs * sizeof *p->u);
     return PF_OK;
 }
-
-/* What a rank reports to rank 0: its owned elements, CPU seconds of its set-up (receiving the
- * part, the method, assembly and matrix) and of all, peak RSS in MB, and the solve's outcome. */
-typedef struct rank_stats {
-    double owned, setup_cpu, cpu, rss_mb, iterations, residual, reason;
-} rank_stats;
 
 static double peak_rss_mb(void)
 {
@@ -455,13 +453,14 @@ static pf_status solve_part(part *p, rank_stats *rs, double cpu0, pf_error *err)
     pf_block_matrix_release(&p->k);
     PF_PETSC_TRY(MatCreateVecs(a, &x, &b));
     PF_TRY(set_rows(p, p->f, p->scene.method == PF_METHOD_CG, b, err));
-    PF_TRY(rigid_modes(p, a, err));
+    PF_TRY(pf_sim_distrib_rigid_modes(p, a, err));
     PF_TRY(pf_petsc_create_ksp(a, p->scene.solver.tolerance, &ksp, err));
     rs->setup_cpu = pf_cpu_seconds() - cpu0;
     KSPConvergedReason reason;
     PetscInt its;
     PetscReal rnorm, bnorm;
     PF_PETSC_TRY(KSPSolve(ksp, b, x));
+    rs->solve_cpu = pf_cpu_seconds() - cpu0 - rs->setup_cpu;
     PF_PETSC_TRY(KSPGetConvergedReason(ksp, &reason));
     PF_PETSC_TRY(KSPGetIterationNumber(ksp, &its));
     PF_PETSC_TRY(KSPGetResidualNorm(ksp, &rnorm));
@@ -522,6 +521,87 @@ static pf_status gather_outputs(part *p, double *nodes, double *vm, pf_error *er
     return PF_OK;
 }
 
+pf_status pf_sim_distrib_outputs(part *p, const distrib_out *o, pf_error *err)
+{
+    PF_TRY(gather_outputs(p, o ? o->nodes : NULL, o ? o->res->von_mises : NULL, err));
+    if (!o)
+        return PF_OK;
+    const double *nodes = o->nodes;
+    for (size_t i = 0; i < (size_t)p->h.all_nodes; ++i)
+        for (int c = 0; c < 3; ++c)
+            o->res->u[3 * i + c] = nodes[4 * i + 3] > 0 ? nodes[4 * i + c] / nodes[4 * i + 3] : 0;
+    return o->frame ? o->frame(o->ctx, o->res, err) : PF_OK;
+}
+
+/* DG: the largest distance at a node between an owned element's field and the stitched field
+ * avg [3 all_nodes] (eq. 30). */
+static double node_jump(const part *p, const double *avg)
+{
+    if (!p->method)
+        return 0;
+    const int64_t *off, *triple;
+    const double *w;
+    p->ops->nodal_map(p->method, &off, &triple, &w);
+    int32_t nb = p->nb3 / 3;
+    double largest = 0;
+    for (int32_t i = 0; i < p->h.n_nodes; ++i) {
+        double elems_here = (double)(off[i + 1] - off[i]) / nb; /* w holds phi / elems_here */
+        const double *a = avg + 3 * (size_t)p->gnode[i];
+        for (int64_t q = off[i]; q < off[i + 1]; q += nb) { /* an element's nb triples */
+            if (!p->owned[triple[q] / nb])
+                continue;
+            double d2 = 0;
+            for (int c = 0; c < 3; ++c) {
+                double value = 0;
+                for (int32_t t = 0; t < nb; ++t)
+                    value += w[q + t] * elems_here * p->u[3 * triple[q + t] + c];
+                d2 += (value - a[c]) * (value - a[c]);
+            }
+            largest = fmax(largest, sqrt(d2));
+        }
+    }
+    return largest;
+}
+
+/* pf_sim_error_indicator of the part's state into rank 0's res (collective, after the outputs):
+ * CG the largest boundary error of the shape functions over all ranks' elements; DG the largest
+ * node jump of the owned elements (against rank 0's stitched field, sent to every rank) over the
+ * largest stitched displacement. */
+static pf_status error_indicator(part *p, const distrib_out *o, pf_error *err)
+{
+    double mine = 0, all = 0;
+    if (p->scene.method == PF_METHOD_CG) {
+        pf_sim_stats st = {0};
+        if (p->method)
+            p->ops->setup_stats(p->method, &st);
+        MPI_Reduce(&st.basis_error, &all, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
+        if (o)
+            o->res->error_indicator = all;
+        return PF_OK;
+    }
+    size_t nn = (size_t)p->h.all_nodes;
+    double *u = o ? o->res->u : pf_alloc_array(3 * nn + 1, sizeof *u);
+    pf_status st = u ? PF_OK
+                     : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                    "cannot allocate the displacements of %zu nodes", nn);
+    st = pf_sim_distrib_agree(st, err);
+    if (st >= 0) {
+        MPI_Bcast(u, (int)(3 * nn), MPI_DOUBLE, 0, PETSC_COMM_WORLD);
+        mine = node_jump(p, u);
+        MPI_Reduce(&mine, &all, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
+    }
+    if (!o) {
+        pf_free(u);
+        return st;
+    }
+    double umax = 0;
+    for (size_t i = 0; i < nn; ++i)
+        umax = fmax(umax, sqrt(u[3 * i] * u[3 * i] + u[3 * i + 1] * u[3 * i + 1] +
+                               u[3 * i + 2] * u[3 * i + 2]));
+    o->res->error_indicator = umax > 0 ? all / umax : 0;
+    return st;
+}
+
 static void release_part(part *p)
 {
     if (p->ops)
@@ -532,14 +612,17 @@ static void release_part(part *p)
     pf_free(p->pelem), pf_free(p->gelem), pf_free(p->gnode), pf_free(p->owned);
     pf_free(p->f), pf_free(p->u);
     pf_free(p->row), pf_free(p->row_owned);
+    pf_free(p->coo_v);
     pf_sim_distrib_cg_release(p);
 }
 
-/* Every rank's half after the parts went out (st: whether they did): set-up, assembly, solve,
- * outputs (into res on rank 0, NULL elsewhere) and every rank's statistics. */
-static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_distrib_result *res,
-                          double *nodes, pf_error *err)
+/* Every rank's half after the parts went out (st: whether they did): set-up, then the static
+ * solve or the dynamic frames, outputs (to o on rank 0, NULL elsewhere) and every rank's
+ * statistics. */
+static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, const distrib_out *o,
+                          pf_error *err)
 {
+    pf_sim_distrib_result *res = o ? o->res : NULL;
     part p = {0};
     rank_stats rs = {0};
     st = pf_sim_distrib_agree(st >= 0 ? unpack_part(&p, msg, err) : st, err);
@@ -550,10 +633,16 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_dist
         st = pf_sim_distrib_agree(allocate_part(&p, err), err);
     if (st >= 0)
         st = pf_sim_distrib_agree(setup_part(&p, err), err);
-    if (st >= 0)
+    if (st >= 0 && !p.scene.is_static)
+        st = pf_sim_distrib_dynamics(&p, o, &rs, cpu0, err); /* agreed at every step */
+    if (st >= 0 && p.scene.is_static)
         st = pf_sim_distrib_agree(solve_part(&p, &rs, cpu0, err), err);
+    if (st >= 0 && p.scene.is_static)
+        st = pf_sim_distrib_agree(pf_sim_distrib_outputs(&p, o, err), err);
+    if (res)
+        res->error_indicator = NAN;
     if (st >= 0)
-        st = pf_sim_distrib_agree(gather_outputs(&p, nodes, res ? res->von_mises : NULL, err), err);
+        st = error_indicator(&p, o, err);
     rs.owned = p.n_owned;
     rs.cpu = pf_cpu_seconds() - cpu0;
     rs.rss_mb = peak_rss_mb();
@@ -563,6 +652,8 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_dist
     for (int32_t r = 0; all && r < res->ranks; ++r)
         res->rank[r] = (pf_sim_distrib_rank){.elements = (int32_t)all[r].owned,
                                              .setup_cpu_seconds = all[r].setup_cpu,
+                                             .assembly_cpu_seconds = all[r].assembly_cpu,
+                                             .solve_cpu_seconds = all[r].solve_cpu,
                                              .cpu_seconds = all[r].cpu,
                                              .peak_rss_mb = all[r].rss_mb};
     if (res) {
@@ -570,6 +661,9 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, pf_sim_dist
         res->residual = rs.residual;
         res->penalty = p.penalty;
         res->penalty_doublings = p.doublings;
+        bool searched = p.scene.method == PF_METHOD_DG && p.scene.penalty <= 0 &&
+                        p.scene.flux != PF_FLUX_BZ;
+        res->factorisations = searched ? p.doublings + 1 : 0; /* MUMPS's definiteness tests */
         res->dofs = p.all_rows;
     }
     pf_free(all);
@@ -592,7 +686,9 @@ bool pf_sim_distrib_applies(const pf_scene *scene)
         lists |= is_list(&scene->loads[k].region);
     for (int32_t k = 0; k < scene->n_materials; ++k)
         lists |= is_list(&scene->materials[k].region);
-    return scene->solver.method == PF_SOLVER_PETSC && scene->is_static &&
+    /* dynamics: without contact (no ground, no obstacles) and with a fixed mesh */
+    bool dynamic = !scene->ground && scene->n_obstacles == 0 && !pf_scene_changes_mesh(scene);
+    return scene->solver.method == PF_SOLVER_PETSC && (scene->is_static || dynamic) &&
            (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) && scene->n_cuts == 0 &&
            !lists;
 }
@@ -604,11 +700,12 @@ pf_status pf_sim_distrib_serve(pf_error *err)
     pf_buffer msg = {0};
     if (st >= 0)
         st = receive_part(&msg, err);
-    return run_part(st, &msg, cpu0, NULL, NULL, err);
+    return run_part(st, &msg, cpu0, NULL, err);
 }
 
-pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
-                                pf_sim_distrib_result *out, pf_error *err)
+pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
+                             pf_sim_distrib_frame_fn frame, void *ctx, pf_sim_distrib_result *out,
+                             pf_error *err)
 {
     memset(out, 0, sizeof *out);
     PetscBool up = PETSC_FALSE;
@@ -617,8 +714,8 @@ pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
         PF_TRY(pf_petsc_initialize(NULL, NULL, NULL, NULL, err));
     PF_CHECK(rank_of() == 0, err, PF_ERR_INVALID, "the distributed solve is driven by rank 0");
     PF_CHECK(pf_sim_distrib_applies(scene), err, PF_ERR_INVALID,
-             "the distributed assembly takes static scenes with the petsc solver, without cuts "
-             "and without node or element lists");
+             "the distributed assembly takes scenes with the petsc solver without node or element "
+             "lists: static ones, and dynamic ones without contact, cuts or refinement");
     double cpu0 = pf_cpu_seconds();
     out->ranks = ranks();
     size_t nn = (size_t)mesh->n_nodes;
@@ -635,12 +732,18 @@ pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
     pf_petsc_start_task();
     pf_buffer mine = {0};
     pf_status st = send_parts(mesh, scene, &mine, err);
-    st = run_part(st, &mine, cpu0, out, nodes, err);
-    for (size_t i = 0; st >= 0 && i < nn; ++i)
-        for (int c = 0; c < 3; ++c)
-            out->u[3 * i + c] = nodes[4 * i + 3] > 0 ? nodes[4 * i + c] / nodes[4 * i + 3] : 0;
+    distrib_out o = {.res = out, .nodes = nodes, .frame = frame, .ctx = ctx};
+    st = run_part(st, &mine, cpu0, &o, err);
     pf_free(nodes);
     return st;
+}
+
+pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
+                                pf_sim_distrib_result *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    PF_CHECK(scene->is_static, err, PF_ERR_INVALID, "pf_sim_distrib_static takes static scenes");
+    return pf_sim_distrib_run(scene, mesh, NULL, NULL, out, err);
 }
 
 #else /* without PETSc */
@@ -654,6 +757,14 @@ bool pf_sim_distrib_applies(const pf_scene *scene)
 pf_status pf_sim_distrib_serve(pf_error *err)
 {
     return pf_error_set(err, PF_ERR_INVALID, __FILE__, __LINE__, "built without PETSc");
+}
+
+pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
+                             pf_sim_distrib_frame_fn frame, void *ctx, pf_sim_distrib_result *out,
+                             pf_error *err)
+{
+    (void)frame, (void)ctx;
+    return pf_sim_distrib_static(scene, mesh, out, err);
 }
 
 pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,

@@ -1,5 +1,5 @@
-/* A rank's part of the distributed static solve (sim_distrib.c, sim_distrib_cg.c), private to
- * libcore/sim. */
+/* A rank's part of the distributed solve (sim_distrib.c, sim_distrib_cg.c, sim_distrib_dyn.c),
+ * private to libcore/sim. */
 #ifndef PF_SIM_DISTRIB_H
 #define PF_SIM_DISTRIB_H
 
@@ -52,6 +52,8 @@ typedef struct part {
     PetscInt *row;      /* [n_dofs] */
     uint8_t *row_owned; /* [n_dofs] */
     PetscInt local_rows, all_rows;
+    PetscScalar *coo_v; /* [n_coo] the values this rank sends (pf_sim_distrib_matrix_values) */
+    PetscCount n_coo;
 } part;
 
 /* Rank 0's view of CG on the whole mesh: each node's fixed flag and displacement (CG's rule on
@@ -64,6 +66,23 @@ typedef struct cg_whole {
     int64_t all_free;
     int32_t fixed_faces;
 } cg_whole;
+
+/* What a rank reports to rank 0: its owned elements, CPU seconds of its set-up (receiving the
+ * part, the method, assembly and matrix), of the steps' assembly (dynamics), of PETSc's solves
+ * and of all, peak RSS in MB, and the solves' outcome (dynamics: iterations summed, the largest
+ * residual). */
+typedef struct rank_stats {
+    double owned, setup_cpu, assembly_cpu, solve_cpu, cpu, rss_mb, iterations, residual, reason;
+} rank_stats;
+
+/* Rank 0's outputs: the result, the sums [4 all_nodes] its nodal displacements are made of, and
+ * the function that hears each frame (NULL: none). NULL on the other ranks. */
+typedef struct distrib_out {
+    pf_sim_distrib_result *res;
+    double *nodes;
+    pf_sim_distrib_frame_fn frame;
+    void *ctx;
+} distrib_out;
 
 /* Collective: every rank learns whether any failed (st < 0 on some rank); its own error stays, the
  * others get one saying another rank failed (rank 0 reports its own error when it has one). Before
@@ -89,10 +108,25 @@ pf_status pf_sim_distrib_cg_create(part *p, pf_error *err);
 void pf_sim_distrib_cg_nodal(const part *p, double *sum, double *scratch);
 void pf_sim_distrib_cg_release(part *p);
 
+/* Each rank, collective: the part's outputs at p->u (its elements' fields at their nodes, von
+ * Mises) into rank 0's o->res (frame and time set by the caller), then o->frame hears them. */
+pf_status pf_sim_distrib_outputs(part *p, const distrib_out *o, pf_error *err);
+/* Each rank, collective: the six rigid modes (about the whole mesh's centre) as a's near-null
+ * space; p->u is the scratch and is left zero. */
+pf_status pf_sim_distrib_rigid_modes(part *p, Mat a, pf_error *err);
+/* Each rank, collective (sim_distrib_dyn.c): the dynamic frames of a part (set up; DG: penalty
+ * chosen), each frame's outputs to o; rs gets the solves' counts and the set-up's CPU seconds
+ * (from cpu0). */
+pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs, double cpu0,
+                                  pf_error *err);
+
 /* Each rank, collective (sim_distrib_mat.c): PETSc's matrix *a of all ranks' parts, from the
  * entries of p->k this rank is the one to send (DG: see sim_distrib.c; CG: all), at the rows
  * p->row; duplicates summed. */
 pf_status pf_sim_distrib_matrix(part *p, Mat *a, pf_error *err);
+/* Each rank, collective: a's values again from p->k (a made by pf_sim_distrib_matrix from the same
+ * pattern), through the part's COO value buffer (made once). */
+pf_status pf_sim_distrib_matrix_values(part *p, Mat a, pf_error *err);
 /* Each rank, collective: DG's automatic interior penalty on the whole mesh into p->penalty (p->k's
  * pattern made, p->u zero; p->f left zero). PF_ERR_NUMERIC when none up to 2^20 is definite. */
 pf_status pf_sim_distrib_search_penalty(part *p, pf_error *err);

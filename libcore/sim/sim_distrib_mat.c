@@ -29,7 +29,8 @@ static bool sends(const part *p, int64_t r, int64_t c)
     return p->owned[a] ? p->pelem[a] < p->pelem[b] : p->pelem[b] < p->pelem[a];
 }
 
-/* This rank's COO entries: i and j NULL counts them. */
+/* This rank's COO entries: their rows and columns into ci and cj, their values into v (each
+ * NULL: not written); returns their count. */
 static PetscCount coo_entries(const part *p, PetscInt *ci, PetscInt *cj, PetscScalar *v)
 {
     const pf_block_matrix *k = &p->k;
@@ -39,12 +40,14 @@ static PetscCount coo_entries(const part *p, PetscInt *ci, PetscInt *cj, PetscSc
             int64_t r = k->row_idx[s];
             if (!sends(p, r, c))
                 continue;
-            for (int t = 0; t < (r == c ? 1 : 2); ++t, ++q)
+            for (int t = 0; t < (r == c ? 1 : 2); ++t, ++q) {
                 if (ci) {
                     ci[q] = p->row[t ? c : r];
                     cj[q] = p->row[t ? r : c];
-                    v[q] = k->val[s];
                 }
+                if (v)
+                    v[q] = k->val[s];
+            }
         }
     return q;
 }
@@ -93,16 +96,22 @@ pf_status pf_sim_distrib_matrix(part *p, Mat *a, pf_error *err)
     return st;
 }
 
-/* a's values again from p->k (the same pattern). */
-static pf_status matrix_values(part *p, Mat a, pf_error *err)
+pf_status pf_sim_distrib_matrix_values(part *p, Mat a, pf_error *err)
 {
-    PetscCount n_coo;
-    PetscInt *ci, *cj;
-    PetscScalar *v;
-    pf_status st = coo_arrays(p, &n_coo, &ci, &cj, &v, err);
-    PF_PETSC_TRY_TO(st, MatSetValuesCOO(a, v, INSERT_VALUES));
-    pf_free(ci), pf_free(cj), pf_free(v);
-    return st;
+    pf_status st = PF_OK;
+    if (!p->coo_v) {
+        p->n_coo = coo_entries(p, NULL, NULL, NULL);
+        p->coo_v = pf_alloc_array((size_t)p->n_coo + 1, sizeof *p->coo_v);
+        st = p->coo_v ? PF_OK
+                      : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                     "cannot allocate %lld entries", (long long)p->n_coo);
+        st = pf_sim_distrib_agree(st, err); /* before the collective call */
+    }
+    if (st < 0)
+        return st;
+    coo_entries(p, NULL, NULL, p->coo_v);
+    PF_PETSC_TRY(MatSetValuesCOO(a, p->coo_v, INSERT_VALUES));
+    return PF_OK;
 }
 
 /* Whether a is positive definite: no negative and no zero pivot in MUMPS's LDL^T (collective;
@@ -147,7 +156,7 @@ pf_status pf_sim_distrib_search_penalty(part *p, pf_error *err)
             p->ops->stiffness(p->method, p->u, false, &p->k, p->f); /* u: 0, at rest */
             p->ops->add_mass(p->method, shift, &p->k);
         }
-        st = a ? matrix_values(p, a, err) : pf_sim_distrib_matrix(p, &a, err);
+        st = a ? pf_sim_distrib_matrix_values(p, a, err) : pf_sim_distrib_matrix(p, &a, err);
         if (st >= 0)
             st = definite(a, &yes, err);
         if (yes)

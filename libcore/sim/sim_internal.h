@@ -74,6 +74,9 @@ pf_status pf_sim_build(pf_sim *s, const pf_mesh *mesh, const pf_method_reuse *re
 
 /* The BZ flux's penalty when the scene gives none (sim.c). */
 double pf_sim_bz_default_penalty(int32_t degree);
+/* Corotated dynamics take this multiple of the smallest IP penalty definite at rest (sim.c,
+ * choose_penalty, says why). */
+enum { PF_SIM_COROTATED_PENALTY_MARGIN = 8 };
 
 /* Frees what pf_sim_build made and the owned mesh and weights, but not s. */
 void pf_sim_release(pf_sim *s);

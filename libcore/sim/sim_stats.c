@@ -103,6 +103,58 @@ pf_status pf_sim_stats_json(const pf_sim *sim, double wall_seconds, double cpu_s
     return pf_sim_json_print(root, "the run's statistics", json, err);
 }
 
+pf_status pf_sim_distrib_stats_json(const pf_scene *scene, const pf_sim_distrib_result *res,
+                                    double wall_seconds, double cpu_seconds, char **json,
+                                    pf_error *err)
+{
+    bool dynamic = !scene->is_static;
+    int64_t solves = dynamic ? res->steps : 1;
+    cJSON *root = cJSON_CreateObject();
+    if (root) {
+        add_int(root, "frames", dynamic ? res->frame : 1);
+        cJSON_AddNumberToObject(root, "simulated_time", res->time);
+        add_int(root, "steps", res->steps);
+        add_int(root, "dofs", res->dofs);
+        cJSON_AddNumberToObject(root, "penalty", res->penalty);
+        add_int(root, "penalty_doublings", res->penalty_doublings);
+        cJSON *ind = cJSON_AddObjectToObject(root, "error_indicator");
+        cJSON_AddNumberToObject(ind, "value", res->error_indicator);
+        cJSON_AddStringToObject(ind, "measure", scene->method == PF_METHOD_CG
+                                                    ? "basis_boundary_error"
+                                                    : "node_jump_over_displacement");
+        const pf_sim_distrib_rank *r0 = res->ranks > 0 ? &res->rank[0] : NULL;
+        cJSON *sec = cJSON_AddObjectToObject(root, "seconds"); /* rank 0's */
+        wall_cpu(sec, "run", wall_seconds, cpu_seconds);
+        cJSON_AddNumberToObject(sec, "setup_cpu", r0 ? r0->setup_cpu_seconds : 0);
+        cJSON_AddNumberToObject(sec, "assembly_cpu", r0 ? r0->assembly_cpu_seconds : 0);
+        cJSON_AddNumberToObject(sec, "solves_cpu", r0 ? r0->solve_cpu_seconds : 0);
+        cJSON *s = cJSON_AddObjectToObject(root, "solver");
+        cJSON_AddStringToObject(s, "method", "petsc");
+        add_int(s, "solves", solves);
+        add_int(s, "factorisations", res->factorisations);
+        add_int(s, "pcg_iterations", res->iterations);
+        cJSON_AddNumberToObject(s, "pcg_iterations_mean",
+                                solves > 0 ? (double)res->iterations / (double)solves : 0);
+        cJSON_AddNumberToObject(s, "residual_max", res->residual);
+        cJSON *ranks = cJSON_AddArrayToObject(root, "ranks");
+        for (int32_t k = 0; ranks && k < res->ranks; ++k) {
+            const pf_sim_distrib_rank *r = &res->rank[k];
+            cJSON *o = cJSON_CreateObject();
+            if (!o || !cJSON_AddItemToArray(ranks, o)) {
+                cJSON_Delete(o);
+                break;
+            }
+            add_int(o, "elements", r->elements);
+            cJSON_AddNumberToObject(o, "setup_cpu", r->setup_cpu_seconds);
+            cJSON_AddNumberToObject(o, "assembly_cpu", r->assembly_cpu_seconds);
+            cJSON_AddNumberToObject(o, "solves_cpu", r->solve_cpu_seconds);
+            cJSON_AddNumberToObject(o, "cpu", r->cpu_seconds);
+            cJSON_AddNumberToObject(o, "peak_rss_mb", r->peak_rss_mb);
+        }
+    }
+    return pf_sim_json_print(root, "the run's statistics", json, err);
+}
+
 void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c)
 {
     const pf_sim_stats *st = pf_sim_get_stats(sim);
@@ -112,35 +164,75 @@ void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c)
     c->pcg_iterations = (uint64_t)st->solver.iterations;
 }
 
-pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
-                               pf_error *err)
+/* What a STAT chunk holds of a run, whichever path made it. */
+typedef struct run_entries {
+    double indicator; /* non-finite: left out */
+    int32_t elements, frames, mesh_changes, cuts;
+    int64_t dofs;
+    double time;
+    pf_run_counts counts;
+    pf_solver_method solver;
+} run_entries;
+
+static pf_status set_entries(const pf_scene *sc, const run_entries *r, pf_stats_data *d,
+                             pf_error *err)
 {
-    const pf_sim_stats *st = pf_sim_get_stats(sim);
-    const pf_scene *sc = sim->scene;
     bool dg = sc->method == PF_METHOD_DG;
-    pf_run_counts own;
-    pf_sim_run_counts(sim, &own);
-    if (!counts)
-        counts = &own;
     PF_TRY(pf_stats_data_set_text(d, "method", dg ? "dg" : "cg", err));
     if (dg) {
         PF_TRY(pf_stats_data_set_number(d, "degree", sc->degree, err));
         PF_TRY(pf_stats_data_set_text(d, "flux", sc->flux == PF_FLUX_BZ ? "bz" : "ip", err));
     }
-    double indicator = pf_sim_error_indicator(sim);
-    if (isfinite(indicator))
-        PF_TRY(pf_stats_data_set_number(d, "error_indicator", indicator, err));
-    PF_TRY(pf_stats_data_set_text(d, "error_measure", pf_sim_error_measure(sim, NULL), err));
-    PF_TRY(pf_stats_data_set_number(d, "elements", pf_sim_mesh(sim)->n_elems, err));
-    PF_TRY(pf_stats_data_set_number(d, "unknowns", (double)st->dofs, err));
-    PF_TRY(pf_stats_data_set_number(d, "frames", pf_sim_frame_index(sim), err));
-    if (isfinite(pf_sim_time(sim)))
-        PF_TRY(pf_stats_data_set_number(d, "simulated_time", pf_sim_time(sim), err));
-    PF_TRY(pf_stats_data_set_number(d, "steps", (double)counts->steps, err));
-    PF_TRY(pf_stats_data_set_number(d, "factorisations", (double)counts->factorisations, err));
-    PF_TRY(pf_stats_data_set_number(d, "solves", (double)counts->solves, err));
-    PF_TRY(pf_stats_data_set_number(d, "pcg_iterations", (double)counts->pcg_iterations, err));
-    PF_TRY(pf_stats_data_set_text(d, "solver", pf_solver_method_name(st->solver.method), err));
-    PF_TRY(pf_stats_data_set_number(d, "mesh_changes", st->refinements, err));
-    return pf_stats_data_set_number(d, "cuts", st->cuts, err);
+    if (isfinite(r->indicator))
+        PF_TRY(pf_stats_data_set_number(d, "error_indicator", r->indicator, err));
+    PF_TRY(pf_stats_data_set_text(d, "error_measure", pf_method_ops_of(sc->method)->error_measure,
+                                  err));
+    PF_TRY(pf_stats_data_set_number(d, "elements", r->elements, err));
+    PF_TRY(pf_stats_data_set_number(d, "unknowns", (double)r->dofs, err));
+    PF_TRY(pf_stats_data_set_number(d, "frames", r->frames, err));
+    if (isfinite(r->time))
+        PF_TRY(pf_stats_data_set_number(d, "simulated_time", r->time, err));
+    PF_TRY(pf_stats_data_set_number(d, "steps", (double)r->counts.steps, err));
+    PF_TRY(pf_stats_data_set_number(d, "factorisations", (double)r->counts.factorisations, err));
+    PF_TRY(pf_stats_data_set_number(d, "solves", (double)r->counts.solves, err));
+    PF_TRY(pf_stats_data_set_number(d, "pcg_iterations", (double)r->counts.pcg_iterations, err));
+    PF_TRY(pf_stats_data_set_text(d, "solver", pf_solver_method_name(r->solver), err));
+    PF_TRY(pf_stats_data_set_number(d, "mesh_changes", r->mesh_changes, err));
+    return pf_stats_data_set_number(d, "cuts", r->cuts, err);
+}
+
+pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
+                               pf_error *err)
+{
+    const pf_sim_stats *st = pf_sim_get_stats(sim);
+    run_entries r = {.indicator = pf_sim_error_indicator(sim),
+                     .elements = pf_sim_mesh(sim)->n_elems,
+                     .frames = pf_sim_frame_index(sim),
+                     .mesh_changes = st->refinements,
+                     .cuts = st->cuts,
+                     .dofs = st->dofs,
+                     .time = pf_sim_time(sim),
+                     .solver = st->solver.method};
+    pf_sim_run_counts(sim, &r.counts);
+    if (counts)
+        r.counts = *counts;
+    return set_entries(sim->scene, &r, d, err);
+}
+
+pf_status pf_sim_distrib_stats_entries(const pf_scene *scene, int32_t elements,
+                                       const pf_sim_distrib_result *res, pf_stats_data *d,
+                                       pf_error *err)
+{
+    bool dynamic = !scene->is_static;
+    run_entries r = {.indicator = res->error_indicator,
+                     .elements = elements,
+                     .frames = dynamic ? res->frame : 1,
+                     .dofs = res->dofs,
+                     .time = res->time,
+                     .counts = {.steps = (uint64_t)res->steps,
+                                .factorisations = (uint64_t)res->factorisations,
+                                .solves = (uint64_t)(dynamic ? res->steps : 1),
+                                .pcg_iterations = (uint64_t)res->iterations},
+                     .solver = PF_SOLVER_PETSC};
+    return set_entries(scene, &r, d, err);
 }

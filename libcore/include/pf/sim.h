@@ -431,36 +431,56 @@ pf_status pf_sim_create_with(pf_sim **sim, const pf_scene *scene, const pf_mesh 
                              const pf_sim_options *options, pf_error *err);
 void pf_sim_destroy(pf_sim **sim);
 
-/* ---- the static solve with every MPI rank assembling its own elements (sim_distrib.c) ----
+/* ---- every MPI rank assembling its own elements (sim_distrib.c, sim_distrib_dyn.c) ----------
  * Rank 0 partitions the elements and sends each rank its own (DG: with their face neighbours);
  * each rank sets up the method on them, assembles its rows into PETSc's distributed matrix and
- * evaluates its elements' outputs, which rank 0 receives. For static scenes with the petsc solver,
- * CG or DG with a given penalty (or the BZ flux, whose default needs no definiteness test), without
- * node or element list files (their indices are the whole mesh's); other scenes keep rank 0
- * assembling everything (pf_sim_create). Built with PETSc only. */
+ * evaluates its elements' outputs, which rank 0 receives. Static scenes with the petsc solver, CG
+ * or DG, without node or element list files (their indices are the whole mesh's), and dynamic
+ * ones without contact (no ground, obstacles, cuts or refinement), each time step's corotated
+ * stiffness assembled by each rank on its elements, the state kept distributed. Other scenes keep
+ * rank 0 assembling everything (pf_sim_create). Built with PETSc only. */
 typedef struct pf_sim_distrib_rank {
     int32_t elements;         /* the elements it owned and assembled */
     double setup_cpu_seconds; /* its part's arrival, set-up, assembly and PETSc's matrix */
-    double cpu_seconds;       /* all of its share */
+    double assembly_cpu_seconds; /* dynamics: each step's system and its values sent to PETSc */
+    double solve_cpu_seconds;    /* PETSc's solves, the preconditioner's set-up included */
+    double cpu_seconds;          /* all of its share */
     double peak_rss_mb;       /* its process's peak resident memory */
 } pf_sim_distrib_rank;
 
 typedef struct pf_sim_distrib_result {
     double *u;         /* [3 n_nodes] nodal displacements (DG: the stitched field, eq. 30) */
     double *von_mises; /* [n_elems] at each element's centre */
+    int32_t frame;     /* the frame u and von_mises are of (0: the start, or the static solution) */
+    double time;       /* its time (dynamics) */
     int64_t dofs;
     double penalty;             /* DG's; 0 for CG */
     int32_t penalty_doublings; /* IP's automatic penalty: its doublings from 1; 0 otherwise */
-    int32_t iterations;
-    double residual; /* relative to the right-hand side */
+    int32_t iterations;        /* the solve's; dynamics: of all steps */
+    double residual;           /* relative to the right-hand side; dynamics: the largest */
+    int64_t steps;             /* dynamics: the time steps taken */
+    double kinetic;            /* dynamics: the kinetic energy of the last frame */
+    int32_t factorisations;    /* MUMPS's, the definiteness tests of IP's automatic penalty */
+    double error_indicator;    /* of the last frame, as pf_sim_error_indicator (NAN: none) */
     int32_t ranks;
     pf_sim_distrib_rank *rank; /* [ranks] */
 } pf_sim_distrib_result;
 
-/* Whether pf_sim_distrib_static takes the scene. */
+/* Rank 0, after each frame (pf_sim_distrib_run): res holds the frame's outputs (u, von_mises,
+ * frame, time). Its failure ends the run on every rank with its error. */
+typedef pf_status (*pf_sim_distrib_frame_fn)(void *ctx, const pf_sim_distrib_result *res,
+                                             pf_error *err);
+
+/* Whether pf_sim_distrib_run takes the scene. */
 bool pf_sim_distrib_applies(const pf_scene *scene);
-/* Rank 0, collective: the static solve of scene (resolved for mesh, which must be derived) on all
- * ranks. Every rank fails alike (no fixed face, a PETSc failure). */
+/* Rank 0, collective: the scene (resolved for mesh, which must be derived) on all ranks: the
+ * static solve, or frame 0 and the scene's frames; frame (NULL: none) hears every frame, and out
+ * holds the last. Every rank fails alike (no fixed face in a static scene, a diverging step, a
+ * PETSc failure). */
+pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
+                             pf_sim_distrib_frame_fn frame, void *ctx, pf_sim_distrib_result *out,
+                             pf_error *err);
+/* pf_sim_distrib_run of a static scene without a frame function. */
 pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
                                 pf_sim_distrib_result *out, pf_error *err);
 /* Ranks > 0: their half, the task of pf_petsc_serve. */
@@ -621,6 +641,19 @@ void pf_sim_run_counts(const pf_sim *sim, pf_run_counts *c);
  * there are replaced). A non-finite indicator (a diverged state) is left out. PF_ERR_NOMEM. */
 pf_status pf_sim_stats_entries(const pf_sim *sim, const pf_run_counts *counts, pf_stats_data *d,
                                pf_error *err);
+/* The same entries for a run of pf_sim_distrib_run on a mesh of elements (res: its result, the
+ * last frame's): steps, solves (static: 1), PETSc's iterations as pcg_iterations, MUMPS's
+ * definiteness tests as factorisations. */
+pf_status pf_sim_distrib_stats_entries(const pf_scene *scene, int32_t elements,
+                                       const pf_sim_distrib_result *res, pf_stats_data *d,
+                                       pf_error *err);
+/* pf-sim --stats of a run of pf_sim_distrib_run (res its result) as JSON (*json: pf_free):
+ * frames, steps, unknowns, penalty, the indicator, rank 0's CPU seconds by phase (set-up,
+ * assembly, PETSc's solves) beside the run's wall and CPU (wall_seconds, cpu_seconds), the solves
+ * and iterations, and per rank its elements, CPU by phase and peak RSS. PF_ERR_NOMEM. */
+pf_status pf_sim_distrib_stats_json(const pf_scene *scene, const pf_sim_distrib_result *res,
+                                    double wall_seconds, double cpu_seconds, char **json,
+                                    pf_error *err);
 
 #ifdef __cplusplus
 }

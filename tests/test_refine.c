@@ -368,8 +368,10 @@ static void test_l_shape(void **state)
     pf_mesh_release(&src);
 }
 
-/* A U (base 3 x 1, arms 1 x 2; area 7, centroid y = 9.5 / 7) by halves along y: the plane cuts
- * both arms, so three children: the base with stubs and the two arm tips (each 1 x (3 - 9.5/7)). */
+/* A U (base 3 x 1, arms 1 x 2; area 7, centroid y = 9.5 / 7) cut along y through its centroid:
+ * the plane cuts both arms, so three children: the base with stubs and the two arm tips (each
+ * 1 x (3 - 9.5/7)). A plane request makes them; halves, which make at most two children, skip
+ * that plane and leave the U whole. */
 static void test_u_shape_three_children(void **state)
 {
     (void)state;
@@ -378,11 +380,44 @@ static void test_u_shape_three_children(void **state)
     pf_refine_result res;
     pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_HALVES, .normal = {0, 1, 0}};
     refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_split, 0);
+    assert_int_equal(res.n_skipped, 1);
+    assert_int_equal(res.n_planes_skipped, 1);
+    assert_true(same_polygons(&src, 0, &dst, 0));
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    req = (pf_refine_request){
+        .elem = 0, .kind = PF_SPLIT_PLANE, .normal = {0, 1, 0}, .point = {1.5, 9.5 / 7, 0.5}};
+    refine_ok(&src, &req, 1, &dst, &res);
     assert_int_equal(res.n_children, 3);
     double tip = 3 - 9.5 / 7;
     assert_near(pf_mesh_elem_volume(&dst, 0), 7 - 2 * tip, 1e-13);
     assert_near(pf_mesh_elem_volume(&dst, 1), tip, 1e-13);
     assert_near(pf_mesh_elem_volume(&dst, 2), tip, 1e-13);
+    pf_refine_result_release(&res);
+    pf_mesh_release(&dst);
+    pf_mesh_release(&src);
+}
+
+/* The bound on children: a comb (base 7 x 1, four teeth 1 x 3 at x = 0, 2, 4, 6; area 19, mirror-
+ * symmetric about x = 3.5, centroid y = 33.5 / 19) by octs. Its principal axes are x, y, z; the
+ * plane x = 3.5 passes between the teeth (two pieces), the plane y = 1.763 would cut all four
+ * teeth (six pieces of two, then twelve children with z = 1/2; the tips are 5.9 % of the element,
+ * above the sliver rule's 5 %), so it is skipped: four children of 19 / 4. */
+static void test_octs_comb_bounded(void **state)
+{
+    (void)state;
+    const double xy[] = {0, 0, 7, 0, 7, 4, 6, 4, 6, 1, 5, 1, 5, 4, 4, 4,
+                         4, 1, 3, 1, 3, 4, 2, 4, 2, 1, 1, 1, 1, 4, 0, 4};
+    pf_mesh src = make_prism(xy, 16), dst = {0};
+    pf_refine_result res;
+    pf_refine_request req = {.elem = 0, .kind = PF_SPLIT_OCTS};
+    refine_ok(&src, &req, 1, &dst, &res);
+    assert_int_equal(res.n_split, 1);
+    assert_int_equal(res.n_planes_skipped, 1);
+    assert_int_equal(res.n_children, 4);
+    for (int c = 0; c < 4; ++c)
+        assert_near(pf_mesh_elem_volume(&dst, c), 19.0 / 4, 1e-12 * 19);
     pf_refine_result_release(&res);
     pf_mesh_release(&dst);
     pf_mesh_release(&src);
@@ -710,6 +745,7 @@ int main(void)
         cmocka_unit_test(test_plane_between_neighbour_cuts),
         cmocka_unit_test(test_l_shape),
         cmocka_unit_test(test_u_shape_three_children),
+        cmocka_unit_test(test_octs_comb_bounded),
         cmocka_unit_test(test_sliver_skipped),
         cmocka_unit_test(test_tets),
         cmocka_unit_test(test_random_requests),

@@ -1,8 +1,9 @@
 /* sim_refine_sliced: stress-driven refinement of a sliced body (hexes inside, exact polyhedra at
  * the surface) while the simulation runs: the bunny sliced 8 across, as pf-slice makes it, under
- * DG (octs and halves) and CG (halves: the harmonic basis of its split surface cells is the
- * cost), refined by stress over a few events with frames between them; and a CG sphere sliced 6
- * across whose third stress-driven change once made faces too thin for the harmonic basis. */
+ * DG (octs and halves) and CG (halves, and octs within max_elements: the harmonic basis of its
+ * split surface cells is the cost), refined by stress over a few events with frames between
+ * them; and a CG sphere sliced 6 across whose third stress-driven change once made faces too thin
+ * for the harmonic basis. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -54,10 +55,12 @@ static double largest_stress(const pf_sim *sim)
 
 /* The bunny sagging under gravity with its lowest tenth fixed, refined by stress: events of
  * pf_sim_refine (threshold a fraction of the largest stress after three frames, max_level 2),
- * each followed by a frame on the new mesh. Every change keeps the mesh valid and its volume
- * (1e-12 relative: the children of a split are exact polyhedra; the sum over some thousand
- * elements rounds at ~1e-15), and the run goes on. */
-static void bunny_refines(const char *method, pf_split_kind kind, int events, double fraction)
+ * each followed by a frame on the new mesh (which refines again: the scene refines). Every change
+ * keeps the mesh valid and its volume (1e-12 relative: the children of a split are exact
+ * polyhedra; the sum over some thousand elements rounds at ~1e-15), a split makes at most 8
+ * children (octs) or 2 (halves), the mesh stays within max_elements, and the run goes on. */
+static void bunny_refines(const char *method, pf_split_kind kind, int events, double fraction,
+                          int32_t max_elements)
 {
     pf_error err = {0};
     pf_mesh m = sliced_bunny(8);
@@ -77,21 +80,34 @@ static void bunny_refines(const char *method, pf_split_kind kind, int events, do
                                    .threshold = fraction * largest_stress(sim),
                                    .split = kind,
                                    .max_level = 2,
-                                   .max_elements = 100000};
-    int32_t n0 = m.n_elems, changed = 0, total = 0;
+                                   .max_elements = max_elements};
+    int32_t n0 = m.n_elems, changed = 0, total = 0, most_added = kind == PF_SPLIT_OCTS ? 7 : 1;
     for (int ev = 0; ev < events; ++ev) {
+        int32_t before = pf_sim_mesh(sim)->n_elems;
         if (pf_sim_refine(sim, &changed, &err) < 0)
             fail_msg("event %d: %s", ev, err.msg);
         total += changed;
         const pf_mesh *now = pf_sim_mesh(sim);
+        CHECKF(now->n_elems - before <= most_added * changed,
+               "event %d: %d -> %d elements, %d split", ev, (int)before, (int)now->n_elems,
+               (int)changed);
+        CHECKF(now->n_elems <= max_elements, "event %d: %d elements", ev, (int)now->n_elems);
         CHECKF(pf_mesh_validate(now, NULL, &err) == PF_OK, "event %d: %s", ev, err.msg);
         double v = rest_volume(now);
         CHECKF(fabs(v - v0) <= 1e-12 * v0, "event %d: volume %.17g, was %.17g", ev, v, v0);
         run_frames(sim, 1);
+        CHECKF(pf_sim_mesh(sim)->n_elems <= max_elements, "frame after event %d: %d elements", ev,
+               (int)pf_sim_mesh(sim)->n_elems);
     }
-    printf("bunny %s %s: %d -> %d elements, %d splits in %d events, narrowest face %.3g\n", method,
-           kind == PF_SPLIT_OCTS ? "octs" : "halves", (int)n0, (int)pf_sim_mesh(sim)->n_elems,
-           (int)total, events, narrowest_face(pf_sim_mesh(sim)));
+    /* the frames' refinement splits too: the run's count holds every split */
+    int64_t all = pf_sim_get_stats(sim)->elements_split;
+    printf("bunny %s %s: %d -> %d elements, %d splits in %d events (%lld with the frames'),"
+           " narrowest face %.3g\n",
+           method, kind == PF_SPLIT_OCTS ? "octs" : "halves", (int)n0,
+           (int)pf_sim_mesh(sim)->n_elems, (int)total, events, (long long)all,
+           narrowest_face(pf_sim_mesh(sim)));
+    CHECKF(pf_sim_mesh(sim)->n_elems - n0 <= most_added * all, "%d -> %d elements in %lld splits",
+           (int)n0, (int)pf_sim_mesh(sim)->n_elems, (long long)all);
     assert_true(total > 0);
     assert_true(pf_sim_mesh(sim)->n_elems > n0);
     pf_sim_destroy(&sim);
@@ -154,14 +170,24 @@ static void test_sphere_cg_three_changes(void **state)
 static void test_bunny_dg(void **state)
 {
     (void)state;
-    bunny_refines(BUNNY_DG, PF_SPLIT_OCTS, 3, 0.5);
-    bunny_refines(BUNNY_DG, PF_SPLIT_HALVES, 3, 0.5);
+    bunny_refines(BUNNY_DG, PF_SPLIT_OCTS, 3, 0.5, 100000);
+    bunny_refines(BUNNY_DG, PF_SPLIT_HALVES, 3, 0.5, 100000);
 }
 
 static void test_bunny_cg(void **state)
 {
     (void)state;
-    bunny_refines(BUNNY_CG, PF_SPLIT_HALVES, 2, 0.8);
+    bunny_refines(BUNNY_CG, PF_SPLIT_HALVES, 2, 0.8, 100000);
+}
+
+/* CG with octs: every split made 8 children (measured), but without a useful max_elements the events and
+ * the frames' own refinement reach max_level almost everywhere (five changes: 173 -> 8,960
+ * elements, 4.4 GB resident; at 6,944 elements the factor alone holds 150 million entries);
+ * max_elements 1,200 stops it at 1,195 elements, 0.7 GB and about 18 s of CPU. */
+static void test_bunny_cg_octs(void **state)
+{
+    (void)state;
+    bunny_refines(BUNNY_CG, PF_SPLIT_OCTS, 2, 0.8, 1200);
 }
 
 int main(void)
@@ -170,6 +196,7 @@ int main(void)
         cmocka_unit_test(test_sphere_cg_three_changes),
         cmocka_unit_test(test_bunny_dg),
         cmocka_unit_test(test_bunny_cg),
+        cmocka_unit_test(test_bunny_cg_octs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

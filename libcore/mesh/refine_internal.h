@@ -51,7 +51,8 @@ pf_polyhedron pf_refine_piece_view(const refine_local *L, const refine_pieces *p
 
 /* Splits the single piece in L->cur (the element, volume vol > 0) by the request's planes,
  * leaving the children in L->cur. *planes_applied and *planes_skipped count the planes applied
- * and those skipped by the sliver rule. */
+ * and those skipped by the sliver rule or because they would more than double the pieces (octs
+ * and halves: at most 8 and 2 children). */
 pf_status pf_refine_split_local(refine_local *L, const pf_refine_request *req, double vol,
                                 pf_vec3 centroid, const pf_vec3 axes[3], int32_t *planes_applied,
                                 int32_t *planes_skipped, pf_error *err);

@@ -1,8 +1,9 @@
 /* One element of pf_mesh_refine cut into its children: the octs planes from the principal axes of
  * its second moments (harmonic paper sec. 8: "three planes through the centroid"; for a box the
  * regular 1-to-8 subdivision) or the halves plane, each applied by pf_poly_split to every piece
- * the earlier planes made, with the sliver rule. Everything here is in the element's own node
- * numbering (refine_local); refine.c puts the children into the mesh. */
+ * the earlier planes made, with the sliver rule and a bound on the pieces (at most twice as many
+ * after a plane as before it). Everything here is in the element's own node numbering
+ * (refine_local); refine.c puts the children into the mesh. */
 #include <pf/integrate.h>
 
 #include "refine_internal.h"
@@ -434,7 +435,12 @@ pf_status pf_refine_split_local(refine_local *L, const pf_refine_request *req, d
         bool cut;
         double smallest;
         PF_TRY(split_all(L, &pl, tol, *planes_applied > 0, &cut, &smallest, err));
-        if (!cut || smallest < min_piece) {
+        /* A plane through a non-convex piece may leave more than two pieces of it: octs and
+         * halves planes stay within twice the pieces they cut, so that an octs split makes at
+         * most 8 children and a halves split at most 2 (the simulator's max_elements counts on
+         * it); a cut's plane makes what the blade makes. */
+        bool too_many = req->kind != PF_SPLIT_PLANE && L->next.n > 2 * L->cur.n;
+        if (!cut || smallest < min_piece || too_many) {
             L->n = n_before; /* the trial's nodes are dropped with it */
             if (cut)
                 ++*planes_skipped;

@@ -11,7 +11,11 @@
  *     (pf_poly_split).
  *   - PF_SPLIT_HALVES: one plane through the centroid with the request's normal (the direction of
  *     the largest principal stress, for the simulator).
- * Every connected piece is a child: a plane through a non-convex element may make more than two.
+ * Every connected piece is a child. A plane through a non-convex element may cut a piece into more
+ * than two: an octs or halves plane that would leave more than twice the pieces there were before
+ * it is not applied (octs: that plane only, the others still are), so an octs split makes at
+ * most 8 children and a halves split at most 2, whatever the element's shape (the simulator's
+ * max_elements counts on it). A plane request (below) makes the pieces the plane makes.
  *
  * Slivers are never made: a plane that would make a piece smaller than PF_REFINE_MIN_FRACTION
  * of the element's volume is not applied (octs: that plane only, the others still are). The
@@ -109,14 +113,16 @@ typedef struct pf_refine_result {
                            split parent, or the unchanged element itself (pf_alloc; released by
                            pf_refine_result_release) */
     int32_t n_split;    /* requests that split their element */
-    int32_t n_skipped;  /* requests none of whose planes applied (all would make slivers) */
+    int32_t n_skipped;  /* requests none of whose planes applied (all would make slivers, or
+                           too many pieces) */
     int32_t n_children; /* dst elements that are children of a split */
     int32_t n_neighbours_changed; /* unsplit elements whose faces were subdivided or got nodes
                                      inserted (CG must rebuild their basis; DG their faces) */
     uint8_t *changed; /* [dst->n_elems] 1 for children and for unsplit elements whose face list
                          changed; 0 exactly for elements whose face polygons are those of their
                          src element, node for node (their caches can be reused) */
-    int32_t n_planes_skipped; /* planes not applied by the sliver rule, over all requests */
+    int32_t n_planes_skipped; /* planes not applied by the sliver rule or the bound on pieces,
+                                 over all requests */
     int32_t *face_src; /* [dst->n_faces] the src face a dst face is, node for node, or -1 for a
                           face that is new or got nodes inserted */
 } pf_refine_result;

@@ -292,6 +292,18 @@ pf_status pf_cli_write_info(const pf_cli *cli, pf_stream_writer *w, pf_error *er
     return st;
 }
 
+pf_status pf_cli_write_frame(pf_stream_writer *w, const pf_mesh *m, uint32_t index, double time,
+                             const double *u, const double *von_mises, pf_error *err)
+{
+    /* The chunks borrow the arrays: the writer only reads them. */
+    pf_frame_data f = {.mesh_id = m->id, .index = index, .time = time, .n_nodes = m->n_nodes,
+                       .u = (double *)u};
+    pf_stress_data s = {.mesh_id = m->id, .frame = index, .n_elems = m->n_elems,
+                        .components = 1, .values = (double *)von_mises};
+    PF_TRY(pf_stream_write_frame(w, &f, err));
+    return pf_stream_write_stress(w, &s, err);
+}
+
 void pf_cli_report_import(const pf_cli *cli, const pf_cli_import *imp)
 {
     char line[512];

@@ -189,6 +189,11 @@ pf_status pf_cli_read_surface(const char *path, pf_surface *s, pf_stream_writer 
  * the command line it ran with, so that a stream says how it was made. */
 pf_status pf_cli_write_info(const pf_cli *cli, pf_stream_writer *w, pf_error *err);
 
+/* One frame of mesh m as pf-sim writes it: a FRAM of the nodal displacements u [3 n_nodes] and a
+ * STRS of the elements' von Mises stress [n_elems], frame index at the simulated time. */
+pf_status pf_cli_write_frame(pf_stream_writer *w, const pf_mesh *m, uint32_t index, double time,
+                             const double *u, const double *von_mises, pf_error *err);
+
 /* The "import:" and "repair:" lines of a mesher's report on stderr, for what happened only. */
 void pf_cli_report_import(const pf_cli *cli, const pf_cli_import *imp);
 

@@ -363,23 +363,19 @@ static pf_status write_frame(run *r, const pf_sim *sim, int32_t index, pf_error 
 {
     const pf_mesh *m = pf_sim_mesh(sim);
     PF_TRY(write_changed_mesh(r, sim, err));
-    pf_frame_data f = {0};
-    pf_stress_data s = {0};
-    pf_status st = pf_frame_data_alloc(&f, m->n_nodes, err);
-    if (st >= 0)
-        st = pf_stress_data_alloc(&s, m->n_elems, 1, err);
+    double *u = pf_alloc_array(3 * (size_t)m->n_nodes + 1, sizeof *u);
+    double *von_mises = pf_alloc_array((size_t)m->n_elems + 1, sizeof *von_mises);
+    pf_status st = u && von_mises ? PF_OK
+                                  : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                                                 "frame %d: out of memory", (int)index);
     if (st >= 0) {
-        f.mesh_id = s.mesh_id = m->id;
-        f.index = s.frame = (uint32_t)index;
-        f.time = pf_sim_time(sim);
-        pf_sim_nodal_displacements(sim, f.u);
-        pf_sim_von_mises(sim, s.values);
-        st = pf_stream_write_frame(r->out, &f, err);
+        pf_sim_nodal_displacements(sim, u);
+        pf_sim_von_mises(sim, von_mises);
+        st = pf_cli_write_frame(r->out, m, (uint32_t)index, pf_sim_time(sim), u, von_mises,
+                                err);
     }
-    if (st >= 0)
-        st = pf_stream_write_stress(r->out, &s, err);
-    pf_frame_data_release(&f);
-    pf_stress_data_release(&s);
+    pf_free(u);
+    pf_free(von_mises);
     return st;
 }
 
@@ -493,8 +489,10 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
 static pf_status distributed_frame(void *ctx, const pf_sim_distrib_result *res, pf_error *err)
 {
     run *r = ctx;
-    return res->frame >= r->first_written ? pf_cli_distrib_frame(r->out, &r->mesh, res, err)
-                                          : PF_OK;
+    return res->frame >= r->first_written
+               ? pf_cli_write_frame(r->out, &r->mesh, (uint32_t)res->frame, res->time, res->u,
+                                    res->von_mises, err)
+               : PF_OK;
 }
 
 /* A scene on PETSc where every rank assembles its own elements (pf_sim_distrib_run). */

@@ -2,30 +2,6 @@
 #include "sim_distrib_out.h"
 
 #include <stdio.h>
-#include <string.h>
-
-pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
-                               const pf_sim_distrib_result *res, pf_error *err)
-{
-    pf_frame_data f = {0};
-    pf_stress_data s = {0};
-    pf_status st = pf_frame_data_alloc(&f, m->n_nodes, err);
-    if (st >= 0)
-        st = pf_stress_data_alloc(&s, m->n_elems, 1, err);
-    if (st >= 0) {
-        f.mesh_id = s.mesh_id = m->id;
-        f.index = s.frame = (uint32_t)res->frame;
-        f.time = res->time;
-        memcpy(f.u, res->u, 3 * (size_t)m->n_nodes * sizeof *f.u);
-        memcpy(s.values, res->von_mises, (size_t)m->n_elems * sizeof *s.values);
-        st = pf_stream_write_frame(out, &f, err);
-    }
-    if (st >= 0)
-        st = pf_stream_write_stress(out, &s, err);
-    pf_frame_data_release(&f);
-    pf_stress_data_release(&s);
-    return st;
-}
 
 pf_status pf_cli_distrib_stat(pf_stream_writer *out, const pf_scene *scene, int32_t elements,
                               const pf_sim_distrib_result *res, pf_error *err)

@@ -5,10 +5,6 @@
 #include <pf/io.h>
 #include <pf/sim.h>
 
-/* The result's frame (FRAM and STRS) of mesh m, as pf-sim writes a frame. */
-pf_status pf_cli_distrib_frame(pf_stream_writer *out, const pf_mesh *m,
-                               const pf_sim_distrib_result *res, pf_error *err);
-
 /* The run's STAT chunk (pf_sim_distrib_stats_entries) for scene on a mesh of elements. */
 pf_status pf_cli_distrib_stat(pf_stream_writer *out, const pf_scene *scene, int32_t elements,
                               const pf_sim_distrib_result *res, pf_error *err);

@@ -259,16 +259,19 @@ static void affine(const void *m, const double a[9], const double b[3], double *
     pf_dg_affine_coefficients(&((const dg_method *)m)->dg, a, b, u);
 }
 
-static double max_node_jump(const void *m, const double *u)
+/* The largest disagreement between elements at a node, and in *umax (when not NULL) the largest
+ * stitched nodal displacement; NAN when the stitched field cannot be allocated. */
+static double node_jump(const pf_dg *dg, const double *u, double *umax)
 {
-    const pf_dg *dg = &((const dg_method *)m)->dg;
     int nb = dg->nb, n = 3 * nb;
     double *stitched = pf_alloc_array(3 * (size_t)dg->n_nodes, sizeof *stitched);
     if (!stitched)
         return NAN;
     pf_dg_stitch(dg, u, stitched);
-    double largest = 0;
-    for (int32_t i = 0; i < dg->n_nodes; ++i)
+    double largest = 0, size = 0;
+    for (int32_t i = 0; i < dg->n_nodes; ++i) {
+        const double *si = stitched + 3 * (size_t)i;
+        size = fmax(size, pf_v3_norm(pf_v3(si[0], si[1], si[2])));
         for (int64_t q = dg->node_offsets[i]; q < dg->node_offsets[i + 1]; ++q) {
             const double *ue = u + (size_t)dg->node_elem[q] * n;
             const double *phi = dg->node_phi + (size_t)q * nb;
@@ -277,30 +280,31 @@ static double max_node_jump(const void *m, const double *u)
                 double value = 0;
                 for (int a = 0; a < nb; ++a)
                     value += phi[a] * ue[3 * a + c];
-                double diff = value - stitched[3 * (size_t)i + c];
+                double diff = value - si[c];
                 d2 += diff * diff;
             }
             largest = fmax(largest, sqrt(d2));
         }
+    }
     pf_free(stitched);
+    if (umax)
+        *umax = size;
     return largest;
+}
+
+static double max_node_jump(const void *m, const double *u)
+{
+    return node_jump(&((const dg_method *)m)->dg, u, NULL);
 }
 
 /* The largest jump between elements at a node relative to the largest stitched nodal
  * displacement (0 when nothing moves). */
 static double error_indicator(const void *m, const double *u)
 {
-    const pf_dg *dg = &((const dg_method *)m)->dg;
-    double *stitched = pf_alloc_array(3 * (size_t)dg->n_nodes, sizeof *stitched);
-    if (!stitched)
-        return NAN;
-    pf_dg_stitch(dg, u, stitched);
     double umax = 0;
-    for (int32_t i = 0; i < dg->n_nodes; ++i)
-        umax = fmax(umax, pf_v3_norm(pf_v3(stitched[3 * (size_t)i], stitched[3 * (size_t)i + 1],
-                                           stitched[3 * (size_t)i + 2])));
-    pf_free(stitched);
-    double jump = max_node_jump(m, u);
+    double jump = node_jump(&((const dg_method *)m)->dg, u, &umax);
+    if (isnan(jump))
+        return NAN;
     return umax > 0 ? jump / umax : 0;
 }
 

@@ -205,6 +205,18 @@ typedef pf_status (*pf_method_create_fn)(const pf_scene *scene, const pf_mesh *m
                                          int32_t *fixed_faces, int32_t *loaded_faces,
                                          pf_error *err);
 
+/* The implicit step's system (sim.c's step; the per-rank dynamics of sim_distrib_dyn.c), in two
+ * halves around the forces a step adds to f (contact): begin at state (u, v) with f holding the
+ * external forces: k := K and f += the stiffness's constant terms, or through the method's
+ * step_system in one pass k := kscale K + mscale M, f -= K u, ku := M v; finish: rhs =
+ * M v + h (f - K u) and k := kscale K + mscale M (ku is scratch [n]). */
+void pf_method_step_begin(const pf_method_ops *ops, void *m, const double *u, const double *v,
+                          bool corotate, double kscale, double mscale, pf_block_matrix *k,
+                          double *f, double *ku, size_t n);
+void pf_method_step_finish(const pf_method_ops *ops, const void *m, const double *u,
+                           const double *v, double h, double kscale, double mscale,
+                           pf_block_matrix *k, const double *f, double *ku, double *rhs, size_t n);
+
 /* The operations of a method (the registry of sim.c: NULL for a method pf does not have), and
  * each method's own, for what needs them without a method context (statistics of a run on
  * several ranks: the name of the error measure). */

@@ -215,6 +215,36 @@ static const struct {
 } METHODS[] = {{PF_METHOD_DG, pf_sim_dg_create, pf_sim_dg_ops},
                {PF_METHOD_CG, pf_sim_cg_create, pf_sim_cg_ops}};
 
+void pf_method_step_begin(const pf_method_ops *ops, void *m, const double *u, const double *v,
+                          bool corotate, double kscale, double mscale, pf_block_matrix *k,
+                          double *f, double *ku, size_t n)
+{
+    if (ops->step_system) {
+        memset(ku, 0, n * sizeof *ku);
+        ops->step_system(m, u, v, corotate, kscale, mscale, k, f, ku);
+    } else {
+        ops->stiffness(m, u, corotate, k, f);
+    }
+}
+
+void pf_method_step_finish(const pf_method_ops *ops, const void *m, const double *u,
+                           const double *v, double h, double kscale, double mscale,
+                           pf_block_matrix *k, const double *f, double *ku, double *rhs, size_t n)
+{
+    if (ops->step_system) {
+        for (size_t q = 0; q < n; ++q)
+            rhs[q] = h * f[q] + ku[q];
+        return;
+    }
+    pf_block_matrix_mul(k, 1, u, 0, ku);
+    for (size_t q = 0; q < n; ++q)
+        rhs[q] = h * (f[q] - ku[q]);
+    ops->mass_mul(m, 1, v, rhs);
+    for (int64_t q = 0; q < k->col_ptr[k->n]; ++q)
+        k->val[q] *= kscale;
+    ops->add_mass(m, mscale, k);
+}
+
 const pf_method_ops *pf_method_ops_of(pf_method method)
 {
     for (size_t k = 0; k < sizeof METHODS / sizeof *METHODS; ++k)
@@ -411,13 +441,8 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
      * pass (step_system), f then with the elastic force -K u */
     double kscale = h * sc->damping_beta + h * h, mscale = 1 + h * sc->damping_alpha;
     memcpy(s->f, s->f_ext, n * sizeof *s->f);
-    if (s->ops->step_system) {
-        memset(s->ku, 0, n * sizeof *s->ku);
-        s->ops->step_system(s->method, s->u, s->v, sc->corotation, kscale, mscale, &s->k, s->f,
-                            s->ku);
-    } else {
-        s->ops->stiffness(s->method, s->u, sc->corotation, &s->k, s->f);
-    }
+    pf_method_step_begin(s->ops, s->method, s->u, s->v, sc->corotation, kscale, mscale, &s->k,
+                         s->f, s->ku, n);
     if (s->rot && pf_solver_get_stats(s->solver)->method == PF_SOLVER_PCG) {
         s->ops->triple_rotations(s->method, s->rot);
         PF_TRY(pf_solver_set_rotations(s->solver, s->rot, err));
@@ -440,18 +465,8 @@ static pf_status step(pf_sim *s, double h, pf_error *err)
     cpu0 = pf_cpu_seconds();
     /* rhs = M v + h (f - K u), f with the contact forces at u; then
      * k := (h beta + h^2) (K + C) + (1 + h alpha) M, C the contact stiffness */
-    if (s->ops->step_system) {
-        for (size_t q = 0; q < n; ++q)
-            s->rhs[q] = h * s->f[q] + s->ku[q];
-    } else {
-        pf_block_matrix_mul(&s->k, 1, s->u, 0, s->ku);
-        for (size_t q = 0; q < n; ++q)
-            s->rhs[q] = h * (s->f[q] - s->ku[q]);
-        s->ops->mass_mul(s->method, 1, s->v, s->rhs);
-        for (int64_t q = 0; q < s->k.col_ptr[s->k.n]; ++q)
-            s->k.val[q] *= kscale;
-        s->ops->add_mass(s->method, mscale, &s->k);
-    }
+    pf_method_step_finish(s->ops, s->method, s->u, s->v, h, kscale, mscale, &s->k, s->f, s->ku,
+                          s->rhs, n);
     if (contacts > 0)
         pf_contact_add_stiffness(s->contact, kscale, &s->k);
     if (cracks > 0)

@@ -55,14 +55,22 @@ static void to_nodal(const cg_method *c, const double *u, double *out)
         memcpy(out + 3 * (size_t)c->map.block_node[i], u + 3 * (size_t)i, 3 * sizeof *out);
 }
 
-static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *k, double *f)
+/* The nodal field of u in c->u_full and, corotated, the elements' rotations from it (each
+ * warm-started from its last one). */
+static void nodal_state(cg_method *c, const double *u, bool corotate)
 {
-    cg_method *c = m;
+    to_nodal(c, u, c->u_full);
     if (corotate) {
-        to_nodal(c, u, c->u_full);
         pf_cg_rotations(&c->cg, c->mesh->x, c->u_full, c->rot_warm, c->rot);
         c->rot_warm = true;
     }
+}
+
+static void stiffness(void *m, const double *u, bool corotate, pf_block_matrix *k, double *f)
+{
+    cg_method *c = m;
+    if (corotate)
+        nodal_state(c, u, true);
     pf_cg_assemble_stiffness(&c->cg, &c->map, corotate ? c->rot : NULL, c->mesh->x, c->g,
                              c->scratch, k, f);
 }
@@ -71,11 +79,7 @@ static void step_system(void *m, const double *u, const double *v, bool corotate
                         double mscale, pf_block_matrix *k, double *f, double *mv)
 {
     cg_method *c = m;
-    to_nodal(c, u, c->u_full);
-    if (corotate) {
-        pf_cg_rotations(&c->cg, c->mesh->x, c->u_full, c->rot_warm, c->rot);
-        c->rot_warm = true;
-    }
+    nodal_state(c, u, corotate);
     pf_cg_step in = {.rot = corotate ? c->rot : NULL,
                      .x0 = c->mesh->x,
                      .u = c->u_full,
@@ -499,11 +503,9 @@ static void setup_stats(const void *m, pf_sim_stats *st)
     st->closed_form_elems = c->cg.n_closed_form;
     st->harmonic_elems = c->cg.n_elems - c->cg.n_closed_form;
     st->kernels = 0;
-    st->basis_error = 0;
-    for (int32_t e = 0; e < c->cg.basis.n_elems; ++e) {
+    for (int32_t e = 0; e < c->cg.basis.n_elems; ++e)
         st->kernels += c->cg.basis.stats[e].n_kernels;
-        st->basis_error = fmax(st->basis_error, c->cg.basis.stats[e].boundary_error);
-    }
+    st->basis_error = error_indicator(m, NULL);
     st->basis_seconds += c->cg.basis_seconds;
 }
 

@@ -571,10 +571,9 @@ static pf_status error_indicator(part *p, const distrib_out *o, pf_error *err)
 {
     double mine = 0, all = 0;
     if (p->scene.method == PF_METHOD_CG) {
-        pf_sim_stats st = {0};
-        if (p->method)
-            p->ops->setup_stats(p->method, &st);
-        MPI_Reduce(&st.basis_error, &all, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
+        /* the field does not enter: the shape functions' error */
+        mine = p->method ? p->ops->error_indicator(p->method, p->u) : 0;
+        MPI_Reduce(&mine, &all, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
         if (o)
             o->res->error_indicator = all;
         return PF_OK;

@@ -177,16 +177,13 @@ static pf_status assemble(dyn *d, double h, pf_error *err)
     const pf_scene *sc = &p->scene;
     size_t n = (size_t)p->n_dofs;
     if (p->method) {
+        /* DG: the part's owned rows of K u are K's */
+        double kscale = h * sc->damping_beta + h * h, mscale = 1 + h * sc->damping_alpha;
         memcpy(d->f, d->f_ext, n * sizeof *d->f);
-        p->ops->stiffness(p->method, p->u, sc->corotation, &p->k, d->f);
-        pf_block_matrix_mul(&p->k, 1, p->u, 0, d->ku); /* DG: its owned rows are K's */
-        for (size_t q = 0; q < n; ++q)
-            d->rhs[q] = h * (d->f[q] - d->ku[q]);
-        p->ops->mass_mul(p->method, 1, d->v, d->rhs);
-        double kscale = h * sc->damping_beta + h * h;
-        for (int64_t q = 0; q < p->k.col_ptr[p->k.n]; ++q)
-            p->k.val[q] *= kscale;
-        p->ops->add_mass(p->method, 1 + h * sc->damping_alpha, &p->k);
+        pf_method_step_begin(p->ops, p->method, p->u, d->v, sc->corotation, kscale, mscale, &p->k,
+                             d->f, d->ku, n);
+        pf_method_step_finish(p->ops, p->method, p->u, d->v, h, kscale, mscale, &p->k, d->f,
+                              d->ku, d->rhs, n);
     }
     /* without corotation the matrix stays, and so does GAMG's hierarchy */
     if (!d->assembled || sc->corotation)

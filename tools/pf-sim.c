@@ -509,7 +509,7 @@ static pf_status simulate_distributed(run *r, pf_error *err)
         }
     }
     if (st >= 0 && !r->quiet)
-        pf_cli_distrib_summary(&res, r->mesh.n_elems, r->scene.method == PF_METHOD_CG);
+        pf_cli_distrib_summary(&res, r->mesh.n_elems, &r->scene);
     if (r->stats_path && (st >= 0 || err->status == PF_ERR_NUMERIC)) {
         char *json = NULL;
         pf_error stats_err = {0};
@@ -543,7 +543,8 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
-    if (!restore && pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY")) {
+    if (!restore && pf_sim_distrib_applies(&r->scene, embedded) &&
+        !getenv("PF_SIM_RANK0_ASSEMBLY")) {
         /* that path has no pf_sim whose state a checkpoint could hold */
         PF_CHECK(!(r->checkpoint_given && r->checkpoint_every > 0), err, PF_ERR_INVALID,
                  "--checkpoint-every is not available for a scene on petsc where every rank "

@@ -9,9 +9,10 @@
 pf_status pf_cli_distrib_stat(pf_stream_writer *out, const pf_scene *scene, int32_t elements,
                               const pf_sim_distrib_result *res, pf_error *err);
 
-/* The summary on stderr: the method (cg: CG, else DG), unknowns, DG's penalty, solve, and per
- * rank its elements, set-up CPU and peak memory; for dynamics the steps, iterations per step and
- * the last frame's kinetic energy. */
-void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements, bool cg);
+/* The summary on stderr: the scene's method, unknowns, DG's penalty, solve, and per rank its
+ * elements, set-up CPU and peak memory; for dynamics the steps, iterations per step, contacts
+ * and the last frame's kinetic energy. */
+void pf_cli_distrib_summary(const pf_sim_distrib_result *res, int32_t elements,
+                            const pf_scene *scene);
 
 #endif

@@ -118,11 +118,56 @@ static pf_status append(pf_buffer *b, const void *bytes, size_t n, pf_error *err
     return n ? pf_buffer_append(b, bytes, n, err) : PF_OK;
 }
 
+/* What contact on a part needs of the whole mesh m (pf_contact_part): per node whether it lies on
+ * a boundary face and the number of elements using it (DG's node_elements: every element with a
+ * face at the node). */
+typedef struct contact_whole {
+    uint8_t *boundary; /* [n_nodes] */
+    int32_t *sharers;  /* [n_nodes] */
+} contact_whole;
+
+static pf_status contact_whole_make(const pf_mesh *m, contact_whole *w, pf_error *err)
+{
+    size_t nn = (size_t)m->n_nodes + 1;
+    w->boundary = pf_calloc(nn, 1);
+    w->sharers = pf_calloc(nn, sizeof *w->sharers);
+    int32_t *last = pf_alloc_array(nn, sizeof *last);
+    if (!w->boundary || !w->sharers || !last) {
+        pf_free(last);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "cannot allocate the contact data of %d nodes", (int)m->n_nodes);
+    }
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        if (m->face_elems[2 * f] < 0 || m->face_elems[2 * f + 1] < 0)
+            for (int64_t q = m->face_offsets[f]; q < m->face_offsets[f + 1]; ++q)
+                w->boundary[m->face_nodes[q]] = 1;
+    for (int32_t i = 0; i < m->n_nodes; ++i)
+        last[i] = -1;
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
+            for (int64_t q = m->face_offsets[f]; q < m->face_offsets[f + 1]; ++q)
+                if (last[m->face_nodes[q]] != e) {
+                    last[m->face_nodes[q]] = e;
+                    w->sharers[m->face_nodes[q]]++;
+                }
+        }
+    pf_free(last);
+    return PF_OK;
+}
+
+static void contact_whole_release(contact_whole *w)
+{
+    pf_free(w->boundary), pf_free(w->sharers);
+    *w = (contact_whole){0};
+}
+
 /* Part r of the mesh as one message: header, scene JSON, MESH and GRPS payloads, then per
- * element its PETSc number, whole-mesh index and ownership, and per node its whole-mesh index. */
+ * element its PETSc number, whole-mesh index and ownership, per node its whole-mesh index, with
+ * contact its boundary flag and sharers (contact_whole), and CG's data. */
 static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *owner,
-                           const int64_t *pelem, const cg_whole *cg, int32_t r, pf_buffer *out,
-                           pf_error *err)
+                           const int64_t *pelem, const cg_whole *cg, const contact_whole *cw,
+                           int32_t r, pf_buffer *out, pf_error *err)
 {
     int32_t ne = m->n_elems;
     uint8_t *keep = pf_calloc((size_t)ne + 1, 1);
@@ -185,6 +230,12 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
     for (int32_t i = 0; st >= 0 && any && i < m->n_nodes; ++i)
         if (node_id[i] >= 0)
             st = append(out, &i, sizeof i, err);
+    for (int32_t i = 0; st >= 0 && any && cw->boundary && i < m->n_nodes; ++i)
+        if (node_id[i] >= 0) {
+            st = append(out, &cw->boundary[i], 1, err);
+            if (st >= 0)
+                st = append(out, &cw->sharers[i], sizeof *cw->sharers, err);
+        }
     if (st >= 0 && any && cg)
         st = pf_sim_distrib_cg_pack(m, cg, keep, node_id, r, out, err);
     pf_mesh_release(&sub);
@@ -203,6 +254,7 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
     int64_t *pelem = pf_alloc_array((size_t)m->n_elems + 1, sizeof *pelem);
     char *json = NULL;
     cg_whole cg = {0};
+    contact_whole cw = {0};
     bool is_cg = scene->method == PF_METHOD_CG;
     pf_status st = owner && pelem ? PF_OK
                                   : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
@@ -211,13 +263,15 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
         st = partition(m, n, owner, pelem, err);
     if (st >= 0 && is_cg)
         st = pf_sim_distrib_cg_whole(scene, m, owner, n, &cg, err);
+    if (st >= 0 && pf_scene_has_contact(scene))
+        st = contact_whole_make(m, &cw, err);
     if (st >= 0)
         st = pf_scene_to_json(scene, &json, err);
     st = pf_sim_distrib_agree(st, err); /* a failed partition: no parts, every rank knows */
     bool made = st >= 0;
     for (int32_t r = n - 1; r >= 0 && made; --r) {
         if (st >= 0)
-            st = pack_part(m, json, owner, pelem, is_cg ? &cg : NULL, r, mine, err);
+            st = pack_part(m, json, owner, pelem, is_cg ? &cg : NULL, &cw, r, mine, err);
         if (r == 0)
             break;
         int64_t size = st >= 0 ? (int64_t)mine->size : -1;
@@ -228,6 +282,7 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
     }
     pf_free(owner), pf_free(pelem), pf_free(json);
     pf_sim_distrib_cg_whole_release(&cg);
+    contact_whole_release(&cw);
     return st;
 }
 
@@ -285,6 +340,16 @@ static pf_status unpack_part(part *p, pf_buffer *b, pf_error *err)
     }
     memcpy(p->gnode, at, nn * sizeof *p->gnode);
     at += nn * sizeof *p->gnode;
+    if (pf_scene_has_contact(&p->scene)) {
+        p->boundary = pf_alloc_array(nn + 1, 1);
+        p->sharers = pf_alloc_array(nn + 1, sizeof *p->sharers);
+        PF_CHECK(p->boundary && p->sharers, err, PF_ERR_NOMEM,
+                 "cannot allocate the contact data of %zu nodes", nn);
+        for (size_t i = 0; i < nn; ++i, at += 1 + sizeof *p->sharers) {
+            p->boundary[i] = at[0];
+            memcpy(&p->sharers[i], at + 1, sizeof *p->sharers);
+        }
+    }
     if (p->scene.method == PF_METHOD_CG)
         PF_TRY(pf_sim_distrib_cg_unpack(p, at, err));
     return pf_mesh_derive(&p->mesh, err);
@@ -609,6 +674,7 @@ static void release_part(part *p)
     pf_mesh_release(&p->mesh);
     pf_scene_release(&p->scene);
     pf_free(p->pelem), pf_free(p->gelem), pf_free(p->gnode), pf_free(p->owned);
+    pf_free(p->boundary), pf_free(p->sharers);
     pf_free(p->f), pf_free(p->u);
     pf_free(p->row), pf_free(p->row_owned);
     pf_free(p->coo_v);
@@ -676,17 +742,22 @@ static bool is_list(const pf_region *r)
     return r->kind == PF_REGION_NODES || r->kind == PF_REGION_ELEMENTS;
 }
 
-bool pf_sim_distrib_applies(const pf_scene *scene)
+bool pf_sim_distrib_applies(const pf_scene *scene, bool embedded)
 {
-    bool lists = false;
+    bool lists = false, meshes = false;
+    for (int32_t k = 0; k < scene->n_obstacles; ++k)
+        meshes |= scene->obstacles[k].kind == PF_OBSTACLE_MESH;
     for (int32_t k = 0; k < scene->n_fixed; ++k)
         lists |= is_list(&scene->fixed[k].region);
     for (int32_t k = 0; k < scene->n_loads; ++k)
         lists |= is_list(&scene->loads[k].region);
     for (int32_t k = 0; k < scene->n_materials; ++k)
         lists |= is_list(&scene->materials[k].region);
-    /* dynamics: without contact (no ground, no obstacles) and with a fixed mesh */
-    bool dynamic = !scene->ground && scene->n_obstacles == 0 && !pf_scene_changes_mesh(scene);
+    /* dynamics: with a fixed mesh; contact at the mesh's boundary nodes (not at an embedded
+     * surface's vertices, whose rows reach across parts) with the ground and obstacles other
+     * than meshes (whose triangles the parts do not receive) */
+    bool contact = pf_scene_has_contact(scene);
+    bool dynamic = !pf_scene_changes_mesh(scene) && !(contact && (embedded || meshes));
     return scene->solver.method == PF_SOLVER_PETSC && (scene->is_static || dynamic) &&
            (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) && scene->n_cuts == 0 &&
            !lists;
@@ -712,9 +783,9 @@ pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
     if (!up)
         PF_TRY(pf_petsc_initialize(NULL, NULL, NULL, NULL, err));
     PF_CHECK(rank_of() == 0, err, PF_ERR_INVALID, "the distributed solve is driven by rank 0");
-    PF_CHECK(pf_sim_distrib_applies(scene), err, PF_ERR_INVALID,
+    PF_CHECK(pf_sim_distrib_applies(scene, false), err, PF_ERR_INVALID,
              "the distributed assembly takes scenes with the petsc solver without node or element "
-             "lists: static ones, and dynamic ones without contact, cuts or refinement");
+             "lists: static ones, and dynamic ones without cuts, refinement or mesh obstacles");
     double cpu0 = pf_cpu_seconds();
     out->ranks = ranks();
     size_t nn = (size_t)mesh->n_nodes;
@@ -747,9 +818,9 @@ pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
 
 #else /* without PETSc */
 
-bool pf_sim_distrib_applies(const pf_scene *scene)
+bool pf_sim_distrib_applies(const pf_scene *scene, bool embedded)
 {
-    (void)scene;
+    (void)scene, (void)embedded;
     return false;
 }
 

@@ -47,6 +47,10 @@ typedef struct part {
     uint8_t *node_owned; /* [n_nodes] */
     double *g;           /* [3 n_nodes] */
     uint8_t *cut;        /* [n_faces of the part] */
+    /* dynamics with contact (pf_scene_has_contact): per node of the part whether it lies on
+     * the whole mesh's boundary and the number of the whole mesh's elements at it */
+    uint8_t *boundary;  /* [n_nodes] */
+    int32_t *sharers;   /* [n_nodes] */
     /* both: the PETSc row of each of the part's unknowns, and whether this rank owns it */
     int64_t n_dofs;
     PetscInt *row;      /* [n_dofs] */

@@ -1,6 +1,7 @@
 /* Dynamics with each MPI rank assembling its own elements (sim_distrib.h,
- * pf_sim_distrib_dynamics): sim.c's semi-implicit Euler on a part, without contact,
- *     ((1 + h alpha) M + (h beta + h^2) K) v' = M v + h (f - K u),     u' = u + h v'.
+ * pf_sim_distrib_dynamics): sim.c's semi-implicit Euler on a part,
+ *     ((1 + h alpha) M + (h beta + h^2) (K + C)) v' = M v + h (f + f_c - K u),     u' = u + h v',
+ * C and f_c the penalty contact's stiffness and forces (contact.c) at the mesh's boundary nodes.
  *
  * DG:
  * Each rank keeps the state of its part: its own elements and the halo (their face neighbours),
@@ -25,6 +26,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "contact.h"
 #include "sim_internal.h"
 
 #ifdef PF_HAVE_PETSC
@@ -34,6 +36,10 @@
 /* A rank's dynamic state: per unknown of the part [n_dofs] (u is p->u). */
 typedef struct dyn {
     part *p;
+    pf_contact *contact; /* NULL without ground and obstacles, or elements */
+    pf_contact_part contact_part;
+    int64_t contacts;     /* found by this step's detection on this rank */
+    int64_t all_contacts; /* and by all its steps' */
     double *f_ext, *v, *f, *rhs, *ku, *v_old, *dv, *dv2, *masked;
     Mat a;
     Vec x, b, local; /* local wraps v */
@@ -78,8 +84,46 @@ static pf_status create_solver(dyn *d, pf_error *err)
     return PF_OK;
 }
 
+/* Contact (contact.c) with the points of the part's own elements (DG) or nodes (CG) at the
+ * whole mesh's boundary nodes, so that each point of the whole mesh is on one rank: a DG point
+ * moves with its element's own field, a CG point with its node, both in the part, and its
+ * stiffness lands in blocks the rank sends (DG: its element's diagonal block; CG: its node's,
+ * summed with the other parts'). The shares and the automatic stiffness are the whole mesh's (the
+ * mean element size over every rank's elements). Collective. */
+static pf_status create_contact(dyn *d, pf_error *err)
+{
+    part *p = d->p;
+    if (!pf_scene_has_contact(&p->scene))
+        return PF_OK;
+    double mine[2] = {0, 0}, all[2] = {0, 0};
+    for (int32_t e = 0; p->method && e < p->h.n_elems; ++e)
+        if (p->owned[e])
+            mine[0] += p->ops->element_size(p->method, e), mine[1] += 1;
+    MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+    if (!p->method)
+        return PF_OK;
+    bool cg = p->scene.method == PF_METHOD_CG;
+    d->contact_part = (pf_contact_part){.boundary = p->boundary,
+                                        .sharers = cg ? NULL : p->sharers,
+                                        .element_holds = cg ? NULL : p->owned,
+                                        .node_holds = cg ? p->node_owned : NULL};
+    double size = all[1] > 0 ? all[0] / all[1] : 0;
+    pf_contact_setup cs = {.scene = &p->scene,
+                           .mesh = &p->mesh,
+                           .n_triples = p->n_dofs / 3,
+                           .ops = p->ops,
+                           .method = p->method,
+                           .auto_stiffness = p->ops->ground_stiffness(p->method, size),
+                           .model_size = d->model_size,
+                           .n_blocks = p->k.n_blocks,
+                           .block_start = p->k.block_start,
+                           .part = &d->contact_part};
+    return pf_contact_create(&d->contact, &cs, err);
+}
+
 static void destroy(dyn *d)
 {
+    pf_contact_destroy(&d->contact);
     KSPDestroy(&d->ksp), MatDestroy(&d->a), VecDestroy(&d->x), VecDestroy(&d->b);
     VecScatterDestroy(&d->take), VecDestroy(&d->local);
     double *vectors[] = {d->f_ext, d->v, d->f, d->rhs, d->ku, d->v_old, d->dv, d->dv2, d->masked};
@@ -176,17 +220,31 @@ static pf_status assemble(dyn *d, double h, pf_error *err)
     part *p = d->p;
     const pf_scene *sc = &p->scene;
     size_t n = (size_t)p->n_dofs;
+    d->contacts = d->contact ? pf_contact_detect(d->contact, d->time + h, p->u, d->v, h) : 0;
+    d->all_contacts += d->contacts;
     if (p->method) {
         /* DG: the part's owned rows of K u are K's */
         double kscale = h * sc->damping_beta + h * h, mscale = 1 + h * sc->damping_alpha;
         memcpy(d->f, d->f_ext, n * sizeof *d->f);
         pf_method_step_begin(p->ops, p->method, p->u, d->v, sc->corotation, kscale, mscale, &p->k,
                              d->f, d->ku, n);
+        if (d->contacts > 0)
+            pf_contact_forces(d->contact, p->u, d->f);
         pf_method_step_finish(p->ops, p->method, p->u, d->v, h, kscale, mscale, &p->k, d->f,
                               d->ku, d->rhs, n);
+        if (d->contacts > 0)
+            pf_contact_add_stiffness(d->contact, kscale, &p->k);
     }
-    /* without corotation the matrix stays, and so does GAMG's hierarchy */
-    if (!d->assembled || sc->corotation)
+    /* contacts on any rank, and whether any rank's set changed (sim.c: an impact or a release
+     * breaks the velocity's trend) */
+    int mine[2] = {d->contacts > 0, d->contact && pf_contact_set_changed(d->contact)};
+    int any[2] = {0, 0};
+    if (pf_scene_has_contact(sc))
+        MPI_Allreduce(mine, any, 2, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
+    if (any[1])
+        d->trend = 0;
+    /* without corotation or contact the matrix stays, and so does GAMG's hierarchy */
+    if (!d->assembled || sc->corotation || any[0] || any[1])
         PF_TRY(pf_sim_distrib_matrix_values(p, d->a, err));
     d->assembled = true;
     return rhs_rows(d, d->rhs, d->b, err);
@@ -237,6 +295,8 @@ static void advance(dyn *d, double h)
         if (counts(d, q))
             power += d->f_ext[q] * d->v[q];
     }
+    if (d->contacts > 0)
+        power += pf_contact_obstacle_power(d->contact);
     d->trend = d->trend < 2 ? d->trend + 1 : 2;
     d->work += h * power; /* this rank's share */
     d->steps++;
@@ -315,7 +375,10 @@ static pf_status frame(dyn *d, int32_t index, rank_stats *rs, pf_error *err)
 /* Frame index's outputs to rank 0 and its frame function (collective). */
 static pf_status emit(dyn *d, const distrib_out *o, int32_t index, pf_error *err)
 {
+    long long contacts = 0, mine = d->all_contacts;
+    MPI_Reduce(&mine, &contacts, 1, MPI_LONG_LONG, MPI_SUM, 0, PETSC_COMM_WORLD);
     if (o) {
+        o->res->contacts = contacts;
         o->res->frame = index;
         o->res->time = d->time;
         o->res->steps = d->steps;
@@ -335,6 +398,9 @@ pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs,
         p->ops->external_forces(p->method, d.f_ext);
     if (st >= 0)
         st = create_solver(&d, err);
+    st = pf_sim_distrib_agree(st, err);
+    if (st >= 0)
+        st = pf_sim_distrib_agree(create_contact(&d, err), err);
     if (st >= 0)
         st = start_energy(&d, err);
     if (st >= 0)

@@ -118,56 +118,12 @@ static pf_status append(pf_buffer *b, const void *bytes, size_t n, pf_error *err
     return n ? pf_buffer_append(b, bytes, n, err) : PF_OK;
 }
 
-/* What contact on a part needs of the whole mesh m (pf_contact_part): per node whether it lies on
- * a boundary face and the number of elements using it (DG's node_elements: every element with a
- * face at the node). */
-typedef struct contact_whole {
-    uint8_t *boundary; /* [n_nodes] */
-    int32_t *sharers;  /* [n_nodes] */
-} contact_whole;
-
-static pf_status contact_whole_make(const pf_mesh *m, contact_whole *w, pf_error *err)
-{
-    size_t nn = (size_t)m->n_nodes + 1;
-    w->boundary = pf_calloc(nn, 1);
-    w->sharers = pf_calloc(nn, sizeof *w->sharers);
-    int32_t *last = pf_alloc_array(nn, sizeof *last);
-    if (!w->boundary || !w->sharers || !last) {
-        pf_free(last);
-        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
-                            "cannot allocate the contact data of %d nodes", (int)m->n_nodes);
-    }
-    for (int32_t f = 0; f < m->n_faces; ++f)
-        if (m->face_elems[2 * f] < 0 || m->face_elems[2 * f + 1] < 0)
-            for (int64_t q = m->face_offsets[f]; q < m->face_offsets[f + 1]; ++q)
-                w->boundary[m->face_nodes[q]] = 1;
-    for (int32_t i = 0; i < m->n_nodes; ++i)
-        last[i] = -1;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        for (int64_t k = m->elem_offsets[e]; k < m->elem_offsets[e + 1]; ++k) {
-            int32_t f = PF_FACE_INDEX(m->elem_faces[k]);
-            for (int64_t q = m->face_offsets[f]; q < m->face_offsets[f + 1]; ++q)
-                if (last[m->face_nodes[q]] != e) {
-                    last[m->face_nodes[q]] = e;
-                    w->sharers[m->face_nodes[q]]++;
-                }
-        }
-    pf_free(last);
-    return PF_OK;
-}
-
-static void contact_whole_release(contact_whole *w)
-{
-    pf_free(w->boundary), pf_free(w->sharers);
-    *w = (contact_whole){0};
-}
-
 /* Part r of the mesh as one message: header, scene JSON, MESH and GRPS payloads, then per
  * element its PETSc number, whole-mesh index and ownership, per node its whole-mesh index, with
  * contact its boundary flag and sharers (contact_whole), and CG's data. */
-static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *owner,
-                           const int64_t *pelem, const cg_whole *cg, const contact_whole *cw,
-                           int32_t r, pf_buffer *out, pf_error *err)
+static pf_status pack_part(const pf_mesh *m, const char *json, const pf_buffer *obstacles,
+                           const int64_t *owner, const int64_t *pelem, const cg_whole *cg,
+                           const contact_whole *cw, int32_t r, pf_buffer *out, pf_error *err)
 {
     int32_t ne = m->n_elems;
     uint8_t *keep = pf_calloc((size_t)ne + 1, 1);
@@ -205,6 +161,7 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
                      .all_elems = m->n_elems,
                      .all_nodes = m->n_nodes,
                      .scene_bytes = (int64_t)strlen(json),
+                     .obstacle_bytes = (int64_t)obstacles->size,
                      .lo = {lo.x, lo.y, lo.z},
                      .hi = {hi.x, hi.y, hi.z},
                      .all_free = cg ? cg->all_free : 0,
@@ -214,6 +171,8 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
         st = append(out, &h, sizeof h, err);
     if (st >= 0)
         st = append(out, json, (size_t)h.scene_bytes, err);
+    if (st >= 0)
+        st = append(out, obstacles->data, obstacles->size, err);
     if (st >= 0)
         st = append(out, mesh_bytes.data, mesh_bytes.size, err);
     if (st >= 0)
@@ -230,12 +189,8 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
     for (int32_t i = 0; st >= 0 && any && i < m->n_nodes; ++i)
         if (node_id[i] >= 0)
             st = append(out, &i, sizeof i, err);
-    for (int32_t i = 0; st >= 0 && any && cw->boundary && i < m->n_nodes; ++i)
-        if (node_id[i] >= 0) {
-            st = append(out, &cw->boundary[i], 1, err);
-            if (st >= 0)
-                st = append(out, &cw->sharers[i], sizeof *cw->sharers, err);
-        }
+    if (st >= 0 && any && cw->boundary)
+        st = pf_sim_distrib_contact_pack(m, cw, node_id, out, err);
     if (st >= 0 && any && cg)
         st = pf_sim_distrib_cg_pack(m, cg, keep, node_id, r, out, err);
     pf_mesh_release(&sub);
@@ -255,6 +210,7 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
     char *json = NULL;
     cg_whole cg = {0};
     contact_whole cw = {0};
+    pf_buffer obstacles = {0};
     bool is_cg = scene->method == PF_METHOD_CG;
     pf_status st = owner && pelem ? PF_OK
                                   : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
@@ -264,14 +220,17 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
     if (st >= 0 && is_cg)
         st = pf_sim_distrib_cg_whole(scene, m, owner, n, &cg, err);
     if (st >= 0 && pf_scene_has_contact(scene))
-        st = contact_whole_make(m, &cw, err);
+        st = pf_sim_distrib_contact_whole(m, &cw, err);
+    if (st >= 0)
+        st = pf_sim_distrib_obstacles_pack(scene, &obstacles, err);
     if (st >= 0)
         st = pf_scene_to_json(scene, &json, err);
     st = pf_sim_distrib_agree(st, err); /* a failed partition: no parts, every rank knows */
     bool made = st >= 0;
     for (int32_t r = n - 1; r >= 0 && made; --r) {
         if (st >= 0)
-            st = pack_part(m, json, owner, pelem, is_cg ? &cg : NULL, &cw, r, mine, err);
+            st = pack_part(m, json, &obstacles, owner, pelem, is_cg ? &cg : NULL, &cw, r, mine,
+                           err);
         if (r == 0)
             break;
         int64_t size = st >= 0 ? (int64_t)mine->size : -1;
@@ -282,7 +241,8 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
     }
     pf_free(owner), pf_free(pelem), pf_free(json);
     pf_sim_distrib_cg_whole_release(&cg);
-    contact_whole_release(&cw);
+    pf_sim_distrib_contact_whole_release(&cw);
+    pf_buffer_release(&obstacles);
     return st;
 }
 
@@ -317,6 +277,8 @@ static pf_status unpack_part(part *p, pf_buffer *b, pf_error *err)
     PF_TRY(pf_scene_parse(&p->scene, (const char *)at, (size_t)p->h.scene_bytes, "scene", err));
     pf_scene_resolve(&p->scene, pf_v3_load(p->h.lo), pf_v3_load(p->h.hi));
     at += p->h.scene_bytes;
+    PF_TRY(pf_sim_distrib_obstacles_unpack(&p->scene, at, p->h.obstacle_bytes, err));
+    at += p->h.obstacle_bytes;
     if (p->h.n_elems == 0)
         return PF_OK;
     PF_TRY(decode_chunk("MESH", at, p->h.mesh_bytes, &p->mesh, err));
@@ -340,16 +302,8 @@ static pf_status unpack_part(part *p, pf_buffer *b, pf_error *err)
     }
     memcpy(p->gnode, at, nn * sizeof *p->gnode);
     at += nn * sizeof *p->gnode;
-    if (pf_scene_has_contact(&p->scene)) {
-        p->boundary = pf_alloc_array(nn + 1, 1);
-        p->sharers = pf_alloc_array(nn + 1, sizeof *p->sharers);
-        PF_CHECK(p->boundary && p->sharers, err, PF_ERR_NOMEM,
-                 "cannot allocate the contact data of %zu nodes", nn);
-        for (size_t i = 0; i < nn; ++i, at += 1 + sizeof *p->sharers) {
-            p->boundary[i] = at[0];
-            memcpy(&p->sharers[i], at + 1, sizeof *p->sharers);
-        }
-    }
+    if (pf_scene_has_contact(&p->scene))
+        PF_TRY(pf_sim_distrib_contact_unpack(p, &at, err));
     if (p->scene.method == PF_METHOD_CG)
         PF_TRY(pf_sim_distrib_cg_unpack(p, at, err));
     return pf_mesh_derive(&p->mesh, err);
@@ -744,20 +698,16 @@ static bool is_list(const pf_region *r)
 
 bool pf_sim_distrib_applies(const pf_scene *scene, bool embedded)
 {
-    bool lists = false, meshes = false;
-    for (int32_t k = 0; k < scene->n_obstacles; ++k)
-        meshes |= scene->obstacles[k].kind == PF_OBSTACLE_MESH;
+    bool lists = false;
     for (int32_t k = 0; k < scene->n_fixed; ++k)
         lists |= is_list(&scene->fixed[k].region);
     for (int32_t k = 0; k < scene->n_loads; ++k)
         lists |= is_list(&scene->loads[k].region);
     for (int32_t k = 0; k < scene->n_materials; ++k)
         lists |= is_list(&scene->materials[k].region);
-    /* dynamics: with a fixed mesh; contact at the mesh's boundary nodes (not at an embedded
-     * surface's vertices, whose rows reach across parts) with the ground and obstacles other
-     * than meshes (whose triangles the parts do not receive) */
-    bool contact = pf_scene_has_contact(scene);
-    bool dynamic = !pf_scene_changes_mesh(scene) && !(contact && (embedded || meshes));
+    /* dynamics: with a fixed mesh; contact at the mesh's boundary nodes, not at an embedded
+     * surface's vertices (whose rows reach across parts) */
+    bool dynamic = !pf_scene_changes_mesh(scene) && !(pf_scene_has_contact(scene) && embedded);
     return scene->solver.method == PF_SOLVER_PETSC && (scene->is_static || dynamic) &&
            (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) && scene->n_cuts == 0 &&
            !lists;
@@ -785,7 +735,7 @@ pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
     PF_CHECK(rank_of() == 0, err, PF_ERR_INVALID, "the distributed solve is driven by rank 0");
     PF_CHECK(pf_sim_distrib_applies(scene, false), err, PF_ERR_INVALID,
              "the distributed assembly takes scenes with the petsc solver without node or element "
-             "lists: static ones, and dynamic ones without cuts, refinement or mesh obstacles");
+             "lists: static ones, and dynamic ones without cuts or refinement");
     double cpu0 = pf_cpu_seconds();
     out->ranks = ranks();
     size_t nn = (size_t)mesh->n_nodes;

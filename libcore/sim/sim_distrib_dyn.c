@@ -1,7 +1,8 @@
 /* Dynamics with each MPI rank assembling its own elements (sim_distrib.h,
  * pf_sim_distrib_dynamics): sim.c's semi-implicit Euler on a part,
  *     ((1 + h alpha) M + (h beta + h^2) (K + C)) v' = M v + h (f + f_c - K u),     u' = u + h v',
- * C and f_c the penalty contact's stiffness and forces (contact.c) at the mesh's boundary nodes.
+ * C and f_c the penalty contact's stiffness and forces (contact.c) at the mesh's boundary nodes,
+ * each rank testing the points of its own elements or nodes (sim_distrib_contact.c).
  *
  * DG:
  * Each rank keeps the state of its part: its own elements and the halo (their face neighbours),
@@ -26,7 +27,6 @@
 #include <math.h>
 #include <string.h>
 
-#include "contact.h"
 #include "sim_internal.h"
 
 #ifdef PF_HAVE_PETSC
@@ -82,43 +82,6 @@ static pf_status create_solver(dyn *d, pf_error *err)
     ISDestroy(&rows);
     PF_PETSC_TRY(pe);
     return PF_OK;
-}
-
-/* Contact (contact.c) with the points of the part's own elements (DG) or nodes (CG) at the
- * whole mesh's boundary nodes, so that each point of the whole mesh is on one rank: a DG point
- * moves with its element's own field, a CG point with its node, both in the part, and its
- * stiffness lands in blocks the rank sends (DG: its element's diagonal block; CG: its node's,
- * summed with the other parts'). The shares and the automatic stiffness are the whole mesh's (the
- * mean element size over every rank's elements). Collective. */
-static pf_status create_contact(dyn *d, pf_error *err)
-{
-    part *p = d->p;
-    if (!pf_scene_has_contact(&p->scene))
-        return PF_OK;
-    double mine[2] = {0, 0}, all[2] = {0, 0};
-    for (int32_t e = 0; p->method && e < p->h.n_elems; ++e)
-        if (p->owned[e])
-            mine[0] += p->ops->element_size(p->method, e), mine[1] += 1;
-    MPI_Allreduce(mine, all, 2, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
-    if (!p->method)
-        return PF_OK;
-    bool cg = p->scene.method == PF_METHOD_CG;
-    d->contact_part = (pf_contact_part){.boundary = p->boundary,
-                                        .sharers = cg ? NULL : p->sharers,
-                                        .element_holds = cg ? NULL : p->owned,
-                                        .node_holds = cg ? p->node_owned : NULL};
-    double size = all[1] > 0 ? all[0] / all[1] : 0;
-    pf_contact_setup cs = {.scene = &p->scene,
-                           .mesh = &p->mesh,
-                           .n_triples = p->n_dofs / 3,
-                           .ops = p->ops,
-                           .method = p->method,
-                           .auto_stiffness = p->ops->ground_stiffness(p->method, size),
-                           .model_size = d->model_size,
-                           .n_blocks = p->k.n_blocks,
-                           .block_start = p->k.block_start,
-                           .part = &d->contact_part};
-    return pf_contact_create(&d->contact, &cs, err);
 }
 
 static void destroy(dyn *d)
@@ -400,7 +363,8 @@ pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs,
         st = create_solver(&d, err);
     st = pf_sim_distrib_agree(st, err);
     if (st >= 0)
-        st = pf_sim_distrib_agree(create_contact(&d, err), err);
+        st = pf_sim_distrib_agree(
+            pf_sim_distrib_contact_create(p, d.model_size, &d.contact_part, &d.contact, err), err);
     if (st >= 0)
         st = start_energy(&d, err);
     if (st >= 0)

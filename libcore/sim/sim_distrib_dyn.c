@@ -265,10 +265,10 @@ static void advance(dyn *d, double h)
     d->steps++;
 }
 
-/* sim.c's state_is_sane on every rank's owned unknowns (collective): PF_ERR_NUMERIC naming the
- * element (of the whole mesh) whose unknowns first went non-finite, else the one that moved
- * most. */
-static pf_status check_state(dyn *d, pf_error *err)
+/* sim.c's state_is_sane and worst_element over every rank's owned unknowns (collective):
+ * whether any rank's state is broken (non-finite, or a displacement above 1e3 model sizes), and
+ * the element (of the whole mesh) whose unknowns went non-finite, else the one that moved most. */
+static int worst_element(const dyn *d, bool *broken)
 {
     const part *p = d->p;
     struct {
@@ -286,11 +286,18 @@ static pf_status check_state(dyn *d, pf_error *err)
     }
     int any = 0, mine_bad = bad;
     MPI_Allreduce(&mine_bad, &any, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
-    if (!any)
-        return PF_OK;
     MPI_Allreduce(&mine, &worst, 1, MPI_DOUBLE_INT, MPI_MAXLOC, PETSC_COMM_WORLD);
-    return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
-                        "the simulation diverged (element %d first)", worst.element);
+    *broken = any;
+    return worst.element;
+}
+
+/* A step's state (collective): PF_ERR_NUMERIC, as sim.c, when any rank's is broken. */
+static pf_status check_state(dyn *d, pf_error *err)
+{
+    bool broken = false;
+    int element = worst_element(d, &broken);
+    PF_CHECK(!broken, err, PF_ERR_NUMERIC, "the simulation diverged (element %d first)", element);
+    return PF_OK;
 }
 
 /* sim.c's energy_is_bounded at a frame's end (collective). */
@@ -300,11 +307,15 @@ static pf_status check_energy(dyn *d, pf_error *err)
     MPI_Allreduce(&d->work, &work, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
     d->kinetic = kinetic_energy(d, d->v);
     double bound = d->kinetic0 + fmax(work, 0) + d->fixed_energy;
-    PF_CHECK(d->kinetic <= 4 * bound + d->energy_floor, err, PF_ERR_NUMERIC,
-             "the simulation diverged: kinetic energy %.3g exceeds four times what the body had "
-             "and was given (%.3g); a larger penalty, a smaller time step or more damping may help",
-             d->kinetic, bound);
-    return PF_OK;
+    if (d->kinetic <= 4 * bound + d->energy_floor)
+        return PF_OK;
+    bool broken;
+    int element = worst_element(d, &broken);
+    return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
+                        "the simulation diverged: kinetic energy %.3g exceeds four times what the "
+                        "body had and was given (%.3g), element %d moved most; a larger penalty "
+                        "(DG), a smaller time step or more damping may help",
+                        d->kinetic, bound, element);
 }
 
 /* One frame's substeps (collective; every rank fails alike). */

@@ -199,15 +199,51 @@ static bool has_surface_edge(const sc_surface *s, int32_t v, int32_t w)
     return false;
 }
 
+/* Vertex w replaced by vertex to everywhere: triangles, cap corners, slits (those of earlier
+ * planes sorted again) and points. */
+static void merge_vertex(split_ctx *k, int32_t w, int32_t to)
+{
+    sc_state *c = k->c;
+    sc_surface *s = c->s;
+    for (int64_t i = 0; i < 3 * (int64_t)s->n_tris; ++i)
+        if (s->tri[i] == (uint32_t)w)
+            s->tri[i] = (uint32_t)to;
+    for (int32_t n = 0; n < c->m->n_nodes; ++n)
+        if (c->cap_vert[n] == w)
+            c->cap_vert[n] = to;
+    for (int64_t i = 0; i < c->n_slit; ++i) {
+        uint64_t a = c->slit[i] >> 32, b = c->slit[i] & 0xffffffffu;
+        if (a == (uint64_t)w)
+            a = (uint64_t)to;
+        if (b == (uint64_t)w)
+            b = (uint64_t)to;
+        c->slit[i] = (a < b ? a : b) << 32 | (a < b ? b : a);
+    }
+    qsort(c->slit, (size_t)k->n_old_slit, sizeof *c->slit, compare_u64);
+    for (int32_t i = 0; i < c->n_points; ++i) {
+        for (int q = 0; q < 2; ++q)
+            if (c->pt[i].id[q] == w)
+                c->pt[i].id[q] = to;
+        if (c->pt[i].orig == w)
+            c->pt[i].orig = to;
+    }
+    if (k->vpt[w] >= 0 && k->vpt[to] < 0)
+        k->vpt[to] = k->vpt[w];
+}
+
 /* The vertex an earlier group of this cut made as a cap corner at a corner of this group's faces
- * at x (within tol) and joined by an edge to a or b (the copy on the edge's side: each copy of
- * the node has its own), or -1. */
-static int32_t node_vertex_at(const split_ctx *k, pf_vec3 x, int32_t a, int32_t b)
+ * at x (within tol) and joined by an edge to a or b, or -1. The caps of both sides of the earlier
+ * group may have a corner there (one per copy of the node) with the edge a-b between them, which
+ * this plane splits at one point: the corners are made one vertex, which the duplication after
+ * the last plane gives one copy per side again, by the slits, together with the edge's pieces
+ * (rather than two vertices on the caps that the surface's triangles between them never join). */
+static int32_t node_vertex_at(split_ctx *k, pf_vec3 x, int32_t a, int32_t b)
 {
     const sc_state *c = k->c;
     const sc_group *g = c->g;
     const pf_mesh *m = c->m;
     double u = pf_v3_get(x, g->ax[0]), v = pf_v3_get(x, g->ax[1]);
+    int32_t found = -1;
     for (int32_t f = 0; f < g->n_faces; ++f) {
         const double *box = g->box + 4 * (size_t)f;
         if (u < box[0] || u > box[2] || v < box[1] || v > box[3])
@@ -220,12 +256,16 @@ static int32_t node_vertex_at(const split_ctx *k, pf_vec3 x, int32_t a, int32_t 
                 k->cls[c->cap_vert[n]] == 0) {
                 int32_t w = c->cap_vert[n];
                 if (has_surface_edge(c->s, w, a) || has_surface_edge(c->s, a, w) ||
-                    has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w))
-                    return w;
+                    has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w)) {
+                    if (found < 0)
+                        found = w;
+                    else if (w != found)
+                        merge_vertex(k, w, found);
+                }
             }
         }
     }
-    return -1;
+    return found;
 }
 
 /* The point where the surface edge a-b (on opposite sides) meets the plane, placed from the

@@ -509,6 +509,150 @@ static pf_status closed_by_position(const pf_surface *s, double tol, bool *close
     return st;
 }
 
+/* ---- one vertex where two were made -----------------------------------------------------------
+ * Before the duplication, a cut of a closed surface has no border: its slits still join both
+ * sides. A border edge u-v that some other border edge v'-u' retraces the other way, between
+ * vertices at the same places (within tol), is a point made twice (a corner of a cap made once
+ * per copy of its node, where one vertex was needed): u' is made u and v' is made v, and the
+ * duplication then gives each side its copy by the slits. Never two cap corners of nodes of two
+ * bodies: both bodies have a hole there (a cap missing on each side), which joining them would
+ * hide while tying one body's surface to the other's. */
+
+typedef struct border_edge {
+    uint64_t key; /* lo << 32 | hi */
+    uint32_t u, v; /* directed as its triangle has it */
+} border_edge;
+
+static int compare_border(const void *a, const void *b)
+{
+    uint64_t x = ((const border_edge *)a)->key, y = ((const border_edge *)b)->key;
+    return (x > y) - (x < y);
+}
+
+static int32_t weld_root(int32_t *to, int32_t i)
+{
+    while (to[i] != i)
+        i = to[i] = to[to[i]];
+    return i;
+}
+
+/* The vertices welded into others (to: their union-find parents, roots the lowest) dropped and
+ * the others renumbered in order, in the triangles and the slits. */
+static pf_status renumber_welded(sc_state *c, int32_t *to, pf_error *err)
+{
+    sc_surface *s = c->s;
+    int32_t *num = NULL;
+    PF_CHECK(PF_ALLOC_N(num, (size_t)s->n_verts + 1), err, PF_ERR_NOMEM,
+             "out of memory renumbering %d vertices", (int)s->n_verts);
+    int32_t n = 0;
+    for (int32_t i = 0; i < s->n_verts; ++i) {
+        int32_t r = weld_root(to, i); /* the lowest of its set: numbered already */
+        if (r == i) {
+            memmove(s->x + 3 * (size_t)n, s->x + 3 * (size_t)i, 3 * sizeof *s->x);
+            memmove(s->side + 3 * (size_t)n, s->side + 3 * (size_t)i, 3 * sizeof *s->side);
+            num[i] = n++;
+        } else {
+            num[i] = num[r];
+        }
+    }
+    s->n_verts = n;
+    for (int64_t i = 0; i < 3 * (int64_t)s->n_tris; ++i)
+        s->tri[i] = (uint32_t)num[s->tri[i]];
+    for (int64_t i = 0; i < c->n_slit; ++i) {
+        uint64_t a = (uint64_t)num[c->slit[i] >> 32], b = (uint64_t)num[c->slit[i] & 0xffffffffu];
+        c->slit[i] = (a < b ? a : b) << 32 | (a < b ? b : a);
+    }
+    pf_free(num);
+    return PF_OK;
+}
+
+/* vnode[v]: the mesh node whose cap corner vertex v is (-1: none); body[n]: a node of the body
+ * of node n (nodes joined through the faces of the cut mesh). */
+static void node_bodies(const sc_state *c, int32_t *vnode, int32_t *body)
+{
+    const pf_mesh *m = c->m;
+    for (int32_t v = 0; v < c->s->n_verts; ++v)
+        vnode[v] = -1;
+    for (int32_t n = 0; n < m->n_nodes; ++n) {
+        body[n] = n;
+        if (c->cap_vert[n] >= 0)
+            vnode[c->cap_vert[n]] = n;
+    }
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        for (int64_t k = m->face_offsets[f] + 1; k < m->face_offsets[f + 1]; ++k) {
+            int32_t a = weld_root(body, (int32_t)m->face_nodes[k - 1]),
+                    b = weld_root(body, (int32_t)m->face_nodes[k]);
+            body[a > b ? a : b] = a < b ? a : b;
+        }
+    for (int32_t n = 0; n < m->n_nodes; ++n)
+        body[n] = weld_root(body, n);
+}
+
+static pf_status weld_borders(sc_state *c, double tol, pf_error *err)
+{
+    sc_surface *s = c->s;
+    int64_t ne = 3 * (int64_t)s->n_tris;
+    border_edge *e = NULL;
+    int32_t *to = NULL;
+    if (!PF_ALLOC_N(e, (size_t)ne + 1) || !PF_ALLOC_N(to, (size_t)s->n_verts + 1)) {
+        pf_free(e);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for the edges of %d triangles", (int)s->n_tris);
+    }
+    for (int64_t i = 0; i < ne; ++i) {
+        uint32_t u = s->tri[i], v = s->tri[i - i % 3 + (i + 1) % 3];
+        e[i] = (border_edge){(uint64_t)(u < v ? u : v) << 32 | (u < v ? v : u), u, v};
+    }
+    qsort(e, (size_t)ne, sizeof *e, compare_border);
+    int64_t nb = 0;
+    for (int64_t i = 0; i < ne;) {
+        int64_t j = i;
+        while (j < ne && e[j].key == e[i].key)
+            j++;
+        if (j - i == 1)
+            e[nb++] = e[i];
+        i = j;
+    }
+    for (int32_t i = 0; i < s->n_verts; ++i)
+        to[i] = i;
+    int32_t *vnode = NULL, *body = NULL;
+    if (nb > 1 && (!PF_ALLOC_N(vnode, (size_t)s->n_verts) ||
+                   !PF_ALLOC_N(body, (size_t)c->m->n_nodes + 1))) {
+        pf_free(e), pf_free(to), pf_free(vnode);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory for the bodies of %d nodes", (int)c->m->n_nodes);
+    }
+    if (nb > 1)
+        node_bodies(c, vnode, body);
+    bool any = false;
+    for (int64_t i = 0; i < nb; ++i)
+        for (int64_t j = i + 1; j < nb; ++j) {
+            pf_vec3 ui = pf_v3_load(s->x + 3 * (size_t)e[i].u),
+                    vi = pf_v3_load(s->x + 3 * (size_t)e[i].v);
+            if (pf_v3_dist(ui, pf_v3_load(s->x + 3 * (size_t)e[j].v)) > tol ||
+                pf_v3_dist(vi, pf_v3_load(s->x + 3 * (size_t)e[j].u)) > tol)
+                continue;
+            int32_t pairs[2][2] = {{(int32_t)e[i].u, (int32_t)e[j].v},
+                                   {(int32_t)e[i].v, (int32_t)e[j].u}};
+            bool one_body = true; /* corners of caps of two bodies: a hole on both sides */
+            for (int q = 0; q < 2; ++q) {
+                int32_t na = vnode[pairs[q][0]], nb_ = vnode[pairs[q][1]];
+                one_body = one_body && (na < 0 || nb_ < 0 || body[na] == body[nb_]);
+            }
+            for (int q = 0; q < 2 && one_body; ++q) {
+                int32_t a = weld_root(to, pairs[q][0]), b = weld_root(to, pairs[q][1]);
+                if (a != b)
+                    to[a > b ? a : b] = a < b ? a : b, any = true;
+            }
+        }
+    pf_status st = any ? renumber_welded(c, to, err) : PF_OK;
+    pf_free(e);
+    pf_free(to);
+    pf_free(vnode);
+    pf_free(body);
+    return st;
+}
+
 /* ---- entry point --------------------------------------------------------------------------------
  */
 
@@ -676,6 +820,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
         st = copy_input(s, &work, err);
     if (st >= 0)
         st = cut_by_groups(&c, fi, leader, n_groups, split_src, err);
+    if (st >= 0 && c.closed)
+        st = weld_borders(&c, SC_PLANE_TOL * pf_v3_dist(ss.lo, ss.hi), err);
     if (st >= 0)
         st = pf_sc_duplicate(&c, err);
     if (st >= 0)

@@ -64,7 +64,8 @@ static pf_status edge_map_grow(edge_map *h, pf_error *err)
 
 typedef struct split_ctx {
     sc_state *c;
-    int8_t *cls;     /* [vertices at the start of the plane] -1, 0, +1 */
+    int32_t nv;      /* vertices at the start of the plane */
+    int8_t *cls;     /* [nv] -1, 0, +1 */
     double *dist;    /* [same] signed distances */
     int32_t *vpt;    /* [same] point of an on-plane vertex, -1 */
     edge_map edges;  /* edge points */
@@ -189,8 +190,89 @@ static pf_status vertex_point(split_ctx *k, int32_t w, int32_t *out, pf_error *e
     return PF_OK;
 }
 
+/* Whether some triangle has the edge v-w. */
+static bool has_surface_edge(const sc_surface *s, int32_t v, int32_t w)
+{
+    for (int64_t i = 0; i < 3 * (int64_t)s->n_tris; ++i)
+        if (s->tri[i] == (uint32_t)v && s->tri[i - i % 3 + (i + 1) % 3] == (uint32_t)w)
+            return true;
+    return false;
+}
+
+/* Vertex w replaced by vertex to everywhere: triangles, cap corners, slits (those of earlier
+ * planes sorted again) and points. */
+static void merge_vertex(split_ctx *k, int32_t w, int32_t to)
+{
+    sc_state *c = k->c;
+    sc_surface *s = c->s;
+    for (int64_t i = 0; i < 3 * (int64_t)s->n_tris; ++i)
+        if (s->tri[i] == (uint32_t)w)
+            s->tri[i] = (uint32_t)to;
+    for (int32_t n = 0; n < c->m->n_nodes; ++n)
+        if (c->cap_vert[n] == w)
+            c->cap_vert[n] = to;
+    for (int64_t i = 0; i < c->n_slit; ++i) {
+        uint64_t a = c->slit[i] >> 32, b = c->slit[i] & 0xffffffffu;
+        if (a == (uint64_t)w)
+            a = (uint64_t)to;
+        if (b == (uint64_t)w)
+            b = (uint64_t)to;
+        c->slit[i] = (a < b ? a : b) << 32 | (a < b ? b : a);
+    }
+    qsort(c->slit, (size_t)k->n_old_slit, sizeof *c->slit, compare_u64);
+    for (int32_t i = 0; i < c->n_points; ++i) {
+        for (int q = 0; q < 2; ++q)
+            if (c->pt[i].id[q] == w)
+                c->pt[i].id[q] = to;
+        if (c->pt[i].orig == w)
+            c->pt[i].orig = to;
+    }
+    if (k->vpt[w] >= 0 && k->vpt[to] < 0)
+        k->vpt[to] = k->vpt[w];
+}
+
+/* The vertex an earlier group of this cut made as a cap corner at a corner of this group's faces
+ * at x (within tol) and joined by an edge to a or b, or -1. The caps of both sides of the earlier
+ * group may have a corner there (one per copy of the node) with the edge a-b between them, which
+ * this plane splits at one point: the corners are made one vertex, which the duplication after
+ * the last plane gives one copy per side again, by the slits, together with the edge's pieces
+ * (rather than two vertices on the caps that the surface's triangles between them never join). */
+static int32_t node_vertex_at(split_ctx *k, pf_vec3 x, int32_t a, int32_t b)
+{
+    const sc_state *c = k->c;
+    const sc_group *g = c->g;
+    const pf_mesh *m = c->m;
+    double u = pf_v3_get(x, g->ax[0]), v = pf_v3_get(x, g->ax[1]);
+    int32_t found = -1;
+    for (int32_t f = 0; f < g->n_faces; ++f) {
+        const double *box = g->box + 4 * (size_t)f;
+        if (u < box[0] || u > box[2] || v < box[1] || v > box[3])
+            continue;
+        int32_t face = g->face[f];
+        for (int64_t j = m->face_offsets[face]; j < m->face_offsets[face + 1]; ++j) {
+            int32_t n = (int32_t)m->face_nodes[j];
+            if (c->cap_vert[n] >= 0 && c->cap_vert[n] < k->nv &&
+                pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)n), x) <= g->tol &&
+                k->cls[c->cap_vert[n]] == 0) {
+                int32_t w = c->cap_vert[n];
+                if (has_surface_edge(c->s, w, a) || has_surface_edge(c->s, a, w) ||
+                    has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w)) {
+                    if (found < 0)
+                        found = w;
+                    else if (w != found)
+                        merge_vertex(k, w, found);
+                }
+            }
+        }
+    }
+    return found;
+}
+
 /* The point where the surface edge a-b (on opposite sides) meets the plane, placed from the
- * lower vertex index so that both triangles of the edge get the same point. */
+ * lower vertex index so that both triangles of the edge get the same point. Where an earlier
+ * group of this cut put a cap corner there (the edge runs along its caps' border: a later plane
+ * crosses an earlier one's crack), the point is that corner's vertex, not a second vertex a few
+ * ulps away. */
 static pf_status edge_point(split_ctx *k, int32_t a, int32_t b, int32_t *out, pf_error *err)
 {
     if (a > b) {
@@ -208,11 +290,15 @@ static pf_status edge_point(split_ctx *k, int32_t a, int32_t b, int32_t *out, pf
     double t = k->dist[a] / (k->dist[a] - k->dist[b]);
     pf_vec3 xa = pf_v3_load(c->s->x + 3 * (size_t)a), xb = pf_v3_load(c->s->x + 3 * (size_t)b);
     pf_vec3 x = pf_v3_add(xa, pf_v3_scale(pf_v3_sub(xb, xa), t));
-    pf_vec3 sa = pf_v3_load(c->s->side + 3 * (size_t)a),
-            sb = pf_v3_load(c->s->side + 3 * (size_t)b);
-    pf_vec3 side = pf_v3_add(pf_v3_scale(sa, 1 - t), pf_v3_scale(sb, t));
-    int32_t p;
-    PF_TRY(pf_sc_new_point(c, x, side, -1, &p, err));
+    int32_t p, w = node_vertex_at(k, x, a, b);
+    if (w >= 0) {
+        PF_TRY(vertex_point(k, w, &p, err));
+    } else {
+        pf_vec3 sa = pf_v3_load(c->s->side + 3 * (size_t)a),
+                sb = pf_v3_load(c->s->side + 3 * (size_t)b);
+        pf_vec3 side = pf_v3_add(pf_v3_scale(sa, 1 - t), pf_v3_scale(sb, t));
+        PF_TRY(pf_sc_new_point(c, x, side, -1, &p, err));
+    }
     if (old_slit(k, a, b))
         PF_TRY(push_sub(k, a, b, p, err));
     k->edges.n++;
@@ -698,6 +784,7 @@ pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
     sc_surface *s = c->s;
     const sc_group *g = c->g;
     int32_t nv = s->n_verts, nt = s->n_tris;
+    k.nv = nv;
     pf_status st = PF_OK;
     if (!PF_ALLOC_N(k.cls, (size_t)nv) || !PF_ALLOC_N(k.dist, (size_t)nv) ||
         !PF_ALLOC_N(k.vpt, (size_t)nv) || !PF_ALLOC_N(k.stamp, (size_t)g->n_edges) ||

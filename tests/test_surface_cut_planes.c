@@ -13,7 +13,8 @@
  * cut surface is closed, its enclosed volume equals the cut mesh's: the render surface is the
  * mesh's boundary (slicing makes exact polyhedra at the surface), so to round-off (1e-9
  * relative: sums over ~10^4 triangles and polyhedra) plus the volume of pieces the cut
- * reports dropped. */
+ * reports dropped. Whatever the topology, no vertex moves with two bodies: every node a vertex's
+ * weights name lies in one body (the cut duplicates nodes, so each lies in one). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -42,6 +43,7 @@ typedef struct model {
 typedef struct cut_count {
     int64_t open, nonmanifold; /* -1: the cut failed */
     double vol_err;            /* |surface volume - mesh volume - dropped| / mesh volume */
+    int32_t two_bodies;        /* vertices weighted on nodes of two bodies */
 } cut_count;
 
 static uint64_t next_random(uint64_t *s)
@@ -113,9 +115,47 @@ static double mesh_volume(const pf_mesh *m)
     return v;
 }
 
-/* One plane through the whole mesh as pf-cut applies it; m, s and *cut_face replaced. */
+static int32_t find_root(int32_t *parent, int32_t e)
+{
+    while (parent[e] != e)
+        e = parent[e] = parent[parent[e]];
+    return e;
+}
+
+/* The vertices of w whose weights name nodes of two bodies of m (bodies: elements joined by
+ * faces; a node's body that of any element at it). */
+static int32_t vertices_on_two_bodies(const pf_mesh *m, const pf_weights *w)
+{
+    int32_t *parent = malloc(sizeof *parent * ((size_t)m->n_elems + 1));
+    int32_t *node_body = malloc(sizeof *node_body * ((size_t)m->n_nodes + 1));
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        parent[e] = e;
+    for (int32_t f = 0; f < m->n_faces; ++f)
+        if (m->face_elems[2 * f] >= 0 && m->face_elems[2 * f + 1] >= 0)
+            parent[find_root(parent, m->face_elems[2 * f])] =
+                find_root(parent, m->face_elems[2 * f + 1]);
+    for (int32_t e = 0; e < m->n_elems; ++e)
+        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
+            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
+            for (int64_t i = m->face_offsets[f]; i < m->face_offsets[f + 1]; ++i)
+                node_body[m->face_nodes[i]] = find_root(parent, e);
+        }
+    int32_t count = 0;
+    for (int32_t v = 0; v < w->rows; ++v) {
+        bool two = false;
+        for (int64_t q = w->row_offsets[v]; q < w->row_offsets[v + 1]; ++q)
+            two |= w->val[q] != 0 &&
+                   node_body[w->col[q]] != node_body[w->col[w->row_offsets[v]]];
+        count += two;
+    }
+    free(parent), free(node_body);
+    return count;
+}
+
+/* One plane through the whole mesh as pf-cut applies it; m, s and *cut_face replaced;
+ * *two_bodies the cut surface's vertices weighted on two bodies. */
 static pf_status cut_plane(pf_mesh *m, pf_surface *s, uint8_t **cut_face, pf_plane pl,
-                           double *dropped, pf_error *err)
+                           double *dropped, int32_t *two_bodies, pf_error *err)
 {
     pf_vec3 lo, hi;
     pf_mesh_bounds(m, &lo, &hi);
@@ -158,6 +198,7 @@ static pf_status cut_plane(pf_mesh *m, pf_surface *s, uint8_t **cut_face, pf_pla
     pf_surface_cut_stats ss;
     st = pf_surface_cut(s, &out, &res, NULL, &cs, &cw, &ss, err);
     *dropped += res.dropped_volume;
+    *two_bodies = st >= 0 ? vertices_on_two_bodies(&out, &cw) : 0;
     pf_weights_release(&cw);
     pf_free(*cut_face);
     *cut_face = res.cut_face;
@@ -191,8 +232,9 @@ static void cut_seed(const model *md, uint64_t seed, int n_planes, cut_count *go
     bool failed = false;
     for (int k = 0; k < n_planes; ++k) {
         pf_plane pl = random_plane(&rs, lo, hi);
-        got[k] = (cut_count){-1, -1, INFINITY};
-        if (failed || cut_plane(&m, &s, &cut_face, pl, &dropped, &err) < 0) {
+        got[k] = (cut_count){-1, -1, INFINITY, 0};
+        int32_t two_bodies = 0;
+        if (failed || cut_plane(&m, &s, &cut_face, pl, &dropped, &two_bodies, &err) < 0) {
             if (!failed)
                 print_message("seed %d plane %d: %s\n", (int)seed, k + 1, err.msg);
             failed = true;
@@ -202,7 +244,7 @@ static void cut_seed(const model *md, uint64_t seed, int n_planes, cut_count *go
         assert_int_equal(pf_surface_compute_stats(&s, &ss, &err), PF_OK);
         double vol = mesh_volume(&m);
         got[k] = (cut_count){ss.n_boundary_edges, ss.n_nonmanifold_edges + ss.n_flipped_edges,
-                             fabs(ss.volume - vol - dropped) / vol};
+                             fabs(ss.volume - vol - dropped) / vol, two_bodies};
     }
     pf_free(cut_face);
     pf_mesh_release(&m);
@@ -222,6 +264,8 @@ static void run_seeds(const char *name, const model *md, int n_seeds, const int 
         print_message("%s seed %2d: open/non-manifold after 1, 2, 3 planes:", name, seed);
         for (int k = 0; k < MAX_PLANES; ++k) {
             print_message(" %4lld/%lld", (long long)got[k].open, (long long)got[k].nonmanifold);
+            CHECKF(got[k].two_bodies == 0, "%s seed %d plane %d: %d vertices on two bodies", name,
+                   seed, k + 1, (int)got[k].two_bodies);
             if (got[k].open == 0 && got[k].nonmanifold == 0) {
                 closed[k]++;
                 CHECKF(got[k].vol_err <= 1e-9, "%s seed %d plane %d: closed, volume off by %.3g",
@@ -327,7 +371,10 @@ static void test_seam_closed_by_position(void **state)
         s.id = src->id;
         uint8_t *cut_face = NULL;
         double dropped = 0;
-        CHECKF(cut_plane(&m, &s, &cut_face, pl, &dropped, &err) >= 0, "cut: %s", err.msg);
+        int32_t two_bodies = 0;
+        CHECKF(cut_plane(&m, &s, &cut_face, pl, &dropped, &two_bodies, &err) >= 0, "cut: %s",
+               err.msg);
+        assert_int_equal(two_bodies, 0);
         area[k] = cap_area(&s);
         assert_int_equal(pf_surface_compute_stats(&s, &ss, &err), PF_OK);
         double vol = mesh_volume(&m);

@@ -203,11 +203,9 @@ pf_status pf_sim_distrib_restore(part *p, double *v, pf_sim_saved *st, const dis
                                                            "cannot allocate %d unknowns", m),
                                        err);
     if (s >= 0)
-        s = gather_indices(&x, p->wdof, NULL, m, o != NULL, err);
-    if (s >= 0 && o)
-        s = read_state(p, &x, st, o, err);
-    if (s >= 0)
-        s = pf_sim_distrib_agree(s, err);
+        s = gather_indices(&x, p->wdof, NULL, m, o != NULL, err); /* agreed */
+    if (s >= 0) /* rank 0's reading, agreed before the scatter */
+        s = pf_sim_distrib_agree(o ? read_state(p, &x, st, o, err) : PF_OK, err);
     if (s >= 0) {
         MPI_Scatterv(x.vals, x.counts2, x.displs2, MPI_DOUBLE, mine, 2 * m, MPI_DOUBLE, 0,
                      PETSC_COMM_WORLD);

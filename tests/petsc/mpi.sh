@@ -320,6 +320,26 @@ for name in swing swing_cg; do
   check "$name: a one-process checkpoint resumed on 2 ranks to 1e-6" \
     same_frames "$tmp/fd" "$tmp/fp" 1e-6 0.02 "$lines"
 done
+# a damaged checkpoint (its state's fingerprint flipped, the CRC made right) is refused by rank 0
+# on resuming, and every rank ends: exit 1, the message once, naming the chunk
+python3 - "$tmp/ck.pfs" "$tmp/ck_bad.pfs" <<'PY'
+import struct, sys, zlib
+data = bytearray(open(sys.argv[1], "rb").read())
+at, last = 8, None
+while at < len(data):
+    size = struct.unpack_from("<Q", data, at + 8)[0]
+    if data[at:at + 4] == b"CKPT":
+        last = (at, size)
+    at += 20 + size
+at, size = last
+data[at + 16 + 48 + 12] ^= 1  # the state's fingerprint (after the 48-byte CKPT header)
+struct.pack_into("<I", data, at + 16 + size, zlib.crc32(bytes(data[at + 16:at + 16 + size])))
+open(sys.argv[2], "wb").write(data)
+PY
+expect 1 "chunk CKPT at byte" mpi 2 "$bin/pf-sim" --resume "$tmp/ck_bad.pfs" --output "$tmp/ck_bad_res.pfs"
+check "a damaged checkpoint on 2 ranks: the message once" \
+  test "$(grep -c 'another scene, mesh or obstacle surface' "$tmp/err")" = 1
+
 # A static scene's checkpoint (its solution; DG BZ degree 2) from 2 ranks: restored on one
 # process, the same STAT (the error indicator of the restored state to 1e-8 relative, measured
 # 1.1e-14); the complete stream resumed on 2 ranks is the same stream, bit for bit.

@@ -519,7 +519,7 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
-    if (pf_sim_distrib_applies(&r->scene) && !getenv("PF_SIM_RANK0_ASSEMBLY"))
+    if (pf_sim_distrib_applies(&r->scene, embedded) && !getenv("PF_SIM_RANK0_ASSEMBLY"))
         return simulate_distributed(r, restore, err);
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);
     r->bar.phase_lines = true;

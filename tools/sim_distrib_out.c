@@ -76,8 +76,9 @@ static pf_status write_stat(const pf_cli_distrib_run *d, const pf_sim_distrib_re
     return st;
 }
 
-static void summary(const pf_sim_distrib_result *res, int32_t elements, bool cg)
+static void summary(const pf_sim_distrib_result *res, int32_t elements, const pf_scene *scene)
 {
+    bool cg = scene->method == PF_METHOD_CG;
     char penalty[64] = "";
     if (!cg && res->penalty_doublings > 0)
         snprintf(penalty, sizeof penalty, ", penalty %g (%d doublings)", res->penalty,
@@ -90,11 +91,16 @@ static void summary(const pf_sim_distrib_result *res, int32_t elements, bool cg)
             cg ? "cg" : "dg", (int)elements, (long long)res->dofs, penalty, (int)res->ranks,
             (int)res->iterations, res->steps > 0 ? " in all" : "", res->residual,
             res->steps > 0 ? " at most" : "");
+    char contact[64] = "";
+    if (pf_scene_has_contact(scene))
+        snprintf(contact, sizeof contact, "; %lld contacts at the boundary nodes",
+                 (long long)res->contacts);
     if (res->steps > 0)
         fprintf(stderr,
-                "pf-sim: %lld steps, %.2f iterations per step; kinetic energy %.6g at the last "
+                "pf-sim: %lld steps, %.2f iterations per step%s; kinetic energy %.6g at the last "
                 "frame\n",
-                (long long)res->steps, (double)res->iterations / (double)res->steps, res->kinetic);
+                (long long)res->steps, (double)res->iterations / (double)res->steps, contact,
+                res->kinetic);
     for (int32_t r = 0; r < res->ranks; ++r)
         fprintf(stderr,
                 "pf-sim: rank %d: %d elements assembled, set-up %.3f s cpu, %.3f s cpu in all, "
@@ -157,7 +163,7 @@ pf_status pf_cli_distrib_simulate(pf_cli_distrib_run *d, pf_error *err)
         }
     }
     if (st >= 0 && !d->quiet)
-        summary(&res, d->mesh->n_elems, d->scene->method == PF_METHOD_CG);
+        summary(&res, d->mesh->n_elems, d->scene);
     if (d->stats_path && ran) {
         pf_error stats_err = {0};
         pf_status ss = write_stats(d, &all, &stats_err);

@@ -331,36 +331,55 @@ static pf_status surface_points(pf_contact *c, const pf_contact_setup *s, pf_err
     return place_samples(c, s, c->n_weighted, err);
 }
 
-/* The boundary nodes: one point per element moving a node's contact, each with its share. */
+/* Whether the part holds the point of node i moved by element e (always on one process). */
+static bool part_holds(const pf_contact_part *part, int32_t i, int32_t e)
+{
+    return !part || ((!part->element_holds || part->element_holds[e]) &&
+                     (!part->node_holds || part->node_holds[i]));
+}
+
+/* The boundary nodes: one point per element moving a node's contact, each with its share (on a
+ * part: the whole mesh's boundary nodes, the points it holds, shares of the whole mesh). */
 static pf_status node_points(pf_contact *c, const pf_contact_setup *s, pf_error *err)
 {
     const pf_mesh *m = s->mesh;
+    const pf_contact_part *part = s->part;
     uint8_t *on = pf_calloc((size_t)m->n_nodes + 1, 1);
     PF_CHECK(on, err, PF_ERR_NOMEM, "cannot allocate node flags");
     int32_t nodes = 0;
     pf_status st = count_boundary_nodes(m, on, &nodes, err);
+    for (int32_t i = 0; part && i < m->n_nodes; ++i)
+        on[i] = part->boundary[i];
     int64_t np = 0;
-    for (int32_t i = 0; st >= 0 && i < m->n_nodes; ++i)
-        if (on[i]) {
+    for (int pass = 0; pass < 2 && st >= 0; ++pass) {
+        if (pass == 1 && np > INT32_MAX)
+            st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
+                              "%lld contact points are too many", (long long)np);
+        if (pass == 1 && st >= 0)
+            st = allocate_points(c, (int32_t)np, err);
+        int64_t p = 0;
+        int32_t held = 0; /* nodes with a point here */
+        for (int32_t i = 0; st >= 0 && i < m->n_nodes; ++i) {
+            if (!on[i])
+                continue;
+            int64_t first = p;
             const int32_t *elems;
-            np += s->ops->node_elements(s->method, i, &elems);
+            int32_t n = s->ops->node_elements(s->method, i, &elems);
+            int32_t sharers = part && part->sharers ? part->sharers[i] : n;
+            for (int32_t k = 0; k < n; ++k) {
+                if (!part_holds(part, i, elems[k]))
+                    continue;
+                if (pass == 1) {
+                    memcpy(c->x0 + 3 * (size_t)p, m->x + 3 * (size_t)i, 3 * sizeof *c->x0);
+                    c->point_elem[p] = elems[k];
+                    c->share[p] = 1.0 / sharers;
+                }
+                ++p;
+            }
+            held += p > first;
         }
-    if (st >= 0 && np > INT32_MAX)
-        st = pf_error_set(err, PF_ERR_TOO_LARGE, __FILE__, __LINE__,
-                          "%lld contact points are too many", (long long)np);
-    if (st >= 0)
-        st = allocate_points(c, (int32_t)np, err);
-    int32_t p = 0;
-    for (int32_t i = 0; st >= 0 && i < m->n_nodes; ++i) {
-        if (!on[i])
-            continue;
-        const int32_t *elems;
-        int32_t n = s->ops->node_elements(s->method, i, &elems);
-        for (int32_t k = 0; k < n; ++k, ++p) {
-            memcpy(c->x0 + 3 * (size_t)p, m->x + 3 * (size_t)i, 3 * sizeof *c->x0);
-            c->point_elem[p] = elems[k];
-            c->share[p] = 1.0 / n;
-        }
+        np = p;
+        nodes = held;
     }
     c->sources = nodes;
     pf_free(on);
@@ -449,6 +468,9 @@ pf_status pf_contact_create(pf_contact **out, const pf_contact_setup *s, pf_erro
     *out = NULL;
     if (!s->scene->ground && s->scene->n_obstacles == 0)
         return PF_OK;
+    PF_CHECK(!(s->part && s->weights), err, PF_ERR_INVALID,
+             "contact on a part of a distributed mesh is at boundary nodes only, not at an "
+             "embedded surface");
     pf_contact *c = pf_calloc(1, sizeof *c);
     PF_CHECK(c, err, PF_ERR_NOMEM, "cannot allocate contact");
     c->mesh = s->mesh;

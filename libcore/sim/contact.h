@@ -20,6 +20,17 @@
 
 typedef struct pf_contact pf_contact;
 
+/* A rank's part of a distributed mesh (sim_distrib_dyn.c): the points at boundary nodes that this
+ * part holds, so that every point of the whole mesh is held by one part. */
+typedef struct pf_contact_part {
+    const uint8_t *boundary; /* [n_nodes] on the whole mesh's boundary (a part's own boundary
+                                includes the faces between parts) */
+    const int32_t *sharers;  /* [n_nodes] the elements at the node in the whole mesh whose points
+                                split its penalty (DG: all at the node); NULL: node_elements' */
+    const uint8_t *element_holds; /* [n_elems] elements whose points the part holds (NULL: all) */
+    const uint8_t *node_holds;    /* [n_nodes] nodes whose points the part holds (NULL: all) */
+} pf_contact_part;
+
 /* What contact needs from the driver; every pointer borrowed for the contact's lifetime. */
 typedef struct pf_contact_setup {
     const pf_scene *scene; /* resolved; mesh obstacles' triangles handed over
@@ -34,6 +45,7 @@ typedef struct pf_contact_setup {
     double model_size;     /* the mesh's bounding-box diagonal */
     int32_t n_blocks;      /* the system matrix's blocks: block_start [n_blocks + 1] unknowns */
     const int64_t *block_start;
+    const pf_contact_part *part; /* NULL on one process; with boundary nodes only (no surface) */
 } pf_contact_setup;
 
 /* Time spent, seconds, since creation. */

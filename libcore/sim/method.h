@@ -78,8 +78,12 @@ typedef struct pf_method_ops {
     int32_t (*point_row)(const void *m, int32_t e, pf_vec3 x, int64_t *triple, double *w);
     int32_t (*max_point_row)(const void *m);
     int32_t (*node_elements)(const void *m, int32_t i, const int32_t **elems);
-    /* The automatic contact stiffness per point: ten times an element's stiffness. */
-    double (*ground_stiffness)(const void *m);
+    /* The automatic contact stiffness per point for elements of mean size h: ten times an
+     * element's stiffness (pf_method_ground_stiffness with the method's materials); an element's
+     * size, half the diagonal of its nodes' bounding box (the mean over the whole mesh is h: on
+     * one process pf_method_mean_element_size, on ranks a sum over the parts). */
+    double (*ground_stiffness)(const void *m, double h);
+    double (*element_size)(const void *m, int32_t e);
     /* DG only (NULL otherwise): the penalty factor, and the mass shift that lifts the rigid modes
      * of a free body in the definiteness test of the penalty search. */
     void (*set_penalty)(void *m, double eta);
@@ -127,6 +131,16 @@ static inline double pf_method_ground_stiffness(const pf_material *table, int32_
     double modulus, per_density;
     pf_material_stiffest(table, n, &modulus, &per_density);
     return 10 * modulus * h;
+}
+
+/* The mean of ops->element_size over the method's n_elems elements (0 for none). */
+static inline double pf_method_mean_element_size(const pf_method_ops *ops, const void *m,
+                                                 int32_t n_elems)
+{
+    double h = 0;
+    for (int32_t e = 0; e < n_elems; ++e)
+        h += ops->element_size(m, e);
+    return n_elems > 0 ? h / n_elems : 0;
 }
 
 /* The scene's fixed region that holds boundary face f of m (centroid c): the first that selects

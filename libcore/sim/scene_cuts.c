@@ -17,6 +17,11 @@ bool pf_scene_changes_mesh(const pf_scene *s)
     return s->refine.enabled || s->n_cuts > 0;
 }
 
+bool pf_scene_has_contact(const pf_scene *s)
+{
+    return !s->is_static && (s->ground || s->n_obstacles > 0);
+}
+
 void pf_scene_release_cuts(pf_scene *s)
 {
     for (int32_t i = 0; i < s->n_cuts; ++i) {

@@ -147,7 +147,9 @@ static pf_status setup_contact(pf_sim *s, pf_error *err)
                            .n_triples = s->n / 3,
                            .surface = s->surface,
                            .weights = s->weights,
-                           .auto_stiffness = s->ops->ground_stiffness(s->method),
+                           .auto_stiffness = s->ops->ground_stiffness(
+                               s->method, pf_method_mean_element_size(s->ops, s->method,
+                                                                      s->mesh->n_elems)),
                            .model_size = s->model_size,
                            .ops = s->ops,
                            .method = s->method,

@@ -177,16 +177,16 @@ static void external_forces(const void *m, double *f)
             f[3 * (size_t)i + d] += nodal[3 * (size_t)c->map.block_node[i] + d];
 }
 
-/* pf_method_ground_stiffness with h the mean element size (half the nodes' bounding-box
- * diagonal). */
-static double ground_stiffness(const void *m)
+static double ground_stiffness(const void *m, double h)
 {
     const cg_method *c = m;
-    double h = 0;
-    for (int32_t e = 0; e < c->cg.n_elems; ++e)
-        h += c->cg.size[e];
-    h /= c->cg.n_elems > 0 ? c->cg.n_elems : 1;
     return pf_method_ground_stiffness(c->cg.materials, c->cg.n_materials, h);
+}
+
+/* Half the diagonal of the element's nodes' bounding box. */
+static double element_size(const void *m, int32_t e)
+{
+    return ((const cg_method *)m)->cg.size[e];
 }
 
 /* The nodal map of method.h: weight 1 on a free node's own triple. A fixed node has no entry: no
@@ -540,6 +540,7 @@ static const pf_method_ops CG_OPS = {
     .forget_rotations = forget_rotations,
     .external_forces = external_forces,
     .ground_stiffness = ground_stiffness,
+    .element_size = element_size,
     .set_penalty = NULL,
     .rigid_mode_shift = NULL,
     .element_of_dof = element_of_dof,

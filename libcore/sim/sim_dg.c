@@ -104,15 +104,16 @@ static void external_forces(const void *m, double *f)
         pf_dg_add_gravity(&d->dg, g, b, f);
 }
 
-/* pf_method_ground_stiffness with h the mean element size (frame half-diagonal). */
-static double ground_stiffness(const void *m)
+static double ground_stiffness(const void *m, double h)
 {
     const dg_method *d = m;
-    double h = 0;
-    for (int32_t e = 0; e < d->dg.n_elems; ++e)
-        h += d->dg.frame[e].scale;
-    h /= d->dg.n_elems > 0 ? d->dg.n_elems : 1;
     return pf_method_ground_stiffness(d->dg.materials, d->dg.n_materials, h);
+}
+
+/* The half-diagonal of the element's frame (its nodes' bounding box). */
+static double element_size(const void *m, int32_t e)
+{
+    return ((const dg_method *)m)->dg.frame[e].scale;
 }
 
 static void set_penalty(void *m, double eta)
@@ -417,6 +418,7 @@ static const pf_method_ops DG_OPS = {
     .mass_mul = mass_mul,
     .external_forces = external_forces,
     .ground_stiffness = ground_stiffness,
+    .element_size = element_size,
     .set_penalty = set_penalty,
     .rigid_mode_shift = rigid_mode_shift,
     .element_of_dof = element_of_dof,

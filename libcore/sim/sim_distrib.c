@@ -119,10 +119,12 @@ static pf_status append(pf_buffer *b, const void *bytes, size_t n, pf_error *err
 }
 
 /* Part r of the mesh as one message: header, scene JSON, MESH and GRPS payloads, then per
- * element its PETSc number, whole-mesh index and ownership, and per node its whole-mesh index. */
-static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *owner,
-                           const int64_t *pelem, const cg_whole *cg, const distrib_out *o,
-                           int32_t r, pf_buffer *out, pf_error *err)
+ * element its PETSc number, whole-mesh index and ownership, per node its whole-mesh index, with
+ * contact its boundary flag and sharers (contact_whole), and CG's data. */
+static pf_status pack_part(const pf_mesh *m, const char *json, const pf_buffer *obstacles,
+                           const int64_t *owner, const int64_t *pelem, const cg_whole *cg,
+                           const contact_whole *cw, const distrib_out *o, int32_t r,
+                           pf_buffer *out, pf_error *err)
 {
     int32_t ne = m->n_elems;
     uint8_t *keep = pf_calloc((size_t)ne + 1, 1);
@@ -160,6 +162,7 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
                      .all_elems = m->n_elems,
                      .all_nodes = m->n_nodes,
                      .scene_bytes = (int64_t)strlen(json),
+                     .obstacle_bytes = (int64_t)obstacles->size,
                      .lo = {lo.x, lo.y, lo.z},
                      .hi = {hi.x, hi.y, hi.z},
                      .all_free = cg ? cg->all_free : 0,
@@ -171,6 +174,8 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
         st = append(out, &h, sizeof h, err);
     if (st >= 0)
         st = append(out, json, (size_t)h.scene_bytes, err);
+    if (st >= 0)
+        st = append(out, obstacles->data, obstacles->size, err);
     if (st >= 0)
         st = append(out, mesh_bytes.data, mesh_bytes.size, err);
     if (st >= 0)
@@ -187,6 +192,8 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const int64_t *ow
     for (int32_t i = 0; st >= 0 && any && i < m->n_nodes; ++i)
         if (node_id[i] >= 0)
             st = append(out, &i, sizeof i, err);
+    if (st >= 0 && any && cw->boundary)
+        st = pf_sim_distrib_contact_pack(m, cw, node_id, out, err);
     if (st >= 0 && any && cg)
         st = pf_sim_distrib_cg_pack(m, cg, keep, node_id, r, out, err);
     pf_mesh_release(&sub);
@@ -206,6 +213,8 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, const distr
     int64_t *pelem = pf_alloc_array((size_t)m->n_elems + 1, sizeof *pelem);
     char *json = NULL;
     cg_whole cg = {0};
+    contact_whole cw = {0};
+    pf_buffer obstacles = {0};
     bool is_cg = scene->method == PF_METHOD_CG;
     pf_status st = owner && pelem ? PF_OK
                                   : pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
@@ -214,13 +223,18 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, const distr
         st = partition(m, n, owner, pelem, err);
     if (st >= 0 && is_cg)
         st = pf_sim_distrib_cg_whole(scene, m, owner, n, &cg, err);
+    if (st >= 0 && pf_scene_has_contact(scene))
+        st = pf_sim_distrib_contact_whole(m, &cw, err);
+    if (st >= 0)
+        st = pf_sim_distrib_obstacles_pack(scene, &obstacles, err);
     if (st >= 0)
         st = pf_scene_to_json(scene, &json, err);
     st = pf_sim_distrib_agree(st, err); /* a failed partition: no parts, every rank knows */
     bool made = st >= 0;
     for (int32_t r = n - 1; r >= 0 && made; --r) {
         if (st >= 0)
-            st = pack_part(m, json, owner, pelem, is_cg ? &cg : NULL, o, r, mine, err);
+            st = pack_part(m, json, &obstacles, owner, pelem, is_cg ? &cg : NULL, &cw, o, r,
+                           mine, err);
         if (r == 0)
             break;
         int64_t size = st >= 0 ? (int64_t)mine->size : -1;
@@ -231,6 +245,8 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, const distr
     }
     pf_free(owner), pf_free(pelem), pf_free(json);
     pf_sim_distrib_cg_whole_release(&cg);
+    pf_sim_distrib_contact_whole_release(&cw);
+    pf_buffer_release(&obstacles);
     return st;
 }
 
@@ -265,6 +281,8 @@ static pf_status unpack_part(part *p, pf_buffer *b, pf_error *err)
     PF_TRY(pf_scene_parse(&p->scene, (const char *)at, (size_t)p->h.scene_bytes, "scene", err));
     pf_scene_resolve(&p->scene, pf_v3_load(p->h.lo), pf_v3_load(p->h.hi));
     at += p->h.scene_bytes;
+    PF_TRY(pf_sim_distrib_obstacles_unpack(&p->scene, at, p->h.obstacle_bytes, err));
+    at += p->h.obstacle_bytes;
     if (p->h.n_elems == 0)
         return PF_OK;
     PF_TRY(decode_chunk("MESH", at, p->h.mesh_bytes, &p->mesh, err));
@@ -288,6 +306,8 @@ static pf_status unpack_part(part *p, pf_buffer *b, pf_error *err)
     }
     memcpy(p->gnode, at, nn * sizeof *p->gnode);
     at += nn * sizeof *p->gnode;
+    if (pf_scene_has_contact(&p->scene))
+        PF_TRY(pf_sim_distrib_contact_unpack(p, &at, err));
     if (p->scene.method == PF_METHOD_CG)
         PF_TRY(pf_sim_distrib_cg_unpack(p, at, err));
     return pf_mesh_derive(&p->mesh, err);
@@ -612,6 +632,7 @@ static void release_part(part *p)
     pf_mesh_release(&p->mesh);
     pf_scene_release(&p->scene);
     pf_free(p->pelem), pf_free(p->gelem), pf_free(p->gnode), pf_free(p->owned);
+    pf_free(p->boundary), pf_free(p->sharers);
     pf_free(p->f), pf_free(p->u);
     pf_free(p->row), pf_free(p->row_owned), pf_free(p->wdof);
     pf_free(p->coo_v);
@@ -703,7 +724,7 @@ static bool is_list(const pf_region *r)
     return r->kind == PF_REGION_NODES || r->kind == PF_REGION_ELEMENTS;
 }
 
-bool pf_sim_distrib_applies(const pf_scene *scene)
+bool pf_sim_distrib_applies(const pf_scene *scene, bool embedded)
 {
     bool lists = false;
     for (int32_t k = 0; k < scene->n_fixed; ++k)
@@ -712,8 +733,9 @@ bool pf_sim_distrib_applies(const pf_scene *scene)
         lists |= is_list(&scene->loads[k].region);
     for (int32_t k = 0; k < scene->n_materials; ++k)
         lists |= is_list(&scene->materials[k].region);
-    /* dynamics: without contact (no ground, no obstacles) and with a fixed mesh */
-    bool dynamic = !scene->ground && scene->n_obstacles == 0 && !pf_scene_changes_mesh(scene);
+    /* dynamics: with a fixed mesh; contact at the mesh's boundary nodes, not at an embedded
+     * surface's vertices (whose rows reach across parts) */
+    bool dynamic = !pf_scene_changes_mesh(scene) && !(pf_scene_has_contact(scene) && embedded);
     return scene->solver.method == PF_SOLVER_PETSC && (scene->is_static || dynamic) &&
            (scene->method == PF_METHOD_CG || scene->method == PF_METHOD_DG) && scene->n_cuts == 0 &&
            !lists;
@@ -739,9 +761,9 @@ pf_status pf_sim_distrib_run_with(const pf_scene *scene, const pf_mesh *mesh,
     if (!up)
         PF_TRY(pf_petsc_initialize(NULL, NULL, NULL, NULL, err));
     PF_CHECK(rank_of() == 0, err, PF_ERR_INVALID, "the distributed solve is driven by rank 0");
-    PF_CHECK(pf_sim_distrib_applies(scene), err, PF_ERR_INVALID,
+    PF_CHECK(pf_sim_distrib_applies(scene, false), err, PF_ERR_INVALID,
              "the distributed assembly takes scenes with the petsc solver without node or element "
-             "lists: static ones, and dynamic ones without contact, cuts or refinement");
+             "lists: static ones, and dynamic ones without cuts or refinement");
     double cpu0 = pf_cpu_seconds();
     out->ranks = ranks();
     size_t nn = (size_t)mesh->n_nodes;
@@ -788,9 +810,9 @@ pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
 
 #else /* without PETSc */
 
-bool pf_sim_distrib_applies(const pf_scene *scene)
+bool pf_sim_distrib_applies(const pf_scene *scene, bool embedded)
 {
-    (void)scene;
+    (void)scene, (void)embedded;
     return false;
 }
 

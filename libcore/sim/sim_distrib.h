@@ -6,6 +6,7 @@
 #include <pf/io.h>
 #include <pf/sim.h>
 
+#include "contact.h"
 #include "method.h"
 #include "sim_internal.h"
 
@@ -24,6 +25,7 @@ typedef struct part_header {
     int32_t checkpoint_every; /* frames between checkpoints (0: none) */
     int32_t restoring;        /* 1: the state comes from rank 0's checkpoint */
     int32_t unused;
+    int64_t obstacle_bytes; /* the mesh obstacles' surfaces (pf_sim_distrib_obstacles_pack) */
 } part_header;
 
 /* One rank's part and what it computes. */
@@ -51,6 +53,10 @@ typedef struct part {
     uint8_t *node_owned; /* [n_nodes] */
     double *g;           /* [3 n_nodes] */
     uint8_t *cut;        /* [n_faces of the part] */
+    /* dynamics with contact (pf_scene_has_contact): per node of the part whether it lies on
+     * the whole mesh's boundary and the number of the whole mesh's elements at it */
+    uint8_t *boundary;  /* [n_nodes] */
+    int32_t *sharers;   /* [n_nodes] */
     /* both: the PETSc row of each of the part's unknowns, and whether this rank owns it */
     int64_t n_dofs;
     PetscInt *row;      /* [n_dofs] */
@@ -94,6 +100,34 @@ typedef struct distrib_out {
     const pf_scene *scene;
     const pf_mesh *mesh;
 } distrib_out;
+
+/* What contact on a part needs of the whole mesh (sim_distrib_contact.c): per node whether it
+ * lies on a boundary face and the number of elements using it (DG's node_elements: every element
+ * with a face at the node). */
+typedef struct contact_whole {
+    uint8_t *boundary; /* [n_nodes] */
+    int32_t *sharers;  /* [n_nodes] */
+} contact_whole;
+
+/* Rank 0: w for the derived mesh m. */
+pf_status pf_sim_distrib_contact_whole(const pf_mesh *m, contact_whole *w, pf_error *err);
+void pf_sim_distrib_contact_whole_release(contact_whole *w);
+/* Rank 0: the part's nodes' (node_id >= 0, in order) entries of w appended to out. */
+pf_status pf_sim_distrib_contact_pack(const pf_mesh *m, const contact_whole *w,
+                                      const int32_t *node_id, pf_buffer *out, pf_error *err);
+/* Each rank: p->boundary and p->sharers from what pf_sim_distrib_contact_pack wrote at *at,
+ * which moves past it. */
+pf_status pf_sim_distrib_contact_unpack(part *p, unsigned char **at, pf_error *err);
+/* Rank 0: the scene's mesh obstacles' triangles (SURF payloads, each after its size) into out;
+ * each rank: them handed to its scene (pf_scene_set_obstacle_surface) from bytes [size]. */
+pf_status pf_sim_distrib_obstacles_pack(const pf_scene *scene, pf_buffer *out, pf_error *err);
+pf_status pf_sim_distrib_obstacles_unpack(pf_scene *scene, const unsigned char *bytes,
+                                          int64_t size, pf_error *err);
+/* Each rank, collective: contact at the part's boundary nodes (sim_distrib_contact.c) into *c
+ * (NULL without ground and obstacles, or on a rank without elements), cp its part's filter
+ * (borrowed by *c); model_size the whole mesh's bounding-box diagonal. */
+pf_status pf_sim_distrib_contact_create(part *p, double model_size, pf_contact_part *cp,
+                                        pf_contact **c, pf_error *err);
 
 /* Collective: every rank learns whether any failed (st < 0 on some rank); its own error stays, the
  * others get one saying another rank failed (rank 0 reports its own error when it has one). Before

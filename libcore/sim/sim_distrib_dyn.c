@@ -1,6 +1,8 @@
 /* Dynamics with each MPI rank assembling its own elements (sim_distrib.h,
- * pf_sim_distrib_dynamics): sim.c's semi-implicit Euler on a part, without contact,
- *     ((1 + h alpha) M + (h beta + h^2) K) v' = M v + h (f - K u),     u' = u + h v'.
+ * pf_sim_distrib_dynamics): sim.c's semi-implicit Euler on a part,
+ *     ((1 + h alpha) M + (h beta + h^2) (K + C)) v' = M v + h (f + f_c - K u),     u' = u + h v',
+ * C and f_c the penalty contact's stiffness and forces (contact.c) at the mesh's boundary nodes,
+ * each rank testing the points of its own elements or nodes (sim_distrib_contact.c).
  *
  * DG:
  * Each rank keeps the state of its part: its own elements and the halo (their face neighbours),
@@ -34,6 +36,10 @@
 /* A rank's dynamic state: per unknown of the part [n_dofs] (u is p->u). */
 typedef struct dyn {
     part *p;
+    pf_contact *contact; /* NULL without ground and obstacles, or elements */
+    pf_contact_part contact_part;
+    int64_t contacts;     /* found by this step's detection on this rank */
+    int64_t all_contacts; /* and by all its steps' */
     double *f_ext, *v, *f, *rhs, *ku, *v_old, *dv, *dv2, *masked;
     Mat a;
     Vec x, b, local; /* local wraps v */
@@ -80,6 +86,7 @@ static pf_status create_solver(dyn *d, pf_error *err)
 
 static void destroy(dyn *d)
 {
+    pf_contact_destroy(&d->contact);
     KSPDestroy(&d->ksp), MatDestroy(&d->a), VecDestroy(&d->x), VecDestroy(&d->b);
     VecScatterDestroy(&d->take), VecDestroy(&d->local);
     double *vectors[] = {d->f_ext, d->v, d->f, d->rhs, d->ku, d->v_old, d->dv, d->dv2, d->masked};
@@ -176,17 +183,31 @@ static pf_status assemble(dyn *d, double h, pf_error *err)
     part *p = d->p;
     const pf_scene *sc = &p->scene;
     size_t n = (size_t)p->n_dofs;
+    d->contacts = d->contact ? pf_contact_detect(d->contact, d->time + h, p->u, d->v, h) : 0;
+    d->all_contacts += d->contacts;
     if (p->method) {
         /* DG: the part's owned rows of K u are K's */
         double kscale = h * sc->damping_beta + h * h, mscale = 1 + h * sc->damping_alpha;
         memcpy(d->f, d->f_ext, n * sizeof *d->f);
         pf_method_step_begin(p->ops, p->method, p->u, d->v, sc->corotation, kscale, mscale, &p->k,
                              d->f, d->ku, n);
+        if (d->contacts > 0)
+            pf_contact_forces(d->contact, p->u, d->f);
         pf_method_step_finish(p->ops, p->method, p->u, d->v, h, kscale, mscale, &p->k, d->f,
                               d->ku, d->rhs, n);
+        if (d->contacts > 0)
+            pf_contact_add_stiffness(d->contact, kscale, &p->k);
     }
-    /* without corotation the matrix stays, and so does GAMG's hierarchy */
-    if (!d->assembled || sc->corotation)
+    /* contacts on any rank, and whether any rank's set changed (sim.c: an impact or a release
+     * breaks the velocity's trend) */
+    int mine[2] = {d->contacts > 0, d->contact && pf_contact_set_changed(d->contact)};
+    int any[2] = {0, 0};
+    if (pf_scene_has_contact(sc))
+        MPI_Allreduce(mine, any, 2, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
+    if (any[1])
+        d->trend = 0;
+    /* without corotation or contact the matrix stays, and so does GAMG's hierarchy */
+    if (!d->assembled || sc->corotation || any[0] || any[1])
         PF_TRY(pf_sim_distrib_matrix_values(p, d->a, err));
     d->assembled = true;
     return rhs_rows(d, d->rhs, d->b, err);
@@ -237,15 +258,17 @@ static void advance(dyn *d, double h)
         if (counts(d, q))
             power += d->f_ext[q] * d->v[q];
     }
+    if (d->contacts > 0)
+        power += pf_contact_obstacle_power(d->contact);
     d->trend = d->trend < 2 ? d->trend + 1 : 2;
     d->work += h * power; /* this rank's share */
     d->steps++;
 }
 
-/* sim.c's state_is_sane on every rank's owned unknowns (collective): PF_ERR_NUMERIC naming the
- * element (of the whole mesh) whose unknowns first went non-finite, else the one that moved
- * most. */
-static pf_status check_state(dyn *d, pf_error *err)
+/* sim.c's state_is_sane and worst_element over every rank's owned unknowns (collective):
+ * whether any rank's state is broken (non-finite, or a displacement above 1e3 model sizes), and
+ * the element (of the whole mesh) whose unknowns went non-finite, else the one that moved most. */
+static int worst_element(const dyn *d, bool *broken)
 {
     const part *p = d->p;
     struct {
@@ -263,11 +286,18 @@ static pf_status check_state(dyn *d, pf_error *err)
     }
     int any = 0, mine_bad = bad;
     MPI_Allreduce(&mine_bad, &any, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
-    if (!any)
-        return PF_OK;
     MPI_Allreduce(&mine, &worst, 1, MPI_DOUBLE_INT, MPI_MAXLOC, PETSC_COMM_WORLD);
-    return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
-                        "the simulation diverged (element %d first)", worst.element);
+    *broken = any;
+    return worst.element;
+}
+
+/* A step's state (collective): PF_ERR_NUMERIC, as sim.c, when any rank's is broken. */
+static pf_status check_state(dyn *d, pf_error *err)
+{
+    bool broken = false;
+    int element = worst_element(d, &broken);
+    PF_CHECK(!broken, err, PF_ERR_NUMERIC, "the simulation diverged (element %d first)", element);
+    return PF_OK;
 }
 
 /* sim.c's energy_is_bounded at a frame's end (collective). */
@@ -277,11 +307,15 @@ static pf_status check_energy(dyn *d, pf_error *err)
     MPI_Allreduce(&d->work, &work, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
     d->kinetic = kinetic_energy(d, d->v);
     double bound = d->kinetic0 + fmax(work, 0) + d->fixed_energy;
-    PF_CHECK(d->kinetic <= 4 * bound + d->energy_floor, err, PF_ERR_NUMERIC,
-             "the simulation diverged: kinetic energy %.3g exceeds four times what the body had "
-             "and was given (%.3g); a larger penalty, a smaller time step or more damping may help",
-             d->kinetic, bound);
-    return PF_OK;
+    if (d->kinetic <= 4 * bound + d->energy_floor)
+        return PF_OK;
+    bool broken;
+    int element = worst_element(d, &broken);
+    return pf_error_set(err, PF_ERR_NUMERIC, __FILE__, __LINE__,
+                        "the simulation diverged: kinetic energy %.3g exceeds four times what the "
+                        "body had and was given (%.3g), element %d moved most; a larger penalty "
+                        "(DG), a smaller time step or more damping may help",
+                        d->kinetic, bound, element);
 }
 
 /* One frame's substeps (collective; every rank fails alike). */
@@ -315,7 +349,10 @@ static pf_status frame(dyn *d, int32_t index, rank_stats *rs, pf_error *err)
 /* Frame index's outputs to rank 0 and its frame function (collective). */
 static pf_status emit(dyn *d, const distrib_out *o, int32_t index, pf_error *err)
 {
+    long long contacts = 0, mine = d->all_contacts;
+    MPI_Reduce(&mine, &contacts, 1, MPI_LONG_LONG, MPI_SUM, 0, PETSC_COMM_WORLD);
     if (o) {
+        o->res->contacts = contacts;
         o->res->frame = index;
         o->res->time = d->time;
         o->res->steps = d->steps;
@@ -376,6 +413,9 @@ pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs,
         p->ops->external_forces(p->method, d.f_ext);
     if (st >= 0)
         st = pf_sim_distrib_agree(create_solver(&d, err), err);
+    if (st >= 0)
+        st = pf_sim_distrib_agree(
+            pf_sim_distrib_contact_create(p, d.model_size, &d.contact_part, &d.contact, err), err);
     int32_t first = 0;
     if (st >= 0)
         st = initial_state(&d, o, &first, err);

@@ -115,6 +115,8 @@ pf_status pf_sim_distrib_stats_json(const pf_scene *scene, const pf_sim_distrib_
         cJSON_AddNumberToObject(root, "simulated_time", res->time);
         add_int(root, "steps", res->steps);
         add_int(root, "dofs", res->dofs);
+        if (pf_scene_has_contact(scene))
+            add_int(root, "contacts", res->contacts);
         cJSON_AddNumberToObject(root, "penalty", res->penalty);
         add_int(root, "penalty_doublings", res->penalty_doublings);
         cJSON *ind = cJSON_AddObjectToObject(root, "error_indicator");

@@ -1,10 +1,11 @@
 # pf-sim --solver petsc under mpirun with 1, 2 and 4 ranks (4 oversubscribed on a small machine)
 # against the one-process direct solve: the static cantilever (DG degree 2, CG) to 1e-8 relative,
-# a corotated drop to 1e-6 of the largest displacement, the same stream from two runs on 2 ranks,
-# PETSc's options passed through, static DG with every rank assembling its own elements (IP and
-# BZ on 1 and 2 ranks, each rank's share, no fixed face), the same for CG (regions across the
-# parts' cuts, 1, 2 and 4 ranks), corotated DG and CG dynamics with every rank assembling its own
-# elements (a clamped beam swinging under gravity, 1, 2 and 4 ranks), and an error on rank 0
+# the same stream from two runs on 2 ranks, PETSc's options passed through, static DG with every
+# rank assembling its own elements (IP and BZ on 1 and 2 ranks, each rank's share, no fixed face),
+# the same for CG (regions across the parts' cuts, 1, 2 and 4 ranks), corotated DG and CG
+# dynamics with every rank assembling its own elements (a clamped beam swinging under gravity; a
+# corotated drop onto the ground and a beam pressed by moving obstacles, with contact on every
+# rank; 1, 2 and 4 ranks, frames to 1e-8 of the largest displacement), and an error on rank 0
 # ending every rank with one message and exit 1. Built with -DPF_PETSC=ON.
 . "$(dirname "$0")/../tools/lib.sh"
 scenes=$data/scenes
@@ -59,18 +60,6 @@ expect 0 "solver petsc: 1 iterations" mpi 2 "$bin/pf-sim" "$tmp/cg.json" --solve
 got=$(tip "$tmp/lu.pfs" 4,0.5,0.5)
 "$bin/pf-sim" "$tmp/cg.json" --solver direct --quiet <"$tmp/beam.pfs" >"$tmp/direct.pfs"
 check "MUMPS through the options: tip $got equals direct's" close "$got" "$(tip "$tmp/direct.pfs" 4,0.5,0.5)" 1e-8
-
-# A corotated drop onto the ground (the default scene, 8 frames): every frame's displacement at
-# a corner within 1e-6 of the largest, on 2 ranks.
-"$bin/pf-shape" box --extent 1,0.5,0.5 --cells 4,2,2 >"$tmp/box.pfs"
-"$bin/pf-sim" --frames 8 --solver direct --quiet <"$tmp/box.pfs" >"$tmp/drop_direct.pfs"
-expect 0 "solver petsc" mpi 2 "$bin/pf-sim" --frames 8 --solver petsc --input "$tmp/box.pfs" \
-  --output "$tmp/drop_petsc.pfs"
-"$bin/pf-info" --json --probe 1,0.5,0.5 "$tmp/drop_direct.pfs" | grep -o '"u":\[[^]]*\]' >"$tmp/ud"
-"$bin/pf-info" --json --probe 1,0.5,0.5 "$tmp/drop_petsc.pfs" | grep -o '"u":\[[^]]*\]' >"$tmp/up"
-check "nine frames of the drop in both" test "$(wc -l <"$tmp/ud")" = 9 -a "$(wc -l <"$tmp/up")" = 9
-check "the drop on 2 ranks follows direct's frames to 1e-6 of the largest displacement" \
-  bash -c "paste -d, '$tmp/ud' '$tmp/up' | tr -d 'u\":[]' | awk -F, '{ for (k = 1; k <= 3; ++k) { d = \$k - \$(k + 3); if (d < 0) d = -d; if (d > dm) dm = d; a = \$k < 0 ? -\$k : \$k; if (a > am) am = a } } END { exit !(am > 0.01 && dm <= 1e-6 * am) }'"
 
 # Corotated dynamics with every rank assembling its own elements (pf_sim_distrib_run, scenes
 # without contact): the beam clamped at x = 0 swinging down under gravity, no ground. DG: IP
@@ -146,6 +135,80 @@ for case in swing:0.02:100 swing_bz:0.2:120 swing_cg:0.2:120 swing_cgl:0.5:120; 
     check "$name on $n ranks: STAT as direct's" same_stat "$tmp/swing$n.pfs" "$tmp/swing_direct.pfs"
   done
 done
+# Contact with every rank assembling its own elements, each testing the boundary nodes of its own
+# elements (DG) or nodes (CG): a corotated drop onto the ground (the default scene, DG, and CG, 12
+# frames), the clamped beam pressed by a sphere moving down and back onto a box below it (moving
+# obstacles' work in the energy check; Rayleigh damping), and the box dropped onto a mesh
+# obstacle. Every frame's displacement at three probes equals the one-process CHOLMOD run's to
+# 1e-8 of the largest (the issue asks 1e-6 for the drop; measured on 1, 2 and 4 ranks: drop DG
+# 4.1e-11, 2.7e-11, 1.7e-11, CG 6.1e-11, 3.6e-11, 1.0e-10; pressed DG 1.8e-11, 4.5e-11, 2.3e-11,
+# CG 6.1e-11, 4.4e-11, 7.1e-11; slab DG 4.6e-11, 2.9e-11, 2.1e-11), and as many contacts are
+# found as by the one-process run.
+"$bin/pf-shape" box --extent 1,0.5,0.5 --cells 4,2,2 >"$tmp/box.pfs" || { echo "FAIL: pf-shape"; exit 1; }
+printf '{"time": {"frames": 12}}\n' >"$tmp/drop.json"
+printf '{"method": {"name": "cg"}, "time": {"frames": 12}}\n' >"$tmp/drop_cg.json"
+cat >"$tmp/press.json" <<'EOF2'
+{"material": {"E": 200000, "nu": 0.3, "density": 1000}, "method": {"name": "dg", "degree": 1},
+ "corotation": true, "gravity": [0, 0, 0], "ground": false,
+ "fixed": [{"plane": {"point": [0, 0, 0], "normal": [1, 0, 0]}}, {"plane": {"point": [4, 0, 0], "normal": [1, 0, 0]}}],
+ "obstacles": [{"sphere": {"centre": [2, 0.5, 1.55], "radius": 0.5},
+                "path": [{"time": 0, "translation": [0, 0, 0]}, {"time": 0.5, "translation": [0, 0, -0.35]},
+                         {"time": 1, "translation": [0, 0, 0]}]},
+               {"box": [[3.2, -0.5, -1.2], [3.8, 1.5, -0.01]]}],
+ "damping": {"alpha": 2, "beta": 0.02}, "time": {"dt": 0.04, "frames": 15, "substeps": 8}}
+EOF2
+sed 's/"name": "dg", "degree": 1/"name": "cg"/' "$tmp/press.json" >"$tmp/press_cg.json"
+# a mesh obstacle (its triangles go to every rank with its part): a slab under the box
+cat >"$tmp/slab.obj" <<'EOF2'
+v -1 -1 -0.4
+v 2 -1 -0.4
+v 2 1.5 -0.4
+v -1 1.5 -0.4
+v -1 -1 -0.02
+v 2 -1 -0.02
+v 2 1.5 -0.02
+v -1 1.5 -0.02
+f 1 3 2
+f 1 4 3
+f 5 6 7
+f 5 7 8
+f 1 2 6
+f 1 6 5
+f 2 3 7
+f 2 7 6
+f 3 4 8
+f 3 8 7
+f 4 1 5
+f 4 5 8
+EOF2
+printf '{"obstacles": [{"mesh": {"file": "slab.obj"}}], "ground": false, "time": {"frames": 12}}\n' >"$tmp/slab.json"
+contacts() { grep -o '[0-9]* contacts' "$1" | head -1; }
+for case in drop:box:1,0.5,0.5:0.5,0,0:0,0.25,0.5:0.02:39 drop_cg:box:1,0.5,0.5:0.5,0,0:0,0.25,0.5:0.02:39 \
+            press:beam:4,0.5,0.5:2,0,0:3,1,1:0.1:48 press_cg:beam:4,0.5,0.5:2,0,0:3,1,1:0.1:48 \
+            slab:box:1,0.5,0.5:0.5,0,0:0,0.25,0.5:0.02:39; do
+  IFS=: read -r name mesh p1 p2 p3 floor lines <<<"$case"
+  probes() { for q in "$p1" "$p2" "$p3"; do "$bin/pf-info" --json --probe "$q" "$1" | grep -o '"u":\[[^]]*\]'; done | tr -d 'u":[]'; }
+  "$bin/pf-sim" "$tmp/$name.json" --solver direct --input "$tmp/$mesh.pfs" --output "$tmp/c_direct.pfs" 2>"$tmp/c_err"
+  probes "$tmp/c_direct.pfs" >"$tmp/fd"
+  want=$(contacts "$tmp/c_err")
+  check "$name: the one-process run finds contacts ($want)" test -n "$want" -a "$want" != "0 contacts"
+  for n in 1 2 4; do
+    expect 0 "$want at the boundary nodes" mpi "$n" "$bin/pf-sim" "$tmp/$name.json" --solver petsc \
+      --input "$tmp/$mesh.pfs" --output "$tmp/c$n.pfs"
+    check "$name on $n ranks: each rank assembled its own" grep -q "assembled on $n ranks" "$tmp/err"
+    probes "$tmp/c$n.pfs" >"$tmp/fp"
+    check "$name on $n ranks: $lines frame probes equal direct's to 1e-8 of the largest" \
+      same_frames "$tmp/fd" "$tmp/fp" 1e-8 "$floor" "$lines"
+  done
+done
+# Contact at an embedded surface's vertices (rows reaching across parts) stays with rank 0
+# assembling all.
+root=$(cd "$data/../.." && pwd)
+"$bin/pf-slice" "$root/data/models/bunny.obj" --res 4 --quiet | "$bin/pf-embed" --quiet >"$tmp/bunny.pfs"
+expect 0 "solver petsc" mpi 2 "$bin/pf-sim" "$tmp/drop.json" --frames 2 --solver petsc \
+  --input "$tmp/bunny.pfs" --output "$tmp/rank0.pfs"
+check "embedded contact: rank 0 assembles all" bash -c "! grep -q 'assembled on' '$tmp/err'"
+
 # against rank 0 assembling the same system on 2 ranks: the same partition and solves, equal but
 # for the order of the sums (7e-17 measured)
 PF_SIM_RANK0_ASSEMBLY=1 expect 0 "solver petsc" mpi 2 "$bin/pf-sim" "$tmp/swing.json" \
@@ -320,6 +383,25 @@ for name in swing swing_cg; do
   check "$name: a one-process checkpoint resumed on 2 ranks to 1e-6" \
     same_frames "$tmp/fd" "$tmp/fp" 1e-6 0.02 "$lines"
 done
+# with contact on every rank: the box dropped onto the ground (the default scene, 16 frames),
+# checkpoints every 4, cut after frame 8: resumed on 2 ranks to 1e-8 of the largest displacement
+# (measured DG 4.1e-12, CG 1.7e-11), on one process with CHOLMOD to 1e-6 (7.6e-12, 2.8e-11)
+box_frames() { for q in 1,0.5,0.5 0,0,0 0.5,0.25,0.5; do "$bin/pf-info" --json --probe "$q" "$1" | grep -o '"u":\[[^]]*\]'; done | tr -d 'u":[]'; }
+for m in dg cg; do
+  expect 0 "contacts at the boundary nodes" mpi 2 "$bin/pf-sim" --method $m --frames 16 \
+    --solver petsc --input "$tmp/box.pfs" --output "$tmp/ck_drop.pfs" --checkpoint-every 4
+  head -c $(($(stat -c %s "$tmp/ck_drop.pfs") * 6 / 10)) "$tmp/ck_drop.pfs" >"$tmp/ck_cut.pfs"
+  expect 0 "after frame 8" mpi 2 "$bin/pf-sim" --resume "$tmp/ck_cut.pfs" --output "$tmp/ck_res2.pfs"
+  expect 0 "after frame 8" "$bin/pf-sim" --resume "$tmp/ck_cut.pfs" --solver direct \
+    --output "$tmp/ck_res1.pfs"
+  box_frames "$tmp/ck_drop.pfs" >"$tmp/fd"
+  for res in ck_res2:1e-8 ck_res1:1e-6; do
+    box_frames "$tmp/${res%%:*}.pfs" >"$tmp/fp"
+    check "$m drop with contact: ${res%%:*} to ${res#*:} of the largest" \
+      same_frames "$tmp/fd" "$tmp/fp" "${res#*:}" 0.02 51
+  done
+done
+
 # a damaged checkpoint (its state's fingerprint flipped, the CRC made right) is refused by rank 0
 # on resuming, and every rank ends: exit 1, the message once, naming the chunk
 python3 - "$tmp/ck.pfs" "$tmp/ck_bad.pfs" <<'PY'

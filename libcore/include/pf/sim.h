@@ -234,6 +234,8 @@ void pf_scene_default(pf_scene *s);
 
 /* Whether a simulation of the scene changes its mesh between frames (refinement or cuts). */
 bool pf_scene_changes_mesh(const pf_scene *s);
+/* Whether its dynamics test contact with a ground or obstacles (static scenes have none). */
+bool pf_scene_has_contact(const pf_scene *s);
 
 /* Parses JSON text (len bytes, need not be NUL-terminated) into s (defaults first, then every key
  * given). name (the file name; "scene" when NULL) prefixes every message. Errors: PF_ERR_FORMAT
@@ -436,8 +438,9 @@ void pf_sim_destroy(pf_sim **sim);
  * each rank sets up the method on them, assembles its rows into PETSc's distributed matrix and
  * evaluates its elements' outputs, which rank 0 receives. Static scenes with the petsc solver, CG
  * or DG, without node or element list files (their indices are the whole mesh's), and dynamic
- * ones without contact (no ground, obstacles, cuts or refinement), each time step's corotated
- * stiffness assembled by each rank on its elements, the state kept distributed. Other scenes keep
+ * ones without cuts or refinement, each time step's corotated stiffness assembled by each rank on
+ * its elements, the state kept distributed; contact with the ground and obstacles (not meshes) at
+ * the boundary nodes, each rank testing the points of its own elements. Other scenes keep
  * rank 0 assembling everything (pf_sim_create). Built with PETSc only. */
 typedef struct pf_sim_distrib_rank {
     int32_t elements;         /* the elements it owned and assembled */
@@ -460,6 +463,8 @@ typedef struct pf_sim_distrib_result {
     double residual;           /* relative to the right-hand side; dynamics: the largest */
     int64_t steps;             /* dynamics: the time steps taken */
     double kinetic;            /* dynamics: the kinetic energy of the last frame */
+    int64_t contacts;          /* dynamics: contacts found, summed over steps and ranks (as
+                                  pf_sim_stats.contacts) */
     int32_t factorisations;    /* MUMPS's, the definiteness tests of IP's automatic penalty */
     double error_indicator;    /* of the last frame, as pf_sim_error_indicator (NAN: none) */
     int32_t ranks;
@@ -493,8 +498,10 @@ typedef struct pf_sim_distrib_options {
     size_t restore_size;
 } pf_sim_distrib_options;
 
-/* Whether pf_sim_distrib_run takes the scene. */
-bool pf_sim_distrib_applies(const pf_scene *scene);
+/* Whether pf_sim_distrib_run takes the scene, for a mesh with an embedded surface and its weights
+ * or without (embedded): contact there is at the surface's vertices, whose rows reach across
+ * parts; that path has contact at the mesh's boundary nodes only. */
+bool pf_sim_distrib_applies(const pf_scene *scene, bool embedded);
 /* Rank 0, collective: the scene (resolved for mesh, which must be derived) on all ranks: the
  * static solve, or frame 0 and the scene's frames; frame (NULL: none) hears every frame, and out
  * holds the last. Every rank fails alike (no fixed face in a static scene, a diverging step, a

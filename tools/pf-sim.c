@@ -52,12 +52,12 @@ static const char USAGE[] =
     "  --tolerance TOL    pcg, petsc: residual relative to the right-hand side (default 1e-10)\n"
     "Checkpoints and resuming (crash-safe long runs):\n"
     "  --checkpoint-every N  a CKPT chunk (the state a run continues from) after frames 0, N,\n"
-    "                     2N, ... and the last (default 10; 0: none); under pcg the last bits\n"
-    "                     of later frames depend on N (a checkpoint restarts the solver). A\n"
-    "                     scene that refines writes none (its mesh changes between frames)\n"
+    "                     2N, ... and the last (default 10; 0: none; none if the scene\n"
+    "                     refines); pcg, petsc: later frames' last bits depend on N\n"
     "  --resume PARTIAL   continue the run that wrote PARTIAL (killed, full disk) from its last\n"
     "                     checkpoint, to the bytes of the uninterrupted run (same build and\n"
     "                     threads); reads no input; a scene or overrides must match its own\n"
+    "                     (--solver, --tolerance may differ)\n"
     "Other options:\n"
     "  --input FILE       read the stream from FILE instead of stdin\n"
     "  --output FILE      write the stream to FILE instead of stdout, through FILE.part renamed\n"
@@ -71,7 +71,7 @@ static const char USAGE[] =
     "\n"
     "MPI (builds with -DPF_PETSC=ON): mpirun -n N pf-sim SCENE.json --solver petsc\n"
     "--input in.pfs --output out.pfs (mpirun's forwarding of stdout is not byte-exact);\n"
-    "rank 0 reads, simulates and writes, all ranks share the linear solves. Options of one dash\n"
+    "rank 0 reads and writes, all ranks share the solves (docs/petsc.md). Options of one dash\n"
     "(-ksp_monitor, -pc_type lu, each with its value if it takes one) go to PETSc, best last;\n"
     "so does the environment variable PETSC_OPTIONS.\n"
     "\n"
@@ -485,46 +485,22 @@ static pf_status advance(run *r, pf_sim *sim, int32_t first, pf_error *err)
     return st;
 }
 
-/* A frame of pf_sim_distrib_run, written unless --frames A:B leaves it out. */
-static pf_status distributed_frame(void *ctx, const pf_sim_distrib_result *res, pf_error *err)
+/* A scene on PETSc where every rank assembles its own elements (sim_distrib_out.c). */
+static pf_status simulate_distributed(run *r, const pf_chunk *restore, pf_error *err)
 {
-    run *r = ctx;
-    return res->frame >= r->first_written
-               ? pf_cli_write_frame(r->out, &r->mesh, (uint32_t)res->frame, res->time, res->u,
-                                    res->von_mises, err)
-               : PF_OK;
-}
-
-/* A scene on PETSc where every rank assembles its own elements (pf_sim_distrib_run). */
-static pf_status simulate_distributed(run *r, pf_error *err)
-{
-    pf_sim_distrib_result res;
-    pf_status st = pf_sim_distrib_run(&r->scene, &r->mesh, distributed_frame, r, &res, err);
-    if (st >= 0 || err->status == PF_ERR_NUMERIC) { /* also after a diverged frame */
-        pf_error stat_err = {0};
-        pf_status ss = pf_cli_distrib_stat(r->out, &r->scene, r->mesh.n_elems, &res, &stat_err);
-        if (ss < 0 && st >= 0) {
-            *err = stat_err;
-            st = ss;
-        }
-    }
-    if (st >= 0 && !r->quiet)
-        pf_cli_distrib_summary(&res, r->mesh.n_elems, &r->scene);
-    if (r->stats_path && (st >= 0 || err->status == PF_ERR_NUMERIC)) {
-        char *json = NULL;
-        pf_error stats_err = {0};
-        pf_status ss = pf_sim_distrib_stats_json(&r->scene, &res, pf_time_seconds() - r->wall0,
-                                                 pf_cpu_seconds() - r->cpu0, &json, &stats_err);
-        if (ss >= 0)
-            ss = pf_write_file_atomic(r->stats_path, json, strlen(json), "statistics",
-                                      &stats_err);
-        pf_free(json);
-        if (ss < 0 && st >= 0) {
-            *err = stats_err;
-            st = ss;
-        }
-    }
-    pf_sim_distrib_result_release(&res);
+    pf_cli_distrib_run d = {.out = r->out,
+                            .scene = &r->scene,
+                            .mesh = &r->mesh,
+                            .first_written = r->first_written,
+                            .checkpoint_every = r->checkpoint_every,
+                            .restore = restore,
+                            .resume_path = r->resume_path,
+                            .quiet = r->quiet,
+                            .stats_path = r->stats_path,
+                            .wall0 = r->wall0,
+                            .cpu0 = r->cpu0};
+    pf_status st = pf_cli_distrib_simulate(&d, err);
+    r->checkpoints += d.checkpoints;
     return st;
 }
 
@@ -543,15 +519,8 @@ static pf_status simulate(run *r, const pf_chunk *restore, pf_error *err)
     r->written_surface = embedded ? r->input.surface.id : 0;
     PF_TRY(pf_scene_read_files(&r->scene, &r->mesh, err));
     /* PF_SIM_RANK0_ASSEMBLY=1: rank 0 assembles all, as for other scenes (to compare) */
-    if (!restore && pf_sim_distrib_applies(&r->scene, embedded) &&
-        !getenv("PF_SIM_RANK0_ASSEMBLY")) {
-        /* that path has no pf_sim whose state a checkpoint could hold */
-        PF_CHECK(!(r->checkpoint_given && r->checkpoint_every > 0), err, PF_ERR_INVALID,
-                 "--checkpoint-every is not available for a scene on petsc where every rank "
-                 "assembles its own elements (static scenes, dynamic ones without contact); "
-                 "PF_SIM_RANK0_ASSEMBLY=1 has rank 0 assemble all and writes checkpoints");
-        return simulate_distributed(r, err);
-    }
+    if (pf_sim_distrib_applies(&r->scene, embedded) && !getenv("PF_SIM_RANK0_ASSEMBLY"))
+        return simulate_distributed(r, restore, err);
     pf_cli_progress_start(&r->bar, "pf-sim", r->quiet, r->progress);
     r->bar.phase_lines = true;
     pf_sim_options opt = {.surface = embedded ? &r->input.surface : NULL,
@@ -628,7 +597,17 @@ static pf_status resume_scene(run *r, pf_error *err)
         pf_error_prefix(err, "%s", r->resume_path);
     pf_free(json);
     PF_TRY(st);
-    if (!r->scene_path && r->n_overrides == 0)
+    /* --solver and --tolerance choose how the frames after the checkpoint are solved (on one
+     * process or on many), which changes their last bits only */
+    int others = 0;
+    for (int k = 0; k < r->n_overrides; ++k) {
+        int id = r->override_ids[k];
+        if (id != OPT_SOLVER && id != OPT_TOLERANCE)
+            others++;
+        else if (pf_scene_override(&r->scene, override_key(id), r->override_values[k], err) < 0)
+            pf_cli_usage_error(&r->cli, "%s", err->msg);
+    }
+    if (!r->scene_path && others == 0)
         return PF_OK;
     pf_scene given = {0};
     build_scene(r, &given);
@@ -636,11 +615,16 @@ static pf_status resume_scene(run *r, pf_error *err)
     st = pf_scene_to_json(&given, &json, err);
     pf_scene_release(&given);
     PF_TRY(st);
+    char *stored = NULL;
+    if (pf_scene_to_json(&r->scene, &stored, err) < 0) {
+        pf_free(json);
+        return err->status;
+    }
     size_t at = 0;
-    while (json[at] && json[at] == in->scene_json[at])
+    while (json[at] && json[at] == stored[at])
         ++at;
-    bool same = json[at] == in->scene_json[at];
-    pf_free(json);
+    bool same = json[at] == stored[at];
+    pf_free(json), pf_free(stored);
     PF_CHECK(same, err, PF_ERR_INVALID,
              "%s: the scene given (%s%s) differs from the one stored in its SCEN chunk (from "
              "byte %zu of the JSON; pf-info --scene prints it): resume without a scene file and "
@@ -648,69 +632,6 @@ static pf_status resume_scene(run *r, pf_error *err)
              r->resume_path, r->scene_path ? r->scene_path : "defaults",
              r->n_overrides ? " and overrides" : "", at);
     return PF_OK;
-}
-
-/* PETSc's options (one dash and a letter: -ksp_rtol 1e-12, -ksp_monitor) are PETSc's to read;
- * pf-sim's parser sees the rest. A word after such an option that does not start with a dash
- * is its value. */
-static int without_petsc_options(int argc, char **argv, char **kept)
-{
-    int n = 0;
-    for (int k = 0; k < argc; ++k) {
-        const char *a = argv[k];
-        /* -h and -q are pf-sim's own (-q: --quiet; as PETSc's, it took the next word, a scene
-         * file, as its value) */
-        bool petsc = k > 0 && a[0] == '-' && ((a[1] >= 'a' && a[1] <= 'z') || a[1] == '_') &&
-                     strcmp(a, "-h") != 0 && strcmp(a, "-q") != 0;
-        if (!petsc) {
-            kept[n++] = argv[k];
-            continue;
-        }
-        if (k + 1 < argc && argv[k + 1][0] != '-')
-            ++k;
-    }
-    kept[n] = NULL;
-    return n;
-}
-
-/* The rank of this process as an MPI launcher set it (-1: not launched by one). */
-static int launcher_rank(void)
-{
-    static const char *const names[] = {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"};
-    for (size_t k = 0; k < sizeof names / sizeof *names; ++k) {
-        const char *v = getenv(names[k]);
-        if (v && *v)
-            return atoi(v);
-    }
-    return -1;
-}
-
-/* Under mpirun every rank starts here: PETSc and MPI come up, ranks > 0 serve rank 0's solves
- * until it finalises (pf/solve.h), and rank 0 runs pf-sim. An error on rank 0 ends it with the
- * message and exit 1, and its exit handler stops the serving ranks. */
-static void start_mpi(int *argc, char ***argv)
-{
-    int launched = launcher_rank();
-    if (launched < 0)
-        return;
-    if (!pf_petsc_available()) {
-        if (launched == 0)
-            fprintf(stderr, "pf-sim: started by mpirun, but this pf was built without PETSc "
-                            "(configure with -DPF_PETSC=ON after scripts/setup --petsc)\n");
-        exit(PF_EXIT_INPUT);
-    }
-    pf_error err = {0};
-    int rank = 0;
-    if (pf_petsc_initialize(argc, argv, &rank, NULL, &err) < 0) {
-        fprintf(stderr, "pf-sim: %s\n", err.msg);
-        exit(PF_EXIT_INPUT);
-    }
-    if (rank > 0) {
-        int code = PF_EXIT_INPUT;
-        if (pf_petsc_serve(pf_sim_distrib_serve, &code, &err) < 0)
-            fprintf(stderr, "pf-sim: rank %d: %s\n", rank, err.msg);
-        exit(code);
-    }
 }
 
 /* The same file (device and inode) as the stream resumed. */
@@ -737,7 +658,7 @@ static pf_status open_output(run *r, pf_atomic_file *file, FILE *resumed, pf_err
         out = file->f;
         name = r->output_path;
     } else {
-        if (launcher_rank() >= 0)
+        if (pf_cli_launcher_rank() >= 0)
             pf_cli_usage_error(&r->cli, "under mpirun, write the stream with --output FILE "
                                         "(mpirun's forwarding of stdout is not byte-exact)");
         out = pf_cli_binary_stdout(&r->cli);
@@ -827,13 +748,13 @@ static pf_status run_resumed(run *r, pf_atomic_file *file, pf_error *err)
 
 int main(int argc, char **argv)
 {
-    start_mpi(&argc, &argv);
+    pf_cli_start_mpi(&argc, &argv);
     char **args = pf_calloc((size_t)argc + 1, sizeof *args);
     if (!args) {
         fprintf(stderr, "pf-sim: out of memory\n");
         return PF_EXIT_INPUT;
     }
-    int n_args = without_petsc_options(argc, argv, args);
+    int n_args = pf_cli_without_petsc_options(argc, argv, args);
     run r;
     memset(&r, 0, sizeof r);
     r.wall0 = pf_time_seconds();

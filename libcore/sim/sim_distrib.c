@@ -123,7 +123,8 @@ static pf_status append(pf_buffer *b, const void *bytes, size_t n, pf_error *err
  * contact its boundary flag and sharers (contact_whole), and CG's data. */
 static pf_status pack_part(const pf_mesh *m, const char *json, const pf_buffer *obstacles,
                            const int64_t *owner, const int64_t *pelem, const cg_whole *cg,
-                           const contact_whole *cw, int32_t r, pf_buffer *out, pf_error *err)
+                           const contact_whole *cw, const distrib_out *o, int32_t r,
+                           pf_buffer *out, pf_error *err)
 {
     int32_t ne = m->n_elems;
     uint8_t *keep = pf_calloc((size_t)ne + 1, 1);
@@ -165,7 +166,9 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const pf_buffer *
                      .lo = {lo.x, lo.y, lo.z},
                      .hi = {hi.x, hi.y, hi.z},
                      .all_free = cg ? cg->all_free : 0,
-                     .fixed_faces = cg ? cg->fixed_faces : 0};
+                     .fixed_faces = cg ? cg->fixed_faces : 0,
+                     .checkpoint_every = o->opt ? o->opt->checkpoint_every : 0,
+                     .restoring = o->opt && o->opt->restore};
     out->size = 0;
     if (st >= 0)
         st = append(out, &h, sizeof h, err);
@@ -202,7 +205,8 @@ static pf_status pack_part(const pf_mesh *m, const char *json, const pf_buffer *
 
 /* Rank 0 makes every part and sends it (its own last, kept in mine); after a part it failed to
  * make, that part and the rest go out as a size of -1. */
-static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *mine, pf_error *err)
+static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, const distrib_out *o,
+                            pf_buffer *mine, pf_error *err)
 {
     int32_t n = ranks();
     int64_t *owner = pf_alloc_array((size_t)m->n_elems + 1, sizeof *owner);
@@ -229,8 +233,8 @@ static pf_status send_parts(const pf_mesh *m, const pf_scene *scene, pf_buffer *
     bool made = st >= 0;
     for (int32_t r = n - 1; r >= 0 && made; --r) {
         if (st >= 0)
-            st = pack_part(m, json, &obstacles, owner, pelem, is_cg ? &cg : NULL, &cw, r, mine,
-                           err);
+            st = pack_part(m, json, &obstacles, owner, pelem, is_cg ? &cg : NULL, &cw, o, r,
+                           mine, err);
         if (r == 0)
             break;
         int64_t size = st >= 0 ? (int64_t)mine->size : -1;
@@ -630,9 +634,42 @@ static void release_part(part *p)
     pf_free(p->pelem), pf_free(p->gelem), pf_free(p->gnode), pf_free(p->owned);
     pf_free(p->boundary), pf_free(p->sharers);
     pf_free(p->f), pf_free(p->u);
-    pf_free(p->row), pf_free(p->row_owned);
+    pf_free(p->row), pf_free(p->row_owned), pf_free(p->wdof);
     pf_free(p->coo_v);
     pf_sim_distrib_cg_release(p);
+}
+
+void pf_sim_distrib_result_counts(const part *p, const rank_stats *rs, pf_sim_distrib_result *res)
+{
+    if (!res)
+        return;
+    res->iterations = (int32_t)rs->iterations;
+    res->residual = rs->residual;
+    res->penalty = p->penalty;
+    res->penalty_doublings = p->doublings;
+    bool searched =
+        p->scene.method == PF_METHOD_DG && p->scene.penalty <= 0 && p->scene.flux != PF_FLUX_BZ;
+    res->factorisations = searched ? p->doublings + 1 : 0; /* MUMPS's definiteness tests */
+    res->dofs = p->all_rows;
+}
+
+/* A static scene's solve, its frame and checkpoint; restoring, the checkpoint's solution and its
+ * outputs (no frame: the stream resumed has it). */
+static pf_status static_part(part *p, rank_stats *rs, double cpu0, const distrib_out *o,
+                             pf_error *err)
+{
+    /* at time 0, at rest, the energy check not started; the solve counts as a frame advanced
+     * (pf_sim_solve_static), the stream's frame is 0 */
+    pf_sim_saved saved = {.frame = 1};
+    if (p->h.restoring) {
+        rs->setup_cpu = pf_cpu_seconds() - cpu0;
+        return pf_sim_distrib_resume(p, NULL, &saved, o, err);
+    }
+    PF_TRY(pf_sim_distrib_agree(solve_part(p, rs, cpu0, err), err));
+    PF_TRY(pf_sim_distrib_agree(pf_sim_distrib_outputs(p, o, err), err));
+    return pf_sim_distrib_checkpoint_due(p, 0)
+               ? pf_sim_distrib_checkpoint(p, NULL, &saved, rs, o, err)
+               : PF_OK;
 }
 
 /* Every rank's half after the parts went out (st: whether they did): set-up, then the static
@@ -652,12 +689,12 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, const distr
         st = pf_sim_distrib_agree(allocate_part(&p, err), err);
     if (st >= 0)
         st = pf_sim_distrib_agree(setup_part(&p, err), err);
+    if (st >= 0)
+        st = pf_sim_distrib_agree(pf_sim_distrib_whole_dofs(&p, err), err);
     if (st >= 0 && !p.scene.is_static)
         st = pf_sim_distrib_dynamics(&p, o, &rs, cpu0, err); /* agreed at every step */
     if (st >= 0 && p.scene.is_static)
-        st = pf_sim_distrib_agree(solve_part(&p, &rs, cpu0, err), err);
-    if (st >= 0 && p.scene.is_static)
-        st = pf_sim_distrib_agree(pf_sim_distrib_outputs(&p, o, err), err);
+        st = static_part(&p, &rs, cpu0, o, err);
     if (res)
         res->error_indicator = NAN;
     if (st >= 0)
@@ -675,16 +712,7 @@ static pf_status run_part(pf_status st, pf_buffer *msg, double cpu0, const distr
                                              .solve_cpu_seconds = all[r].solve_cpu,
                                              .cpu_seconds = all[r].cpu,
                                              .peak_rss_mb = all[r].rss_mb};
-    if (res) {
-        res->iterations = (int32_t)rs.iterations;
-        res->residual = rs.residual;
-        res->penalty = p.penalty;
-        res->penalty_doublings = p.doublings;
-        bool searched = p.scene.method == PF_METHOD_DG && p.scene.penalty <= 0 &&
-                        p.scene.flux != PF_FLUX_BZ;
-        res->factorisations = searched ? p.doublings + 1 : 0; /* MUMPS's definiteness tests */
-        res->dofs = p.all_rows;
-    }
+    pf_sim_distrib_result_counts(&p, &rs, res);
     pf_free(all);
     release_part(&p);
     return st;
@@ -723,9 +751,9 @@ pf_status pf_sim_distrib_serve(pf_error *err)
     return run_part(st, &msg, cpu0, NULL, err);
 }
 
-pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
-                             pf_sim_distrib_frame_fn frame, void *ctx, pf_sim_distrib_result *out,
-                             pf_error *err)
+pf_status pf_sim_distrib_run_with(const pf_scene *scene, const pf_mesh *mesh,
+                                  const pf_sim_distrib_options *opt, pf_sim_distrib_result *out,
+                                  pf_error *err)
 {
     memset(out, 0, sizeof *out);
     PetscBool up = PETSC_FALSE;
@@ -751,11 +779,25 @@ pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
     }
     pf_petsc_start_task();
     pf_buffer mine = {0};
-    pf_status st = send_parts(mesh, scene, &mine, err);
-    distrib_out o = {.res = out, .nodes = nodes, .frame = frame, .ctx = ctx};
+    distrib_out o = {.res = out,
+                     .nodes = nodes,
+                     .frame = opt ? opt->frame : NULL,
+                     .ctx = opt ? opt->ctx : NULL,
+                     .opt = opt,
+                     .scene = scene,
+                     .mesh = mesh};
+    pf_status st = send_parts(mesh, scene, &o, &mine, err);
     st = run_part(st, &mine, cpu0, &o, err);
     pf_free(nodes);
     return st;
+}
+
+pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
+                             pf_sim_distrib_frame_fn frame, void *ctx, pf_sim_distrib_result *out,
+                             pf_error *err)
+{
+    pf_sim_distrib_options opt = {.frame = frame, .ctx = ctx};
+    return pf_sim_distrib_run_with(scene, mesh, &opt, out, err);
 }
 
 pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
@@ -784,6 +826,14 @@ pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
                              pf_error *err)
 {
     (void)frame, (void)ctx;
+    return pf_sim_distrib_static(scene, mesh, out, err);
+}
+
+pf_status pf_sim_distrib_run_with(const pf_scene *scene, const pf_mesh *mesh,
+                                  const pf_sim_distrib_options *opt, pf_sim_distrib_result *out,
+                                  pf_error *err)
+{
+    (void)opt;
     return pf_sim_distrib_static(scene, mesh, out, err);
 }
 

@@ -8,6 +8,7 @@
 
 #include "contact.h"
 #include "method.h"
+#include "sim_internal.h"
 
 #ifdef PF_HAVE_PETSC
 #include <petscksp.h>
@@ -18,9 +19,11 @@ typedef struct part_header {
     int32_t n_elems, n_nodes;     /* the part's */
     int32_t all_elems, all_nodes; /* the whole mesh's */
     int64_t scene_bytes;
-    double lo[3], hi[3]; /* the whole mesh's bounds */
-    int64_t all_free;    /* CG: the whole mesh's free nodes */
-    int32_t fixed_faces; /* CG: the whole mesh's fixed faces */
+    double lo[3], hi[3];      /* the whole mesh's bounds */
+    int64_t all_free;         /* CG: the whole mesh's free nodes */
+    int32_t fixed_faces;      /* CG: the whole mesh's fixed faces */
+    int32_t checkpoint_every; /* frames between checkpoints (0: none) */
+    int32_t restoring;        /* 1: the state comes from rank 0's checkpoint */
     int32_t unused;
     int64_t obstacle_bytes; /* the mesh obstacles' surfaces (pf_sim_distrib_obstacles_pack) */
 } part_header;
@@ -46,6 +49,7 @@ typedef struct part {
      * lowest rank among the parts that hold it) and its prescribed displacement; per face
      * whether it lies between parts */
     int64_t *pnode;      /* [n_nodes] */
+    int64_t *wnode;      /* [n_nodes] its block among the whole mesh's free nodes (-1: fixed) */
     uint8_t *node_owned; /* [n_nodes] */
     double *g;           /* [3 n_nodes] */
     uint8_t *cut;        /* [n_faces of the part] */
@@ -57,6 +61,7 @@ typedef struct part {
     int64_t n_dofs;
     PetscInt *row;      /* [n_dofs] */
     uint8_t *row_owned; /* [n_dofs] */
+    int64_t *wdof;      /* [n_dofs] its index among the one-process simulator's unknowns */
     PetscInt local_rows, all_rows;
     PetscScalar *coo_v; /* [n_coo] the values this rank sends (pf_sim_distrib_matrix_values) */
     PetscCount n_coo;
@@ -69,6 +74,7 @@ typedef struct cg_whole {
     double *g;           /* [3 n_nodes] */
     int32_t *node_owner; /* [n_nodes] */
     int64_t *pnode;      /* [n_nodes], -1 fixed */
+    int64_t *wnode;      /* [n_nodes] free nodes numbered in node order (-1: fixed, unused) */
     int64_t all_free;
     int32_t fixed_faces;
 } cg_whole;
@@ -81,13 +87,18 @@ typedef struct rank_stats {
     double owned, setup_cpu, assembly_cpu, solve_cpu, cpu, rss_mb, iterations, residual, reason;
 } rank_stats;
 
-/* Rank 0's outputs: the result, the sums [4 all_nodes] its nodal displacements are made of, and
- * the function that hears each frame (NULL: none). NULL on the other ranks. */
+/* Rank 0's outputs: the result, the sums [4 all_nodes] its nodal displacements are made of, the
+ * function that hears each frame (NULL: none), the run's options (checkpoints, the state to
+ * restore) and its scene and whole mesh (the checkpoints' fingerprint). NULL on the other
+ * ranks. */
 typedef struct distrib_out {
     pf_sim_distrib_result *res;
     double *nodes;
     pf_sim_distrib_frame_fn frame;
     void *ctx;
+    const pf_sim_distrib_options *opt;
+    const pf_scene *scene;
+    const pf_mesh *mesh;
 } distrib_out;
 
 /* What contact on a part needs of the whole mesh (sim_distrib_contact.c): per node whether it
@@ -153,6 +164,30 @@ pf_status pf_sim_distrib_rigid_modes(part *p, Mat a, pf_error *err);
  * (from cpu0). */
 pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs, double cpu0,
                                   pf_error *err);
+
+/* Rank 0's result's counts from its part and statistics: iterations, residual, penalty, MUMPS's
+ * definiteness tests, unknowns (res NULL: nothing). */
+void pf_sim_distrib_result_counts(const part *p, const rank_stats *rs, pf_sim_distrib_result *res);
+
+/* ---- checkpoints (sim_distrib_ckpt.c): the one-process simulator's CKPT state ------------------
+ * Each rank: p->wdof, the whole mesh's index of each unknown of the part (after its rows). */
+pf_status pf_sim_distrib_whole_dofs(part *p, pf_error *err);
+/* Whether frame index gets a checkpoint (after frames 0, N, 2N, ... and the last). */
+bool pf_sim_distrib_checkpoint_due(const part *p, int32_t index);
+/* Each rank, collective: the owned unknowns' p->u and v [n_dofs] (NULL: at rest) gathered on rank
+ * 0 in the whole mesh's order, with st (its work this rank's share, summed here; mesh, print and n
+ * filled in), as the CKPT state o->opt->checkpoint hears (o->res's counts from rs). */
+pf_status pf_sim_distrib_checkpoint(part *p, const double *v, const pf_sim_saved *st,
+                                    const rank_stats *rs, const distrib_out *o, pf_error *err);
+/* Each rank, collective: rank 0 reads and checks o->opt->restore, every rank receives its part's
+ * p->u and v [n_dofs] (NULL: dropped) and st (its work rank 0's alone, 0 elsewhere). */
+pf_status pf_sim_distrib_restore(part *p, double *v, pf_sim_saved *st, const distrib_out *o,
+                                 pf_error *err);
+
+/* Each rank, collective: pf_sim_distrib_restore, then the restored state's outputs into o->res
+ * (its frame and time; no frame function: the stream resumed has that frame). */
+pf_status pf_sim_distrib_resume(part *p, double *v, pf_sim_saved *st, const distrib_out *o,
+                                pf_error *err);
 
 /* Each rank, collective (sim_distrib_mat.c): PETSc's matrix *a of all ranks' parts, from the
  * entries of p->k this rank is the one to send (DG: see sim_distrib.c; CG: all), at the rows

@@ -39,8 +39,9 @@ pf_status pf_sim_distrib_cg_whole(const pf_scene *scene, const pf_mesh *m, const
     w->g = pf_calloc(3 * nn + 1, sizeof *w->g);
     w->node_owner = pf_alloc_array(nn + 1, sizeof *w->node_owner);
     w->pnode = pf_alloc_array(nn + 1, sizeof *w->pnode);
+    w->wnode = pf_alloc_array(nn + 1, sizeof *w->wnode);
     int64_t *next = pf_calloc((size_t)parts + 1, sizeof *next);
-    if (!w->fixed || !w->g || !w->node_owner || !w->pnode || !next) {
+    if (!w->fixed || !w->g || !w->node_owner || !w->pnode || !w->wnode || !next) {
         pf_free(next);
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "cannot allocate the CG nodes of %zu", nn);
@@ -53,8 +54,12 @@ pf_status pf_sim_distrib_cg_whole(const pf_scene *scene, const pf_mesh *m, const
     for (int32_t r = 0; r < parts; ++r)
         next[r + 1] += next[r];
     w->all_free = next[parts];
-    for (size_t i = 0; i < nn; ++i)
-        w->pnode[i] = !w->fixed[i] && w->node_owner[i] < parts ? next[w->node_owner[i]]++ : -1;
+    int64_t whole = 0; /* the one-process order: free nodes by index (pf_cg_pattern) */
+    for (size_t i = 0; i < nn; ++i) {
+        bool is_free = !w->fixed[i] && w->node_owner[i] < parts;
+        w->pnode[i] = is_free ? next[w->node_owner[i]]++ : -1;
+        w->wnode[i] = is_free ? whole++ : -1;
+    }
     pf_free(next);
     return PF_OK;
 }
@@ -62,11 +67,12 @@ pf_status pf_sim_distrib_cg_whole(const pf_scene *scene, const pf_mesh *m, const
 void pf_sim_distrib_cg_whole_release(cg_whole *w)
 {
     pf_free(w->fixed), pf_free(w->g), pf_free(w->node_owner), pf_free(w->pnode);
+    pf_free(w->wnode);
     memset(w, 0, sizeof *w);
 }
 
-/* Bytes per node in a part's message: PETSc block, ownership, displacement. */
-enum { NODE_BYTES = 8 + 1 + 24 };
+/* Bytes per node in a part's message: PETSc block, ownership, displacement, whole-mesh block. */
+enum { NODE_BYTES = 8 + 1 + 24 + 8 };
 
 pf_status pf_sim_distrib_cg_pack(const pf_mesh *m, const cg_whole *w, const uint8_t *keep,
                                  const int32_t *node_id, int32_t r, pf_buffer *out, pf_error *err)
@@ -78,6 +84,7 @@ pf_status pf_sim_distrib_cg_pack(const pf_mesh *m, const cg_whole *w, const uint
         memcpy(b, &w->pnode[i], 8);
         b[8] = w->node_owner[i] == r;
         memcpy(b + 9, w->g + 3 * (size_t)i, 24);
+        memcpy(b + 33, &w->wnode[i], 8);
         PF_TRY(pf_buffer_append(out, b, sizeof b, err));
     }
     for (int32_t f = 0; f < m->n_faces; ++f) {
@@ -94,15 +101,17 @@ pf_status pf_sim_distrib_cg_unpack(part *p, const unsigned char *at, pf_error *e
 {
     size_t nn = (size_t)p->h.n_nodes, nf = (size_t)p->mesh.n_faces;
     p->pnode = pf_alloc_array(nn + 1, sizeof *p->pnode);
+    p->wnode = pf_alloc_array(nn + 1, sizeof *p->wnode);
     p->node_owned = pf_alloc_array(nn + 1, sizeof *p->node_owned);
     p->g = pf_alloc_array(3 * nn + 1, sizeof *p->g);
     p->cut = pf_alloc_array(nf + 1, sizeof *p->cut);
-    PF_CHECK(p->pnode && p->node_owned && p->g && p->cut, err, PF_ERR_NOMEM,
+    PF_CHECK(p->pnode && p->wnode && p->node_owned && p->g && p->cut, err, PF_ERR_NOMEM,
              "cannot allocate a part of %zu nodes", nn);
     for (size_t i = 0; i < nn; ++i, at += NODE_BYTES) {
         memcpy(&p->pnode[i], at, 8);
         p->node_owned[i] = at[8];
         memcpy(p->g + 3 * i, at + 9, 24);
+        memcpy(&p->wnode[i], at + 33, 8);
     }
     memcpy(p->cut, at, nf);
     return PF_OK;
@@ -170,6 +179,7 @@ void pf_sim_distrib_cg_nodal(const part *p, double *sum, double *scratch)
 void pf_sim_distrib_cg_release(part *p)
 {
     pf_free(p->pnode), pf_free(p->node_owned), pf_free(p->g), pf_free(p->cut);
+    pf_free(p->wnode);
 }
 
 #endif

@@ -361,6 +361,47 @@ static pf_status emit(dyn *d, const distrib_out *o, int32_t index, pf_error *err
     return pf_sim_distrib_agree(pf_sim_distrib_outputs(d->p, o, err), err);
 }
 
+/* The checkpoint after frame index, when due (collective): sim.c's state; a restart point, after
+ * which the velocity's trend is forgotten, as a run restored from it starts. At frame 0 the
+ * energy check has not started on one process: its sums are stored as zero, and a run restored
+ * there starts them afresh. */
+static pf_status checkpoint(dyn *d, const distrib_out *o, int32_t index, const rank_stats *rs,
+                            pf_error *err)
+{
+    if (!pf_sim_distrib_checkpoint_due(d->p, index))
+        return PF_OK;
+    pf_sim_saved st = {.frame = index, .time = d->time};
+    if (index > 0)
+        st = (pf_sim_saved){.frame = index,
+                            .time = d->time,
+                            .energy_started = true,
+                            .kinetic0 = d->kinetic0,
+                            .work = d->work,
+                            .fixed_energy = d->fixed_energy,
+                            .energy_floor = d->energy_floor};
+    d->trend = 0;
+    return pf_sim_distrib_checkpoint(d->p, d->v, &st, rs, o, err);
+}
+
+/* The state at the start: at rest with the energy check's sums, or a checkpoint's (collective);
+ * *first the frame it is of. */
+static pf_status initial_state(dyn *d, const distrib_out *o, int32_t *first, pf_error *err)
+{
+    *first = 0;
+    if (!d->p->h.restoring)
+        return pf_sim_distrib_agree(start_energy(d, err), err);
+    pf_sim_saved st;
+    PF_TRY(pf_sim_distrib_resume(d->p, d->v, &st, o, err));
+    *first = st.frame;
+    d->time = st.time;
+    if (!st.energy_started)
+        return pf_sim_distrib_agree(start_energy(d, err), err);
+    d->kinetic0 = st.kinetic0, d->work = st.work, d->fixed_energy = st.fixed_energy;
+    d->energy_floor = st.energy_floor;
+    d->kinetic = kinetic_energy(d, d->v);
+    return PF_OK;
+}
+
 pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs, double cpu0,
                                   pf_error *err)
 {
@@ -371,22 +412,24 @@ pf_status pf_sim_distrib_dynamics(part *p, const distrib_out *o, rank_stats *rs,
     if (st >= 0 && p->method)
         p->ops->external_forces(p->method, d.f_ext);
     if (st >= 0)
-        st = create_solver(&d, err);
-    st = pf_sim_distrib_agree(st, err);
+        st = pf_sim_distrib_agree(create_solver(&d, err), err);
     if (st >= 0)
         st = pf_sim_distrib_agree(
             pf_sim_distrib_contact_create(p, d.model_size, &d.contact_part, &d.contact, err), err);
+    int32_t first = 0;
     if (st >= 0)
-        st = start_energy(&d, err);
-    if (st >= 0)
-        st = pf_sim_distrib_agree(st, err);
+        st = initial_state(&d, o, &first, err);
     rs->setup_cpu = pf_cpu_seconds() - cpu0;
-    if (st >= 0)
+    if (st >= 0 && !p->h.restoring)
         st = emit(&d, o, 0, err);
-    for (int32_t k = 1; st >= 0 && k <= p->scene.frames; ++k) {
+    if (st >= 0 && !p->h.restoring)
+        st = checkpoint(&d, o, 0, rs, err);
+    for (int32_t k = first + 1; st >= 0 && k <= p->scene.frames; ++k) {
         st = frame(&d, k, rs, err);
         if (st >= 0)
             st = emit(&d, o, k, err);
+        if (st >= 0)
+            st = checkpoint(&d, o, k, rs, err);
     }
     destroy(&d);
     return st;

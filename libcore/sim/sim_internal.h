@@ -89,4 +89,30 @@ void pf_sim_sync_solver_stats(pf_sim *s);
  * that what follows depends on the state alone. */
 void pf_sim_forget_trend(pf_sim *s);
 
+/* A checkpoint's state (sim_state.c, the CKPT payload of docs/stream-format.md) apart from the
+ * unknowns and velocities [n] that follow it: what pf_sim_checkpoint stores, shared with the runs
+ * where every rank assembles its own elements (sim_distrib_ckpt.c). */
+typedef struct pf_sim_saved {
+    uint64_t mesh_id;
+    int32_t frame;
+    uint32_t print; /* pf_sim_state_fingerprint */
+    double time;
+    int64_t n;
+    bool energy_started;
+    double kinetic0, work, fixed_energy, energy_floor;
+} pf_sim_saved;
+
+/* CRC-32 of the scene as resolved (its JSON), the mesh's nodes and the obstacles' triangles. */
+pf_status pf_sim_state_fingerprint(const pf_scene *scene, const pf_mesh *mesh, uint32_t *out,
+                                   pf_error *err);
+/* Appends st, then u [st->n] and v [st->n], to out. */
+pf_status pf_sim_state_encode(const pf_sim_saved *st, const double *u, const double *v,
+                              pf_buffer *out, pf_error *err);
+/* Reads and checks bytes as the state of n unknowns of scene on mesh (pf_sim_restore's errors);
+ * *values: the 2 n numbers, read with pf_sim_state_value (u's, then v's). */
+pf_status pf_sim_state_decode(const void *bytes, size_t size, const pf_scene *scene,
+                              const pf_mesh *mesh, int64_t n, pf_sim_saved *st,
+                              const unsigned char **values, pf_error *err);
+double pf_sim_state_value(const unsigned char *values, int64_t q);
+
 #endif

@@ -9,7 +9,8 @@
  * restored from the bytes factorise afresh. Nor is the warm start's history (the velocity trend,
  * the warp's last rotations): both runs forget it at the restart point.
  *
- * A fingerprint (CRC-32) of the scene as resolved (its JSON with 17 significant digits), the mesh's
+ * A fingerprint (CRC-32) of the scene as resolved (its JSON with 17 significant digits, the solver
+ * left out: a run may continue on another solver, whose frames differ in the last bits), the mesh's
  * node positions and the mesh obstacles' triangles ties the state to what made it: restoring into
  * another scene, mesh or obstacle file is refused rather than continued with other bits.
  *
@@ -51,15 +52,19 @@ static uint32_t crc_doubles(uint32_t crc, const double *x, size_t n)
     return crc;
 }
 
-static pf_status fingerprint(const pf_sim *sim, uint32_t *out, pf_error *err)
+pf_status pf_sim_state_fingerprint(const pf_scene *scene, const pf_mesh *mesh, uint32_t *out,
+                                   pf_error *err)
 {
+    /* not the solver: a run may continue on another one (pf-sim --resume --solver) */
+    pf_scene plain = *scene;
+    plain.solver = pf_solver_params_default();
     char *json = NULL;
-    PF_TRY(pf_scene_to_json(sim->scene, &json, err));
+    PF_TRY(pf_scene_to_json(&plain, &json, err));
     uint32_t crc = pf_stream_crc32((const unsigned char *)json, strlen(json));
     pf_free(json);
-    crc = crc_doubles(crc, sim->mesh->x, 3 * (size_t)sim->mesh->n_nodes);
-    for (int32_t i = 0; i < sim->scene->n_obstacles; ++i) {
-        const pf_surface *s = &sim->scene->obstacles[i].surface;
+    crc = crc_doubles(crc, mesh->x, 3 * (size_t)mesh->n_nodes);
+    for (int32_t i = 0; i < scene->n_obstacles; ++i) {
+        const pf_surface *s = &scene->obstacles[i].surface;
         crc = crc_doubles(crc, s->x, 3 * (size_t)s->n_verts);
         unsigned char b[4];
         for (size_t k = 0; k < 3 * (size_t)s->n_tris; ++k) {
@@ -71,30 +76,45 @@ static pf_status fingerprint(const pf_sim *sim, uint32_t *out, pf_error *err)
     return PF_OK;
 }
 
+pf_status pf_sim_state_encode(const pf_sim_saved *st, const double *u, const double *v,
+                              pf_buffer *out, pf_error *err)
+{
+    size_t n = (size_t)st->n, size = HEADER_BYTES + 16 * n;
+    PF_TRY(pf_buffer_reserve(out, out->size + size, err));
+    unsigned char *p = out->data + out->size;
+    le_put_u64(p, st->mesh_id);
+    le_put_u32(p + 8, (uint32_t)st->frame);
+    le_put_u32(p + 12, st->print);
+    le_put_f64(p + 16, st->time);
+    le_put_u64(p + 24, (uint64_t)st->n);
+    le_put_u32(p + 32, st->energy_started ? FLAG_ENERGY_STARTED : 0);
+    le_put_f64(p + 36, st->kinetic0);
+    le_put_f64(p + 44, st->work);
+    le_put_f64(p + 52, st->fixed_energy);
+    le_put_f64(p + 60, st->energy_floor);
+    for (size_t q = 0; q < n; ++q) {
+        le_put_f64(p + HEADER_BYTES + 8 * q, u[q]);
+        le_put_f64(p + HEADER_BYTES + 8 * (n + q), v[q]);
+    }
+    out->size += size;
+    return PF_OK;
+}
+
 pf_status pf_sim_checkpoint(pf_sim *s, pf_buffer *out, pf_error *err)
 {
     PF_CHECK(!pf_scene_changes_mesh(s->scene) && !s->owned_mesh, err, PF_ERR_UNSUPPORTED,
              "checkpoint of a simulator whose mesh changes (refinement): not supported yet");
-    uint32_t print;
-    PF_TRY(fingerprint(s, &print, err));
-    size_t n = (size_t)s->n, size = HEADER_BYTES + 16 * n;
-    PF_TRY(pf_buffer_reserve(out, out->size + size, err));
-    unsigned char *p = out->data + out->size;
-    le_put_u64(p, s->mesh->id);
-    le_put_u32(p + 8, (uint32_t)s->frame);
-    le_put_u32(p + 12, print);
-    le_put_f64(p + 16, s->time);
-    le_put_u64(p + 24, (uint64_t)s->n);
-    le_put_u32(p + 32, s->energy_started ? FLAG_ENERGY_STARTED : 0);
-    le_put_f64(p + 36, s->kinetic0);
-    le_put_f64(p + 44, s->work);
-    le_put_f64(p + 52, s->fixed_energy);
-    le_put_f64(p + 60, s->energy_floor);
-    for (size_t q = 0; q < n; ++q) {
-        le_put_f64(p + HEADER_BYTES + 8 * q, s->u[q]);
-        le_put_f64(p + HEADER_BYTES + 8 * (n + q), s->v[q]);
-    }
-    out->size += size;
+    pf_sim_saved st = {.mesh_id = s->mesh->id,
+                       .frame = s->frame,
+                       .time = s->time,
+                       .n = s->n,
+                       .energy_started = s->energy_started,
+                       .kinetic0 = s->kinetic0,
+                       .work = s->work,
+                       .fixed_energy = s->fixed_energy,
+                       .energy_floor = s->energy_floor};
+    PF_TRY(pf_sim_state_fingerprint(s->scene, s->mesh, &st.print, err));
+    PF_TRY(pf_sim_state_encode(&st, s->u, s->v, out, err));
     restart_point(s);
     return PF_OK;
 }
@@ -108,20 +128,22 @@ static int64_t first_non_finite(const unsigned char *x, size_t n)
     return -1;
 }
 
-pf_status pf_sim_restore(pf_sim *s, const void *bytes, size_t size, pf_error *err)
+pf_status pf_sim_state_decode(const void *bytes, size_t size, const pf_scene *scene,
+                              const pf_mesh *mesh, int64_t n_unknowns, pf_sim_saved *st,
+                              const unsigned char **values, pf_error *err)
 {
     const unsigned char *p = bytes;
-    size_t n = (size_t)s->n;
+    size_t n = (size_t)n_unknowns;
     PF_CHECK(size >= HEADER_BYTES, err, PF_ERR_FORMAT,
              "checkpoint of %zu bytes, shorter than its %d-byte header", size, (int)HEADER_BYTES);
     uint64_t mesh_id = le_get_u64(p), stored_n = le_get_u64(p + 24);
     uint32_t frame = le_get_u32(p + 8), print = le_get_u32(p + 12), flags = le_get_u32(p + 32);
-    PF_CHECK(mesh_id == s->mesh->id, err, PF_ERR_FORMAT,
+    PF_CHECK(mesh_id == mesh->id, err, PF_ERR_FORMAT,
              "checkpoint of mesh %llu, the simulated mesh is %llu", (unsigned long long)mesh_id,
-             (unsigned long long)s->mesh->id);
-    PF_CHECK(stored_n == (uint64_t)s->n, err, PF_ERR_FORMAT,
+             (unsigned long long)mesh->id);
+    PF_CHECK(stored_n == (uint64_t)n_unknowns, err, PF_ERR_FORMAT,
              "checkpoint of %llu unknowns, the simulator has %lld (another method or degree)",
-             (unsigned long long)stored_n, (long long)s->n);
+             (unsigned long long)stored_n, (long long)n_unknowns);
     PF_CHECK(size == HEADER_BYTES + 16 * n, err, PF_ERR_FORMAT,
              "checkpoint of %zu bytes, %zu expected for %zu unknowns", size,
              (size_t)HEADER_BYTES + 16 * n, n);
@@ -138,22 +160,46 @@ pf_status pf_sim_restore(pf_sim *s, const void *bytes, size_t size, pf_error *er
              bad < (int64_t)n ? "displacement" : "velocity",
              (long long)(bad % (int64_t)(n ? n : 1)));
     uint32_t expected;
-    PF_TRY(fingerprint(s, &expected, err));
+    PF_TRY(pf_sim_state_fingerprint(scene, mesh, &expected, err));
     PF_CHECK(print == expected, err, PF_ERR_INVALID,
              "checkpoint made with another scene, mesh or obstacle surface (fingerprint 0x%08lx, "
              "this run's 0x%08lx)",
              (unsigned long)print, (unsigned long)expected);
-    for (size_t q = 0; q < n; ++q) {
-        s->u[q] = le_get_f64(p + HEADER_BYTES + 8 * q);
-        s->v[q] = le_get_f64(p + HEADER_BYTES + 8 * (n + q));
+    *st = (pf_sim_saved){.mesh_id = mesh_id,
+                         .frame = (int32_t)frame,
+                         .print = print,
+                         .time = t,
+                         .n = n_unknowns,
+                         .energy_started = flags & FLAG_ENERGY_STARTED,
+                         .kinetic0 = e[0],
+                         .work = e[1],
+                         .fixed_energy = e[2],
+                         .energy_floor = e[3]};
+    *values = p + HEADER_BYTES;
+    return PF_OK;
+}
+
+double pf_sim_state_value(const unsigned char *values, int64_t q)
+{
+    return le_get_f64(values + 8 * q);
+}
+
+pf_status pf_sim_restore(pf_sim *s, const void *bytes, size_t size, pf_error *err)
+{
+    pf_sim_saved st;
+    const unsigned char *values;
+    PF_TRY(pf_sim_state_decode(bytes, size, s->scene, s->mesh, s->n, &st, &values, err));
+    for (int64_t q = 0; q < s->n; ++q) {
+        s->u[q] = pf_sim_state_value(values, q);
+        s->v[q] = pf_sim_state_value(values, s->n + q);
     }
-    s->frame = (int32_t)frame;
-    s->time = t;
-    s->energy_started = flags & FLAG_ENERGY_STARTED;
-    s->kinetic0 = e[0];
-    s->work = e[1];
-    s->fixed_energy = e[2];
-    s->energy_floor = e[3];
+    s->frame = st.frame;
+    s->time = st.time;
+    s->energy_started = st.energy_started;
+    s->kinetic0 = st.kinetic0;
+    s->work = st.work;
+    s->fixed_energy = st.fixed_energy;
+    s->energy_floor = st.energy_floor;
     restart_point(s);
     return PF_OK;
 }

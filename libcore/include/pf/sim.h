@@ -476,6 +476,28 @@ typedef struct pf_sim_distrib_result {
 typedef pf_status (*pf_sim_distrib_frame_fn)(void *ctx, const pf_sim_distrib_result *res,
                                              pf_error *err);
 
+/* Rank 0, after the frames 0, N, 2N, ... and the last (pf_sim_distrib_options): state [size]
+ * holds the state the next frames depend on in the layout pf_sim_checkpoint writes for the same
+ * scene and mesh (the whole mesh's unknowns in a one-process simulator's order), and res the
+ * run's outputs and counts so far (frame, time, steps, iterations, factorisations). A checkpoint
+ * is a restart point: the velocity trend the solver's first guess extrapolates is forgotten
+ * after it, as on one process. Its failure ends the run on every rank with its error. */
+typedef pf_status (*pf_sim_distrib_checkpoint_fn)(void *ctx, const pf_sim_distrib_result *res,
+                                                  const void *state, size_t size, pf_error *err);
+
+/* What pf_sim_distrib_run_with takes besides the scene and mesh (rank 0's). */
+typedef struct pf_sim_distrib_options {
+    pf_sim_distrib_frame_fn frame;           /* NULL: none */
+    pf_sim_distrib_checkpoint_fn checkpoint; /* NULL: none */
+    void *ctx;                               /* both functions' */
+    int32_t checkpoint_every;                /* frames between checkpoints; 0: none */
+    /* a state as pf_sim_checkpoint writes (pf_sim_restore's checks; that of a one-process run
+     * too) to continue from: frames after its frame; a static scene solves nothing. NULL: the
+     * start. */
+    const void *restore;
+    size_t restore_size;
+} pf_sim_distrib_options;
+
 /* Whether pf_sim_distrib_run takes the scene, for a mesh with an embedded surface and its weights
  * or without (embedded): contact there is at the surface's vertices, whose rows reach across
  * parts; that path has contact at the mesh's boundary nodes only. */
@@ -487,6 +509,10 @@ bool pf_sim_distrib_applies(const pf_scene *scene, bool embedded);
 pf_status pf_sim_distrib_run(const pf_scene *scene, const pf_mesh *mesh,
                              pf_sim_distrib_frame_fn frame, void *ctx, pf_sim_distrib_result *out,
                              pf_error *err);
+/* pf_sim_distrib_run with checkpoints and a state to continue from (opt NULL: none). */
+pf_status pf_sim_distrib_run_with(const pf_scene *scene, const pf_mesh *mesh,
+                                  const pf_sim_distrib_options *opt, pf_sim_distrib_result *out,
+                                  pf_error *err);
 /* pf_sim_distrib_run of a static scene without a frame function. */
 pf_status pf_sim_distrib_static(const pf_scene *scene, const pf_mesh *mesh,
                                 pf_sim_distrib_result *out, pf_error *err);

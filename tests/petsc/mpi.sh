@@ -142,7 +142,7 @@ done
 # obstacle. Every frame's displacement at three probes equals the one-process CHOLMOD run's to
 # 1e-8 of the largest (the issue asks 1e-6 for the drop; measured on 1, 2 and 4 ranks: drop DG
 # 4.1e-11, 2.7e-11, 1.7e-11, CG 6.1e-11, 3.6e-11, 1.0e-10; pressed DG 1.8e-11, 4.5e-11, 2.3e-11,
-# CG 6.1e-11, 4.4e-11, 7.1e-11; slab DG 4.6e-11, 2.9e-11, 2.1e-11), and as many contacts are
+# CG 6.1e-11, 4.4e-11, 7.1e-11; block DG 5.2e-11, 2.9e-11, 2.1e-11), and as many contacts are
 # found as by the one-process run.
 "$bin/pf-shape" box --extent 1,0.5,0.5 --cells 4,2,2 >"$tmp/box.pfs" || { echo "FAIL: pf-shape"; exit 1; }
 printf '{"time": {"frames": 12}}\n' >"$tmp/drop.json"
@@ -158,30 +158,12 @@ cat >"$tmp/press.json" <<'EOF2'
  "damping": {"alpha": 2, "beta": 0.02}, "time": {"dt": 0.04, "frames": 15, "substeps": 8}}
 EOF2
 sed 's/"name": "dg", "degree": 1/"name": "cg"/' "$tmp/press.json" >"$tmp/press_cg.json"
-# a mesh obstacle (its triangles go to every rank with its part): a slab under the box
-cat >"$tmp/slab.obj" <<'EOF2'
-v -1 -1 -0.4
-v 2 -1 -0.4
-v 2 1.5 -0.4
-v -1 1.5 -0.4
-v -1 -1 -0.02
-v 2 -1 -0.02
-v 2 1.5 -0.02
-v -1 1.5 -0.02
-f 1 3 2
-f 1 4 3
-f 5 6 7
-f 5 7 8
-f 1 2 6
-f 1 6 5
-f 2 3 7
-f 2 7 6
-f 3 4 8
-f 3 8 7
-f 4 1 5
-f 4 5 8
-EOF2
-printf '{"obstacles": [{"mesh": {"file": "slab.obj"}}], "ground": false, "time": {"frames": 12}}\n' >"$tmp/slab.json"
+# a mesh obstacle (its triangles go to every rank with its part): the unit cube scaled by 3 as a
+# block under the box, its top at z = -0.02
+cp "$data/cube.obj" "$tmp/block.obj"
+printf '%s\n' '{"obstacles": [{"mesh": {"file": "block.obj", "scale": 3},
+  "path": [{"time": 0, "translation": [-1, -1, -3.02]}]}], "ground": false, "time": {"frames": 12}}' \
+  >"$tmp/slab.json"
 contacts() { grep -o '[0-9]* contacts' "$1" | head -1; }
 for case in drop:box:1,0.5,0.5:0.5,0,0:0,0.25,0.5:0.02:39 drop_cg:box:1,0.5,0.5:0.5,0,0:0,0.25,0.5:0.02:39 \
             press:beam:4,0.5,0.5:2,0,0:3,1,1:0.1:48 press_cg:beam:4,0.5,0.5:2,0,0:3,1,1:0.1:48 \

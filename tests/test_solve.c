@@ -364,7 +364,8 @@ static int64_t terms_solve(pf_solver *s, const pf_block_matrix *a, const double 
  * matrix is absorbed by PCG on the old factor (its triple's diagonal block is exact in the
  * congruence of solver.c, which scales the triple's couplings, so the preconditioner differs
  * from the matrix in one block row and column only: rank 6 at most, 7 iterations in exact
- * arithmetic; 6 measured, where the plain old factor, off by the rank-one term, took 2); 60 of them are more than a factorisation's worth, so the trial fails and
+ * arithmetic; 6 measured, where the plain old factor, off by the rank-one term, took 2); 60 of
+ * them are more than the trial's two factorisations' worth, so the trial fails and
  * refactorises, counted as new terms, not as a PCG failure. Then the back-off: the next change
  * refactorises at once (no iteration), the one after is tried again, fails, and the next two
  * refactorise at once; a trial that converges ends the back-off, and so does a reset. The sets

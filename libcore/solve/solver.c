@@ -42,6 +42,14 @@
  * (some 15-25 us); the model does not count it yet. */
 enum { FACTOR_RATE = 4 };
 
+/* A trial of the old factor on new terms (PF_MATRIX_TERMS) may spend this many factorisations'
+ * worth of iterations: in the congruence such trials converge in 5-36 iterations on the
+ * embedded CG torus and bunny of scripts/demo's pipeline (a factorisation is worth 17 and 14
+ * there), and a trial that converges keeps the factor for the steps after it. With 2 against
+ * 1, on those scenes (30 and 24 frames): 27 factorisations against 37, and 55 against 90;
+ * factorisation and solves 14.8 against 18.4 and 15.8 against 19.9 CPU seconds. */
+enum { TRIAL_WORTH = 2 };
+
 /* auto takes direct when a factorisation costs at most this many iterations: a solve on an old
  * factor needs 3-6 (measured on the beams and bodies of bench/bench_solver.c), and the factor
  * still has to be renewed every few steps. */
@@ -655,8 +663,14 @@ pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_chan
         charge(s, s->stats.iteration_flops);
     } else if (st >= 0) {
         bool converged;
+        int32_t limit = s->iteration_limit;
+        if (trial) /* TRIAL_WORTH factorisations' worth (below), within max_iterations */
+            s->iteration_limit = limit > s->params.max_iterations / TRIAL_WORTH
+                                     ? s->params.max_iterations
+                                     : TRIAL_WORTH * limit;
         st = iterate(s, a, b, x, failed_column, trial ? PF_REFACTOR_NEW : PF_REFACTOR_FAILED,
                      &converged, err);
+        s->iteration_limit = limit;
         if (trial)
             note_terms_trial(s, converged);
     }

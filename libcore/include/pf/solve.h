@@ -170,9 +170,10 @@ pf_solver_params pf_solver_params_default(void);
  * vanished (contacts came or went). For the last, pcg tries the old factor first while such
  * trials converge: in the congruence (pcg above) a contact's stiff terms on the diagonal cost
  * PCG a few iterations, whether rank one or spread over many unknowns (a surface vertex moved
- * by MLS weights); stiff couplings between many unknowns more than a factorisation is worth.
- * After a failed trial the next changes of terms refactorise at once, 1,
- * 2, 4 ... up to 32 of them, before the old factor is tried again. */
+ * by MLS weights); stiff couplings between many unknowns more. A trial may spend two
+ * factorisations' worth of iterations (solver.c, TRIAL_WORTH). After a failed trial the next
+ * changes of terms refactorise at once, 1, 2, 4 ... up to 32 of them, before the old factor is
+ * tried again. */
 typedef enum pf_matrix_change {
     PF_MATRIX_SAME = 0,
     PF_MATRIX_DRIFTED = 1,

@@ -361,9 +361,11 @@ static int64_t terms_solve(pf_solver *s, const pf_block_matrix *a, const double 
 }
 
 /* PF_MATRIX_TERMS (contacts that came or went): one stiff rank-one term more than the factor's
- * matrix is absorbed by PCG on the old factor (the preconditioned matrix is the identity plus a
- * rank-one term, so 2 iterations in exact arithmetic; at most 4 with the single-precision
- * factor's rounding); 60 of them are more than a factorisation's worth, so the trial fails and
+ * matrix is absorbed by PCG on the old factor (its triple's diagonal block is exact in the
+ * congruence of solver.c, which scales the triple's couplings, so the preconditioner differs
+ * from the matrix in one block row and column only: rank 6 at most, 7 iterations in exact
+ * arithmetic; 6 measured, where the plain old factor, off by the rank-one term, took 2); 60 of
+ * them are more than the trial's two factorisations' worth, so the trial fails and
  * refactorises, counted as new terms, not as a PCG failure. Then the back-off: the next change
  * refactorises at once (no iteration), the one after is tried again, fails, and the next two
  * refactorise at once; a trial that converges ends the back-off, and so does a reset. The sets
@@ -391,7 +393,7 @@ static void terms_tried_on_old_factor_with_back_off(void **state)
 
     with_terms(&a, base, 7, 1, 1); /* one contact came */
     assert_int_equal(terms_solve(s, &a, rhs, x, &its), 0);
-    assert_true(its >= 1 && its <= 4);
+    assert_true(its >= 1 && its <= 7);
     with_terms(&a, base, 3, 7, 60); /* sixty: the trial fails */
     assert_int_equal(terms_solve(s, &a, rhs, x, &its), 1);
     assert_true(its > 4);

@@ -42,6 +42,14 @@
  * (some 15-25 us); the model does not count it yet. */
 enum { FACTOR_RATE = 4 };
 
+/* A trial of the old factor on new terms (PF_MATRIX_TERMS) may spend this many factorisations'
+ * worth of iterations: in the congruence such trials converge in 5-36 iterations on the
+ * embedded CG torus and bunny of scripts/demo's pipeline (a factorisation is worth 17 and 14
+ * there), and a trial that converges keeps the factor for the steps after it. With 2 against
+ * 1, on those scenes (30 and 24 frames): 27 factorisations against 37, and 55 against 90;
+ * factorisation and solves 14.8 against 18.4 and 15.8 against 19.9 CPU seconds. */
+enum { TRIAL_WORTH = 2 };
+
 /* auto takes direct when a factorisation costs at most this many iterations: a solve on an old
  * factor needs 3-6 (measured on the beams and bodies of bench/bench_solver.c), and the factor
  * still has to be renewed every few steps. */
@@ -69,6 +77,11 @@ struct pf_solver {
     double *rot, *rot_factor; /* [3 n] each, NULL until rotations are given */
     bool rot_given;           /* rot holds the coming solve's */
     bool rot_factor_valid;    /* rot_factor holds the factor's */
+    /* the congruence (below): the 3 x 3 diagonal blocks of the factor's matrix, [3 n] row-major
+     * per triple, and the lower triangles T of the coming solve's, [2 n] (t00 t10 t11 t20 t21
+     * t22 per triple); NULL when the unknowns do not come in triples of one block */
+    double *diag_factor, *congruence;
+    bool congruence_valid; /* congruence holds the coming solve's */
     pf_solver_stats stats;
 };
 
@@ -122,6 +135,18 @@ static pf_status create_petsc(pf_solver **out, pf_solver *s, const pf_block_matr
     return PF_OK;
 }
 
+/* Whether the unknowns come in triples (3 t .. 3 t + 2) that each lie within one block, so that
+ * every triple's 3 x 3 diagonal block is stored (the congruence below). */
+static bool triples_in_blocks(const pf_block_matrix *a)
+{
+    if (a->n % 3 != 0)
+        return false;
+    for (int32_t b = 0; b <= a->n_blocks; ++b)
+        if (a->block_start[b] % 3 != 0)
+            return false;
+    return true;
+}
+
 /* CHOLMOD's analysis (no progress of its own: the phase's start and end). */
 static pf_status analyse(pf_solver *s, const pf_block_matrix *a, pf_error *err)
 {
@@ -160,7 +185,12 @@ pf_status pf_solver_create(pf_solver **out, const pf_block_matrix *a,
         s->z = pf_alloc_array(n, sizeof *s->z);
         s->d = pf_alloc_array(n, sizeof *s->d);
         s->q = pf_alloc_array(n, sizeof *s->q);
-        if (!s->r || !s->z || !s->d || !s->q)
+        if (st >= 0 && triples_in_blocks(a)) {
+            s->diag_factor = pf_alloc_array(3 * (n - 1) + 1, sizeof *s->diag_factor);
+            s->congruence = pf_alloc_array(2 * (n - 1) + 1, sizeof *s->congruence);
+        }
+        if (!s->r || !s->z || !s->d || !s->q ||
+            (triples_in_blocks(a) && (!s->diag_factor || !s->congruence)))
             st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                               "cannot allocate the solver's vectors for %lld unknowns",
                               (long long)s->n);
@@ -196,7 +226,8 @@ void pf_solver_destroy(pf_solver **sp)
         return;
     pf_cholesky_destroy(&s->chol);
     pf_petsc_solver_destroy(&s->petsc);
-    void *arrays[] = {s->r, s->z, s->d, s->q, s->rot, s->rot_factor};
+    void *arrays[] = {s->r, s->z, s->d, s->q, s->rot, s->rot_factor, s->diag_factor,
+                      s->congruence};
     for (size_t k = 0; k < sizeof arrays / sizeof *arrays; ++k)
         pf_free(arrays[k]);
     pf_free(s);
@@ -219,6 +250,8 @@ static pf_status factor_timed(pf_solver *s, const pf_block_matrix *m, pf_refacto
     return st;
 }
 
+static void triple_block(const pf_block_matrix *a, int64_t t, double m[9]);
+
 static pf_status factor_system(pf_solver *s, const pf_block_matrix *a, pf_refactor_reason why,
                                int64_t *failed, pf_error *err)
 {
@@ -228,6 +261,9 @@ static pf_status factor_system(pf_solver *s, const pf_block_matrix *a, pf_refact
     s->rot_factor_valid = s->rot_given;
     if (s->rot_given)
         memcpy(s->rot_factor, s->rot, 3 * (size_t)s->n * sizeof *s->rot);
+    if (s->diag_factor)
+        for (int64_t t = 0; t < s->n / 3; ++t)
+            triple_block(a, t, s->diag_factor + 9 * t);
     s->cycle_flops = s->factor_cost;
     s->cycle_solves = 0;
     s->refactor_due = false;
@@ -305,16 +341,144 @@ static void rotate_triples(const pf_solver *s, bool transpose, const double *x, 
     }
 }
 
+/* ---- the congruence -----------------------------------------------------------------------
+ * Penalty contact adds stiff terms in the world frame (an embedded surface vertex on the
+ * ground: up to some 2,000 times the diagonal of the unknowns it reaches, on the demo's torus on
+ * CG) and adds or drops them wherever contacts come or go. The old factor does not know them: a
+ * trial of it on new contact terms took 300-500 PCG iterations there (a factorisation is worth
+ * 17). The preconditioner is therefore taken in the congruence P = S W S^T (W the warped
+ * factor's matrix Q A_f Q^T, S block-diagonal with a lower-triangular 3 x 3 block S_t per
+ * triple) that gives P every triple's diagonal block N_t of the current matrix:
+ * S_t = L(N_t) L(G_t)^-1, G_t = Q_t F_t Q_t^T the diagonal block of W (F_t that of the
+ * factor's matrix), L() the Cholesky factor, so S_t G_t S_t^T = N_t; then P^-1 = T^T W^-1 T with
+ * T = S^-1 = L(G_t) L(N_t)^-1, still symmetric positive definite. A stiff term on the diagonal
+ * is then in P, its triple's couplings scaled with it: those trials took 5-16 iterations (the
+ * simulator drops the warp under contact, sim.c). The price: a lone stiff rank-one term, which
+ * the plain factor absorbs in 2 iterations, takes up to 7 (P is off in the triple's block row
+ * and column). Without contact the diagonal blocks drift little and T stays near I. */
+
+/* The triple t's diagonal block of a (row-major, full). */
+static void triple_block(const pf_block_matrix *a, int64_t t, double m[9])
+{
+    for (int j = 0; j < 3; ++j) { /* column 3 t + j ends with rows 3 t .. 3 t + j */
+        int64_t end = a->col_ptr[3 * t + j + 1];
+        for (int i = 0; i <= j; ++i)
+            m[3 * i + j] = m[3 * j + i] = a->val[end - 1 - (j - i)];
+    }
+}
+
+/* The lower Cholesky factor l (l00 l10 l11 l20 l21 l22) of the symmetric m; false when m is
+ * not positive definite. */
+static bool cholesky3(const double m[9], double l[6])
+{
+    double d0 = m[0];
+    if (!(d0 > 0))
+        return false;
+    l[0] = sqrt(d0);
+    l[1] = m[3] / l[0];
+    l[3] = m[6] / l[0];
+    double d1 = m[4] - l[1] * l[1];
+    if (!(d1 > 0))
+        return false;
+    l[2] = sqrt(d1);
+    l[4] = (m[7] - l[3] * l[1]) / l[2];
+    double d2 = m[8] - l[3] * l[3] - l[4] * l[4];
+    if (!(d2 > 0))
+        return false;
+    l[5] = sqrt(d2);
+    return true;
+}
+
+/* t = g n^-1 for lower triangles g, n (packed as cholesky3's). */
+static void lower_over(const double g[6], const double n[6], double t[6])
+{
+    double i0 = 1 / n[0], i2 = 1 / n[2], i5 = 1 / n[5]; /* n^-1, lower */
+    double i1 = -n[1] * i0 * i2, i4 = -n[4] * i2 * i5;
+    double i3 = -(n[3] * i0 + n[4] * i1) * i5;
+    t[0] = g[0] * i0;
+    t[1] = g[1] * i0 + g[2] * i1;
+    t[2] = g[2] * i2;
+    t[3] = g[3] * i0 + g[4] * i1 + g[5] * i3;
+    t[4] = g[4] * i2 + g[5] * i4;
+    t[5] = g[5] * i5;
+}
+
+/* Prepares T for the coming solve on a (the factor's blocks, rotated by the warp when it
+ * applies). A triple whose block is not positive definite keeps T = I. */
+static void congruence_prepare(pf_solver *s, const pf_block_matrix *a)
+{
+    s->congruence_valid = false;
+    if (!s->diag_factor)
+        return;
+    bool warp = s->rot_given && s->rot_factor_valid;
+    for (int64_t t = 0; t < s->n / 3; ++t) {
+        double nb[9], g[9], ln[6], lg[6], *tt = s->congruence + 6 * t;
+        triple_block(a, t, nb);
+        const double *f = s->diag_factor + 9 * t;
+        if (warp) { /* g = Q f Q^T, Q = R_now R_factor^T */
+            const double *rn = s->rot + 9 * t, *rf = s->rot_factor + 9 * t;
+            double q[9], qf[9];
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    q[3 * i + j] = rn[3 * i] * rf[3 * j] + rn[3 * i + 1] * rf[3 * j + 1] +
+                                   rn[3 * i + 2] * rf[3 * j + 2];
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    qf[3 * i + j] =
+                        q[3 * i] * f[j] + q[3 * i + 1] * f[3 + j] + q[3 * i + 2] * f[6 + j];
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    g[3 * i + j] = qf[3 * i] * q[3 * j] + qf[3 * i + 1] * q[3 * j + 1] +
+                                   qf[3 * i + 2] * q[3 * j + 2];
+        } else
+            memcpy(g, f, sizeof g);
+        if (cholesky3(nb, ln) && cholesky3(g, lg))
+            lower_over(lg, ln, tt);
+        else
+            tt[0] = tt[2] = tt[5] = 1, tt[1] = tt[3] = tt[4] = 0;
+    }
+    s->congruence_valid = true;
+}
+
+/* y = T x (transpose: T^T x) per triple; x and y may alias. */
+static void congruence_apply(const pf_solver *s, bool transpose, const double *x, double *y)
+{
+    for (int64_t t = 0; t < s->n / 3; ++t) {
+        const double *m = s->congruence + 6 * t;
+        double x0 = x[3 * t], x1 = x[3 * t + 1], x2 = x[3 * t + 2];
+        if (transpose) {
+            y[3 * t] = m[0] * x0 + m[1] * x1 + m[3] * x2;
+            y[3 * t + 1] = m[2] * x1 + m[4] * x2;
+            y[3 * t + 2] = m[5] * x2;
+        } else {
+            y[3 * t] = m[0] * x0;
+            y[3 * t + 1] = m[1] * x0 + m[2] * x1;
+            y[3 * t + 2] = m[3] * x0 + m[4] * x1 + m[5] * x2;
+        }
+    }
+}
+
 /* z ~ A^-1 r on the factor of an earlier matrix. With rotations (the warp): a corotated matrix
  * is A ~ Q A_f Q^T, Q = R_now R_factor^T per triple, so z = Q A_f^-1 Q^T r, still symmetric
  * positive definite (Q is orthogonal). */
-static pf_status precondition(pf_solver *s, const double *r, double *z, pf_error *err)
+static pf_status warped(pf_solver *s, const double *r, double *z, pf_error *err)
 {
     if (!s->rot_given || !s->rot_factor_valid)
         return pf_cholesky_precondition(s->chol, r, z, err);
     rotate_triples(s, true, r, z);
     PF_TRY(pf_cholesky_precondition(s->chol, z, z, err));
     rotate_triples(s, false, z, z);
+    return PF_OK;
+}
+
+/* z = T^T W T r: the warped factor W (above) in the congruence T of the coming solve. */
+static pf_status precondition(pf_solver *s, const double *r, double *z, pf_error *err)
+{
+    if (!s->congruence_valid)
+        return warped(s, r, z, err);
+    congruence_apply(s, false, r, z);
+    PF_TRY(warped(s, z, z, err));
+    congruence_apply(s, true, z, z);
     return PF_OK;
 }
 
@@ -412,7 +576,9 @@ static pf_status iterate(pf_solver *s, const pf_block_matrix *a, const double *b
                          pf_error *err)
 {
     int32_t its = 0;
+    congruence_prepare(s, a);
     pcg_result res = pcg(s, a, b, x, &its, err);
+    s->congruence_valid = false;
     *converged = res == PCG_CONVERGED;
     account(s, its); /* a failed attempt iterated too; its charge ends with the factorisation */
     if (res == PCG_CONVERGED)
@@ -497,8 +663,14 @@ pf_status pf_solver_solve(pf_solver *s, const pf_block_matrix *a, pf_matrix_chan
         charge(s, s->stats.iteration_flops);
     } else if (st >= 0) {
         bool converged;
+        int32_t limit = s->iteration_limit;
+        if (trial) /* TRIAL_WORTH factorisations' worth (below), within max_iterations */
+            s->iteration_limit = limit > s->params.max_iterations / TRIAL_WORTH
+                                     ? s->params.max_iterations
+                                     : TRIAL_WORTH * limit;
         st = iterate(s, a, b, x, failed_column, trial ? PF_REFACTOR_NEW : PF_REFACTOR_FAILED,
                      &converged, err);
+        s->iteration_limit = limit;
         if (trial)
             note_terms_trial(s, converged);
     }

@@ -120,8 +120,10 @@ void pf_cholesky_destroy(pf_cholesky **c);
  * A sequence of symmetric positive definite systems A_k x = b_k on one pattern (a simulation's
  * steps; A's values may change between solves). Methods:
  *   direct  the reference: factorise whenever the caller says the matrix changed.
- *   pcg     conjugate gradients on the current A, preconditioned by the most recent factor,
- *           warm-started from x's value on entry. A new factorisation happens when the last
+ *   pcg     conjugate gradients on the current A, preconditioned by the most recent factor
+ *           (in the congruence that gives it the current A's 3 x 3 diagonal blocks when the
+ *           unknowns come in triples of one block: solver.c), warm-started from x's value on
+ *           entry. A new factorisation happens when the last
  *           solve cost more than the average solve since the last factorisation, that
  *           factorisation included (costs counted in flops from CHOLMOD's analysis, so the
  *           decision is deterministic), when the matrix gained or lost terms (PF_MATRIX_NEW: a
@@ -166,10 +168,12 @@ pf_solver_params pf_solver_params_default(void);
 /* How the matrix differs from the previous solve's: not at all; by a drift of its values (the
  * rotations of a corotated step); wholly (pcg refactorises); or by terms that appeared or
  * vanished (contacts came or went). For the last, pcg tries the old factor first while such
- * trials converge: a contact that adds a stiff rank-one term costs PCG about one iteration,
- * one whose term spreads over many unknowns (a surface vertex moved by MLS weights) more than a
- * factorisation is worth. After a failed trial the next changes of terms refactorise at once, 1,
- * 2, 4 ... up to 32 of them, before the old factor is tried again. */
+ * trials converge: in the congruence (pcg above) a contact's stiff terms on the diagonal cost
+ * PCG a few iterations, whether rank one or spread over many unknowns (a surface vertex moved
+ * by MLS weights); stiff couplings between many unknowns more. A trial may spend two
+ * factorisations' worth of iterations (solver.c, TRIAL_WORTH). After a failed trial the next
+ * changes of terms refactorise at once, 1, 2, 4 ... up to 32 of them, before the old factor is
+ * tried again. */
 typedef enum pf_matrix_change {
     PF_MATRIX_SAME = 0,
     PF_MATRIX_DRIFTED = 1,
@@ -244,7 +248,8 @@ pf_status pf_solver_set_near_null_space(pf_solver *s, int32_t k, const double *v
  * solve's matrix, rot [n / 3][9] row-major (copied), or NULL for none: a corotated matrix whose
  * triples turned by R since the factor's were at R_f is close to Q A_f Q^T, Q = R R_f^T per
  * triple, so pcg preconditions with Q A_f^-1 Q^T (the warp). Solves without rotations, and
- * factors made without them, precondition with A_f^-1 alone. PF_ERR_NOMEM. */
+ * factors made without them, precondition with A_f^-1 alone: give none while terms that do not
+ * turn with the body (contact with an obstacle) are stiff in the matrix. PF_ERR_NOMEM. */
 pf_status pf_solver_set_rotations(pf_solver *s, const double *rot, pf_error *err);
 
 /* Forgets the factor (the next solve factorises) and the back-off of PF_MATRIX_TERMS: after a

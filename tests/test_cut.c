@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "test_bodies.h"
 #include "test_check.h"
 #include "test_cut_requests.h"
 #include "test_random.h"
@@ -35,19 +36,7 @@ static void check_separated(const pf_mesh *m, const pf_cut_result *r)
     int32_t *owner = malloc(((size_t)m->n_nodes + 1) * sizeof *owner);
     assert_non_null(body);
     assert_non_null(owner);
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        body[e] = e;
-    for (bool moved = true; moved;) { /* label propagation to the smallest element of a body */
-        moved = false;
-        for (int32_t f = 0; f < m->n_faces; ++f) {
-            int32_t a = m->face_elems[2 * f], b = m->face_elems[2 * f + 1];
-            if (a >= 0 && b >= 0 && body[a] != body[b]) {
-                int32_t lo = body[a] < body[b] ? body[a] : body[b];
-                body[a] = body[b] = lo;
-                moved = true;
-            }
-        }
-    }
+    element_bodies(m, body);
     int32_t bodies = 0;
     for (int32_t e = 0; e < m->n_elems; ++e)
         bodies += body[e] == e;

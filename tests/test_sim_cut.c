@@ -21,6 +21,7 @@
 #include <pf/sim.h>
 #include <pf/io.h>
 
+#include "test_bodies.h"
 #include "test_cut_requests.h"
 #include "test_sim_changes.h"
 
@@ -465,25 +466,6 @@ static void boundary_surface(const pf_mesh *m, pf_surface *s)
     assert_true(st.closed && st.manifold && st.volume > 0);
 }
 
-static int32_t root_of(int32_t *parent, int32_t i)
-{
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
-
-/* body[e]: the root element of e's group through shared faces (m derived). */
-static void element_bodies(const pf_mesh *m, int32_t *body)
-{
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        body[e] = e;
-    for (int32_t f = 0; f < m->n_faces; ++f)
-        if (m->face_elems[2 * f] >= 0 && m->face_elems[2 * f + 1] >= 0)
-            body[root_of(body, m->face_elems[2 * f])] = root_of(body, m->face_elems[2 * f + 1]);
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        body[e] = root_of(body, e);
-}
-
 /* piece[v]: the body of each vertex of s: its connected part of s (through triangles) lies in
  * the body holding that part's vertex farthest from the plane x = cut_x (away from the cut: in
  * the elements of one body only). */
@@ -739,21 +721,6 @@ static void test_scene_errors(void **state)
 
 /* ---- a blade through the sliced bunny -----------------------------------------------------
  */
-
-/* body[i]: the body of the elements using node i (m derived, elem_body from element_bodies). */
-static void node_bodies(const pf_mesh *m, const int32_t *elem_body, int32_t *body)
-{
-    for (int32_t i = 0; i < m->n_nodes; ++i)
-        body[i] = -1;
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
-            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
-            for (int64_t k = m->face_offsets[f]; k < m->face_offsets[f + 1]; ++k) {
-                uint32_t n = m->face_nodes[k];
-                body[n] = body[n] == -1 || body[n] == elem_body[e] ? elem_body[e] : -2;
-            }
-        }
-}
 
 /* The triangles of the simulator's surface whose corners are not all weighted by nodes of one
  * body (a corner weighted by two bodies counts as its own). */

@@ -27,6 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "test_bodies.h"
 #include "test_check.h"
 #include <pf/cut.h>
 #include <pf/embed.h>
@@ -115,40 +116,22 @@ static double mesh_volume(const pf_mesh *m)
     return v;
 }
 
-static int32_t find_root(int32_t *parent, int32_t e)
-{
-    while (parent[e] != e)
-        e = parent[e] = parent[parent[e]];
-    return e;
-}
-
-/* The vertices of w whose weights name nodes of two bodies of m (bodies: elements joined by
- * faces; a node's body that of any element at it). */
+/* The vertices of w whose weights name nodes of two bodies of m (or a node of two bodies). */
 static int32_t vertices_on_two_bodies(const pf_mesh *m, const pf_weights *w)
 {
-    int32_t *parent = malloc(sizeof *parent * ((size_t)m->n_elems + 1));
+    int32_t *elem_body = malloc(sizeof *elem_body * ((size_t)m->n_elems + 1));
     int32_t *node_body = malloc(sizeof *node_body * ((size_t)m->n_nodes + 1));
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        parent[e] = e;
-    for (int32_t f = 0; f < m->n_faces; ++f)
-        if (m->face_elems[2 * f] >= 0 && m->face_elems[2 * f + 1] >= 0)
-            parent[find_root(parent, m->face_elems[2 * f])] =
-                find_root(parent, m->face_elems[2 * f + 1]);
-    for (int32_t e = 0; e < m->n_elems; ++e)
-        for (int64_t q = m->elem_offsets[e]; q < m->elem_offsets[e + 1]; ++q) {
-            int32_t f = PF_FACE_INDEX(m->elem_faces[q]);
-            for (int64_t i = m->face_offsets[f]; i < m->face_offsets[f + 1]; ++i)
-                node_body[m->face_nodes[i]] = find_root(parent, e);
-        }
+    element_bodies(m, elem_body);
+    node_bodies(m, elem_body, node_body);
     int32_t count = 0;
     for (int32_t v = 0; v < w->rows; ++v) {
         bool two = false;
         for (int64_t q = w->row_offsets[v]; q < w->row_offsets[v + 1]; ++q)
-            two |= w->val[q] != 0 &&
-                   node_body[w->col[q]] != node_body[w->col[w->row_offsets[v]]];
+            two |= w->val[q] != 0 && (node_body[w->col[q]] < 0 ||
+                                      node_body[w->col[q]] != node_body[w->col[w->row_offsets[v]]]);
         count += two;
     }
-    free(parent), free(node_body);
+    free(elem_body), free(node_body);
     return count;
 }
 

@@ -3,6 +3,10 @@
  * whole on one side, the crack then follows its faces), the cut faces carried from cut to cut,
  * and the embedded surface cut after each plane.
  *
+ * Two ways, both checked: the surface cut by the latest plane's faces after each plane, as
+ * pf-cut --plane does ("in turn"), and the uncut surface cut by every face opened so far in one
+ * call, as the simulator does after each change ("at once").
+ *
  * Models: a sliced sphere (its own boundary as the render surface) and the bunny
  * (data/models/bunny.obj) sliced coarsely. Planes: random (a fixed generator and seeds), through
  * the middle half of the model's box, any direction.
@@ -40,6 +44,9 @@ typedef struct model {
     pf_surface surf;
     pf_mesh mesh;
 } model;
+
+enum { IN_TURN, AT_ONCE, N_WAYS };
+static const char *const way_name[N_WAYS] = {"in turn", "at once"};
 
 typedef struct cut_count {
     int64_t open, nonmanifold; /* -1: the cut failed */
@@ -135,10 +142,28 @@ static int32_t vertices_on_two_bodies(const pf_mesh *m, const pf_weights *w)
     return count;
 }
 
-/* One plane through the whole mesh as pf-cut applies it; m, s and *cut_face replaced;
- * *two_bodies the cut surface's vertices weighted on two bodies. */
+/* The surface of a cut: counts of what *s is after the cut of m whose result is res. */
+static pf_status surface_cut_count(const pf_surface *s, const pf_mesh *m, const pf_cut_result *res,
+                                   double dropped, pf_surface *out, cut_count *got, pf_error *err)
+{
+    pf_weights cw = {0};
+    pf_surface_cut_stats cs;
+    pf_status st = pf_surface_cut(s, m, res, NULL, out, &cw, &cs, err);
+    if (st < 0)
+        return st;
+    pf_surface_stats ss;
+    st = pf_surface_compute_stats(out, &ss, err);
+    double vol = mesh_volume(m);
+    *got = (cut_count){ss.n_boundary_edges, ss.n_nonmanifold_edges + ss.n_flipped_edges,
+                       fabs(ss.volume - vol - dropped) / vol, vertices_on_two_bodies(m, &cw)};
+    pf_weights_release(&cw);
+    return st;
+}
+
+/* One plane through the whole mesh as pf-cut applies it; m, s[IN_TURN] and *cut_face replaced,
+ * s[AT_ONCE] the uncut surface; got[] the counts of both ways. */
 static pf_status cut_plane(pf_mesh *m, pf_surface *s, uint8_t **cut_face, pf_plane pl,
-                           double *dropped, int32_t *two_bodies, pf_error *err)
+                           double *dropped, cut_count *got, pf_error *err)
 {
     pf_vec3 lo, hi;
     pf_mesh_bounds(m, &lo, &hi);
@@ -176,13 +201,14 @@ static pf_status cut_plane(pf_mesh *m, pf_surface *s, uint8_t **cut_face, pf_pla
     free(req);
     if (st < 0)
         return st;
-    pf_surface cs = {0};
-    pf_weights cw = {0};
-    pf_surface_cut_stats ss;
-    st = pf_surface_cut(s, &out, &res, NULL, &cs, &cw, &ss, err);
     *dropped += res.dropped_volume;
-    *two_bodies = st >= 0 ? vertices_on_two_bodies(&out, &cw) : 0;
-    pf_weights_release(&cw);
+    pf_surface turn = {0}, once = {0};
+    pf_cut_result all = res;
+    all.opened = res.cut_face;
+    st = surface_cut_count(&s[IN_TURN], &out, &res, *dropped, &turn, &got[IN_TURN], err);
+    if (st >= 0)
+        st = surface_cut_count(&s[AT_ONCE], &out, &all, *dropped, &once, &got[AT_ONCE], err);
+    pf_surface_release(&once);
     pf_free(*cut_face);
     *cut_face = res.cut_face;
     res.cut_face = NULL;
@@ -190,23 +216,27 @@ static pf_status cut_plane(pf_mesh *m, pf_surface *s, uint8_t **cut_face, pf_pla
     pf_mesh_release(m);
     *m = out;
     if (st >= 0) {
-        pf_surface_release(s);
-        *s = cs;
+        pf_surface_release(&s[IN_TURN]);
+        s[IN_TURN] = turn;
+    } else {
+        pf_surface_release(&turn);
     }
     return st;
 }
 
-/* The model cut by n_planes random planes of seed; counts after each plane in got[]. */
-static void cut_seed(const model *md, uint64_t seed, int n_planes, cut_count *got)
+/* The model cut by n_planes random planes of seed; counts after plane k in got[k][way]. */
+static void cut_seed(const model *md, uint64_t seed, int n_planes, cut_count (*got)[N_WAYS])
 {
     pf_error err = {0};
     pf_mesh m = {0};
-    pf_surface s = {0};
+    pf_surface s[N_WAYS] = {{0}};
     assert_int_equal(pf_mesh_copy(&m, &md->mesh, &err), PF_OK);
-    assert_int_equal(pf_surface_alloc(&s, md->surf.n_verts, md->surf.n_tris, &err), PF_OK);
-    memcpy(s.x, md->surf.x, 3 * (size_t)s.n_verts * sizeof *s.x);
-    memcpy(s.tri, md->surf.tri, 3 * (size_t)s.n_tris * sizeof *s.tri);
-    s.id = md->surf.id;
+    for (int w = 0; w < N_WAYS; ++w) {
+        assert_int_equal(pf_surface_alloc(&s[w], md->surf.n_verts, md->surf.n_tris, &err), PF_OK);
+        memcpy(s[w].x, md->surf.x, 3 * (size_t)s[w].n_verts * sizeof *s[w].x);
+        memcpy(s[w].tri, md->surf.tri, 3 * (size_t)s[w].n_tris * sizeof *s[w].tri);
+        s[w].id = md->surf.id;
+    }
     pf_vec3 lo, hi;
     pf_mesh_bounds(&m, &lo, &hi);
     uint64_t rs = 0x9e3779b97f4a7c15ull * (seed + 1);
@@ -215,60 +245,63 @@ static void cut_seed(const model *md, uint64_t seed, int n_planes, cut_count *go
     bool failed = false;
     for (int k = 0; k < n_planes; ++k) {
         pf_plane pl = random_plane(&rs, lo, hi);
-        got[k] = (cut_count){-1, -1, INFINITY, 0};
-        int32_t two_bodies = 0;
-        if (failed || cut_plane(&m, &s, &cut_face, pl, &dropped, &two_bodies, &err) < 0) {
+        for (int w = 0; w < N_WAYS; ++w)
+            got[k][w] = (cut_count){-1, -1, INFINITY, 0};
+        if (failed || cut_plane(&m, s, &cut_face, pl, &dropped, got[k], &err) < 0) {
             if (!failed)
                 print_message("seed %d plane %d: %s\n", (int)seed, k + 1, err.msg);
             failed = true;
-            continue;
         }
-        pf_surface_stats ss;
-        assert_int_equal(pf_surface_compute_stats(&s, &ss, &err), PF_OK);
-        double vol = mesh_volume(&m);
-        got[k] = (cut_count){ss.n_boundary_edges, ss.n_nonmanifold_edges + ss.n_flipped_edges,
-                             fabs(ss.volume - vol - dropped) / vol, two_bodies};
     }
     pf_free(cut_face);
     pf_mesh_release(&m);
-    pf_surface_release(&s);
+    for (int w = 0; w < N_WAYS; ++w)
+        pf_surface_release(&s[w]);
 }
 
-/* Cuts every seed with 1 .. MAX_PLANES planes, prints the counts; every seed has no open edge
- * after open_planes planes; must[seed] planes close every seed (0: none asserted yet). */
-static void run_seeds(const char *name, const model *md, int n_seeds, const int *must,
+/* Cuts every seed with 1 .. MAX_PLANES planes, prints the counts of both ways; every seed has no
+ * open edge after open_planes planes; must[way][seed] planes close every seed (0: none asserted
+ * yet). */
+static void run_seeds(const char *name, const model *md, int n_seeds, const int *const must[N_WAYS],
                       int open_planes)
 {
-    int closed[MAX_PLANES] = {0};
+    int closed[N_WAYS][MAX_PLANES] = {{0}};
     bool fail = false;
     for (int seed = 0; seed < n_seeds; ++seed) {
-        cut_count got[MAX_PLANES];
+        cut_count got[MAX_PLANES][N_WAYS];
         cut_seed(md, (uint64_t)seed, MAX_PLANES, got);
-        print_message("%s seed %2d: open/non-manifold after 1, 2, 3 planes:", name, seed);
-        for (int k = 0; k < MAX_PLANES; ++k) {
-            print_message(" %4lld/%lld", (long long)got[k].open, (long long)got[k].nonmanifold);
-            CHECKF(got[k].two_bodies == 0, "%s seed %d plane %d: %d vertices on two bodies", name,
-                   seed, k + 1, (int)got[k].two_bodies);
-            if (got[k].open == 0 && got[k].nonmanifold == 0) {
-                closed[k]++;
-                CHECKF(got[k].vol_err <= 1e-9, "%s seed %d plane %d: closed, volume off by %.3g",
-                       name, seed, k + 1, got[k].vol_err);
+        for (int w = 0; w < N_WAYS; ++w) {
+            print_message("%s seed %2d %s: open/non-manifold after 1, 2, 3 planes:", name, seed,
+                          way_name[w]);
+            for (int k = 0; k < MAX_PLANES; ++k) {
+                const cut_count *c = &got[k][w];
+                print_message(" %4lld/%lld", (long long)c->open, (long long)c->nonmanifold);
+                CHECKF(c->two_bodies == 0, "%s seed %d plane %d %s: %d vertices on two bodies",
+                       name, seed, k + 1, way_name[w], (int)c->two_bodies);
+                if (c->open == 0 && c->nonmanifold == 0) {
+                    closed[w][k]++;
+                    CHECKF(c->vol_err <= 1e-9, "%s seed %d plane %d %s: closed, volume off by %.3g",
+                           name, seed, k + 1, way_name[w], c->vol_err);
+                }
             }
+            print_message("\n");
+            for (int k = 0; k < open_planes; ++k)
+                if (got[k][w].open != 0) {
+                    print_error("%s seed %d %s: open after %d planes\n", name, seed, way_name[w],
+                                k + 1);
+                    fail = true;
+                }
+            for (int k = 0; k < must[w][seed]; ++k)
+                if (got[k][w].open != 0 || got[k][w].nonmanifold != 0) {
+                    print_error("%s seed %d %s: not closed after %d planes\n", name, seed,
+                                way_name[w], k + 1);
+                    fail = true;
+                }
         }
-        print_message("\n");
-        for (int k = 0; k < open_planes; ++k)
-            if (got[k].open != 0) {
-                print_error("%s seed %d: open after %d planes\n", name, seed, k + 1);
-                fail = true;
-            }
-        for (int k = 0; k < must[seed]; ++k)
-            if (got[k].open != 0 || got[k].nonmanifold != 0) {
-                print_error("%s seed %d: not closed after %d planes\n", name, seed, k + 1);
-                fail = true;
-            }
     }
-    print_message("%s: closed after 1, 2, 3 planes: %d, %d, %d of %d seeds\n", name, closed[0],
-                  closed[1], closed[2], n_seeds);
+    for (int w = 0; w < N_WAYS; ++w)
+        print_message("%s %s: closed after 1, 2, 3 planes: %d, %d, %d of %d seeds\n", name,
+                      way_name[w], closed[w][0], closed[w][1], closed[w][2], n_seeds);
     assert_false(fail);
 }
 
@@ -277,9 +310,11 @@ static void test_sphere_planes(void **state)
     (void)state;
     model md;
     make_sphere(&md);
-    static const int must[24] = {1, 3, 1, 1, 3, 2, 1, 1, 2, 2, 1, 2,
+    static const int turn[24] = {1, 3, 1, 1, 3, 2, 1, 1, 2, 2, 1, 2,
                                  2, 3, 3, 2, 2, 2, 1, 1, 2, 1, 3, 1};
-    run_seeds("sphere", &md, 24, must, 1);
+    static const int once[24] = {1, 2, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
+                                 1, 2, 1, 1, 1, 1, 1, 1, 1, 1, 3, 1};
+    run_seeds("sphere", &md, 24, (const int *const[N_WAYS]){turn, once}, 1);
     model_release(&md);
 }
 
@@ -289,8 +324,9 @@ static void test_bunny_planes(void **state)
     model md;
     if (!make_bunny(&md))
         skip();
-    static const int must[12] = {3, 3, 2, 3, 3, 1, 2, 2, 1, 3, 2, 2};
-    run_seeds("bunny", &md, 12, must, 1);
+    static const int turn[12] = {3, 3, 2, 3, 3, 1, 2, 2, 1, 3, 2, 2};
+    static const int once[12] = {1, 1, 1, 3, 1, 1, 1, 1, 1, 1, 1, 1};
+    run_seeds("bunny", &md, 12, (const int *const[N_WAYS]){turn, once}, 1);
     model_release(&md);
 }
 
@@ -354,10 +390,12 @@ static void test_seam_closed_by_position(void **state)
         s.id = src->id;
         uint8_t *cut_face = NULL;
         double dropped = 0;
-        int32_t two_bodies = 0;
-        CHECKF(cut_plane(&m, &s, &cut_face, pl, &dropped, &two_bodies, &err) >= 0, "cut: %s",
+        pf_surface both[N_WAYS] = {s, s};
+        cut_count got[N_WAYS];
+        CHECKF(cut_plane(&m, both, &cut_face, pl, &dropped, got, &err) >= 0, "cut: %s",
                err.msg);
-        assert_int_equal(two_bodies, 0);
+        s = both[IN_TURN];
+        assert_int_equal(got[IN_TURN].two_bodies, 0);
         area[k] = cap_area(&s);
         assert_int_equal(pf_surface_compute_stats(&s, &ss, &err), PF_OK);
         double vol = mesh_volume(&m);

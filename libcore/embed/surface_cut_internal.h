@@ -69,7 +69,8 @@ typedef struct sc_state {
     int32_t n_sec, cap_sec;
     sc_section *sec;
     int64_t n_seg, cap_seg;
-    double *seg;       /* [4 cap_seg] the whole section of the surface, projected */
+    double *seg;       /* [4 cap_seg] the whole section of the surface, projected, less that of
+                          the caps made by earlier groups of this cut */
     int32_t *node_pt;  /* [m->n_nodes] point of a canonical node, -1 */
     int32_t *cap_pt;   /* [m->n_nodes] point of a node as a cap corner, -1 */
     int32_t *cap_vert; /* [m->n_nodes] vertex of a node as a cap corner (all planes), -1 */

@@ -25,7 +25,8 @@ typedef struct cap_buf {
     struct vpt_key {
         double x;
         int32_t p;
-    } *vpt;             /* [n_vpt] the group's points at surface vertices, by first coordinate */
+    } *vpt; /* [n_vpt] the group's points with a surface vertex (the input's, or made where the
+               group's split crosses an edge), by first coordinate */
     int64_t n_in_edges;
     uint64_t *in_edges; /* [n_in_edges] edges (lo << 32 | hi) of triangles of the input
                            surface or pieces of them, with an end at an input vertex, sorted */
@@ -295,7 +296,7 @@ static int compare_vpt(const void *a, const void *b)
     return (x->p > y->p) - (x->p < y->p);
 }
 
-/* The lookups of the group's caps: its points at surface vertices by position, and the edges
+/* The lookups of the group's caps: its points with a surface vertex by position, and the edges
  * of the input's triangles (and their pieces) with an end at an input vertex. */
 static pf_status cap_lookups(const sc_state *c, cap_buf *b, pf_error *err)
 {
@@ -311,7 +312,7 @@ static pf_status cap_lookups(const sc_state *c, cap_buf *b, pf_error *err)
                  PF_ALLOC_N(b->in_edges, 3 * (size_t)s->n_tris),
              err, PF_ERR_NOMEM, "out of memory for the lookups of %d points", (int)c->n_points);
     for (int32_t i = 0; i < c->n_points; ++i)
-        if (c->pt[i].orig >= 0)
+        if (c->pt[i].orig >= 0 || c->pt[i].id[0] >= 0)
             b->vpt[b->n_vpt++] = (struct vpt_key){c->pt[i].x.x, i};
     if (b->n_vpt > 1)
         qsort(b->vpt, (size_t)b->n_vpt, sizeof *b->vpt, compare_vpt);
@@ -357,9 +358,10 @@ static pf_vec3 vertex_inward(const sc_surface *s, int32_t v)
 }
 
 /* A vertex of the surface at a face's corner x (on the plane: a corner of an earlier cut's
- * caps) that the face's cap joins: of the copies there (one per side of the earlier cut), the
- * one whose material lies towards the face (the face lies on one side of the earlier cut);
- * -1 when there is none. */
+ * caps, or the point where this plane crosses an edge of them, the crack meeting an earlier one
+ * at a corner of the face only) that the face's cap joins: of the copies there (one per side of
+ * the earlier cut), the one whose material lies towards the face (the face lies on one side of
+ * the earlier cut); -1 when there is none. */
 static int32_t corner_vertex(const sc_state *c, const cap_buf *b, pf_vec3 x, pf_vec3 into)
 {
     int32_t best = -1, lo = 0, hi = b->n_vpt;
@@ -375,10 +377,11 @@ static int32_t corner_vertex(const sc_state *c, const cap_buf *b, pf_vec3 x, pf_
         const sc_point *p = &c->pt[b->vpt[i].p];
         if (pf_v3_dist(p->x, x) > c->g->tol)
             continue;
-        pf_vec3 in = vertex_inward(c->s, p->orig);
+        int32_t v = p->orig >= 0 ? p->orig : p->id[0];
+        pf_vec3 in = vertex_inward(c->s, v);
         double len = pf_v3_norm(in), score = len > 1e-9 ? pf_v3_dot(in, into) / len : 0;
         if (score > best_score)
-            best = p->orig, best_score = score;
+            best = v, best_score = score;
     }
     return best;
 }

@@ -402,6 +402,24 @@ static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int3
     return pf_sc_cap_point(c, (int32_t)node, out, err);
 }
 
+/* Whether the piece a-b of an edge of a face on side sigma (its cap's boundary, counter-clockwise
+ * about the outward normal) bounds the cap: not where its middle lies on the section of the
+ * surface being built (the section pieces bound the cap there); else where the face beside it is
+ * inside the surface, by the parity 1e3 tol off its middle into the face (the middle itself may
+ * lie on the input's section, an earlier crack bending along the edge, undecided). */
+static bool piece_inside(const sc_state *c, pf_vec3 a, pf_vec3 b, int sigma)
+{
+    const sc_group *g = c->g;
+    pf_vec3 mid = pf_v3_scale(pf_v3_add(a, b), 0.5);
+    if (inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) < 0)
+        return false;
+    pf_vec3 left = pf_v3_cross(pf_v3_scale(g->plane.n, -sigma), pf_v3_sub(b, a));
+    double len = pf_v3_norm(left);
+    if (len > 0)
+        mid = pf_v3_add(mid, pf_v3_scale(left, 1e3 * g->tol / len));
+    return inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) == 1;
+}
+
 /* The boundary pieces of face k on the edge from corner node a to node b, inside the surface
  * (whole > 0: all of them, the face lying wholly inside; whole < 0: each piece tested). */
 static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint32_t na, uint32_t nb,
@@ -456,9 +474,7 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
     b->chain_t[b->n_chain - 1] = 1;
     for (int32_t i = 0; i + 1 < b->n_chain; ++i) {
         int32_t p = b->chain[i], q = b->chain[i + 1], u, v;
-        pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[p].x, c->pt[q].x), 0.5);
-        if (p == q || (whole < 0 &&
-                       inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1))
+        if (p == q || (whole < 0 && !piece_inside(c, c->pt[p].x, c->pt[q].x, sigma)))
             continue;
         PF_TRY(cap_id(c, p, sigma, &u, err));
         PF_TRY(cap_id(c, q, sigma, &v, err));

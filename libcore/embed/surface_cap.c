@@ -338,23 +338,61 @@ static bool surface_edge(const cap_buf *b, int32_t u, int32_t v)
            bsearch(&key, b->in_edges, (size_t)b->n_in_edges, sizeof key, compare_u64) != NULL;
 }
 
-/* The direction into the material at vertex v: the sum of the inward unit normals of its
- * triangles of the input surface (the caps this cut made so far face both of its sides). */
-static pf_vec3 vertex_inward(const sc_surface *s, int32_t v)
+/* The corner of triangle tv that is vertex v (0, 1, 2), or -1. */
+static int corner_of(const uint32_t *tv, int32_t v)
 {
-    pf_vec3 in = pf_v3(0, 0, 0);
+    return tv[0] == (uint32_t)v ? 0 : tv[1] == (uint32_t)v ? 1 : tv[2] == (uint32_t)v ? 2 : -1;
+}
+
+/* Of the triangles of the input surface (pieces included) at vertex v, the corner opening widest
+ * (largest sine): its bisector nudged 1e-3 radians inward, a direction into the material (*dir),
+ * and the shortest edge at v (*h); false when v has none. */
+static bool widest_corner(const sc_surface *s, int32_t v, pf_vec3 *dir, double *h)
+{
+    pf_vec3 x = pf_v3_load(s->x + 3 * (size_t)v);
+    double widest = 0;
+    *h = INFINITY;
     for (int32_t t = 0; t < s->n_tris; ++t) {
         const uint32_t *tv = s->tri + 3 * (size_t)t;
-        if (s->src[t] < 0 || (tv[0] != (uint32_t)v && tv[1] != (uint32_t)v && tv[2] != (uint32_t)v))
+        int q = corner_of(tv, v);
+        if (s->src[t] < 0 || q < 0)
             continue;
-        pf_vec3 a = pf_v3_load(s->x + 3 * (size_t)tv[0]);
-        pf_vec3 n = pf_v3_cross(pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[1]), a),
-                                pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[2]), a));
-        double len = pf_v3_norm(n);
-        if (len > 0)
-            in = pf_v3_sub(in, pf_v3_scale(n, 1 / len));
+        pf_vec3 a = pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[(q + 1) % 3]), x);
+        pf_vec3 b = pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[(q + 2) % 3]), x);
+        pf_vec3 n = pf_v3_cross(a, b);
+        double la = pf_v3_norm(a), lb = pf_v3_norm(b), ln = pf_v3_norm(n);
+        if (!(la > 0 && lb > 0 && ln > 0))
+            continue;
+        *h = fmin(*h, fmin(la, lb));
+        if (ln / (la * lb) > widest) {
+            widest = ln / (la * lb);
+            pf_vec3 mid = pf_v3_add(pf_v3_scale(a, 1 / la), pf_v3_scale(b, 1 / lb));
+            *dir = pf_v3_sub(pf_v3_normalize(mid), pf_v3_scale(n, 1e-3 / ln));
+        }
     }
-    return in;
+    return widest > 0;
+}
+
+/* Whether the material at vertex v lies towards the unit direction d: about 1 if so, 0 if not.
+ * Its triangles of the input surface are a disk about v (the caps this cut made so far face both
+ * of its sides, and are left out). Close to v the disk's winding number is the indicator of the
+ * material less the solid angle of its rim seen from v over 4 pi, the same wherever taken: its
+ * difference between x + h d and a point known inside (widest_corner), both at 1e-4 of v's
+ * shortest edge from v, is the indicator less one. */
+static double material_towards(const sc_surface *s, int32_t v, pf_vec3 d)
+{
+    pf_vec3 in = pf_v3(0, 0, 0), x = pf_v3_load(s->x + 3 * (size_t)v);
+    double h;
+    if (!widest_corner(s, v, &in, &h))
+        return 0;
+    pf_vec3 p = pf_v3_add(x, pf_v3_scale(d, 1e-4 * h)), r = pf_v3_add(x, pf_v3_scale(in, 1e-4 * h));
+    double w = 1;
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        const uint32_t *tv = s->tri + 3 * (size_t)t;
+        if (s->src[t] >= 0 && corner_of(tv, v) >= 0)
+            w += pf_winding_number(s->x, tv, 1, p) - pf_winding_number(s->x, tv, 1, r);
+    }
+    return w;
 }
 
 /* A vertex of the surface at a face's corner x (on the plane: a corner of an earlier cut's
@@ -365,7 +403,8 @@ static pf_vec3 vertex_inward(const sc_surface *s, int32_t v)
 static int32_t corner_vertex(const sc_state *c, const cap_buf *b, pf_vec3 x, pf_vec3 into)
 {
     int32_t best = -1, lo = 0, hi = b->n_vpt;
-    double best_score = 0;
+    double best_score = 0.5;
+    pf_vec3 d = pf_v3_normalize(into);
     while (lo < hi) { /* the first point at x.x - tol or beyond */
         int32_t mid = lo + (hi - lo) / 2;
         if (b->vpt[mid].x < x.x - c->g->tol)
@@ -378,8 +417,7 @@ static int32_t corner_vertex(const sc_state *c, const cap_buf *b, pf_vec3 x, pf_
         if (pf_v3_dist(p->x, x) > c->g->tol)
             continue;
         int32_t v = p->orig >= 0 ? p->orig : p->id[0];
-        pf_vec3 in = vertex_inward(c->s, v);
-        double len = pf_v3_norm(in), score = len > 1e-9 ? pf_v3_dot(in, into) / len : 0;
+        double score = material_towards(c->s, v, d);
         if (score > best_score)
             best = v, best_score = score;
     }

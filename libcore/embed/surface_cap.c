@@ -25,7 +25,8 @@ typedef struct cap_buf {
     struct vpt_key {
         double x;
         int32_t p;
-    } *vpt;             /* [n_vpt] the group's points at surface vertices, by first coordinate */
+    } *vpt; /* [n_vpt] the group's points with a surface vertex (the input's, or made where the
+               group's split crosses an edge), by first coordinate */
     int64_t n_in_edges;
     uint64_t *in_edges; /* [n_in_edges] edges (lo << 32 | hi) of triangles of the input
                            surface or pieces of them, with an end at an input vertex, sorted */
@@ -296,7 +297,7 @@ static int compare_vpt(const void *a, const void *b)
     return (x->p > y->p) - (x->p < y->p);
 }
 
-/* The lookups of the group's caps: its points at surface vertices by position, and the edges
+/* The lookups of the group's caps: its points with a surface vertex by position, and the edges
  * of the input's triangles (and their pieces) with an end at an input vertex. */
 static pf_status cap_lookups(const sc_state *c, cap_buf *b, pf_error *err)
 {
@@ -312,7 +313,7 @@ static pf_status cap_lookups(const sc_state *c, cap_buf *b, pf_error *err)
                  PF_ALLOC_N(b->in_edges, 3 * (size_t)s->n_tris),
              err, PF_ERR_NOMEM, "out of memory for the lookups of %d points", (int)c->n_points);
     for (int32_t i = 0; i < c->n_points; ++i)
-        if (c->pt[i].orig >= 0)
+        if (c->pt[i].orig >= 0 || c->pt[i].id[0] >= 0)
             b->vpt[b->n_vpt++] = (struct vpt_key){c->pt[i].x.x, i};
     if (b->n_vpt > 1)
         qsort(b->vpt, (size_t)b->n_vpt, sizeof *b->vpt, compare_vpt);
@@ -338,33 +339,73 @@ static bool surface_edge(const cap_buf *b, int32_t u, int32_t v)
            bsearch(&key, b->in_edges, (size_t)b->n_in_edges, sizeof key, compare_u64) != NULL;
 }
 
-/* The direction into the material at vertex v: the sum of the inward unit normals of its
- * triangles of the input surface (the caps this cut made so far face both of its sides). */
-static pf_vec3 vertex_inward(const sc_surface *s, int32_t v)
+/* The corner of triangle tv that is vertex v (0, 1, 2), or -1. */
+static int corner_of(const uint32_t *tv, int32_t v)
 {
-    pf_vec3 in = pf_v3(0, 0, 0);
+    return tv[0] == (uint32_t)v ? 0 : tv[1] == (uint32_t)v ? 1 : tv[2] == (uint32_t)v ? 2 : -1;
+}
+
+/* Of the triangles of the input surface (pieces included) at vertex v, the corner opening widest
+ * (largest sine): its bisector nudged 1e-3 radians inward, a direction into the material (*dir),
+ * and the shortest edge at v (*h); false when v has none. */
+static bool widest_corner(const sc_surface *s, int32_t v, pf_vec3 *dir, double *h)
+{
+    pf_vec3 x = pf_v3_load(s->x + 3 * (size_t)v);
+    double widest = 0;
+    *h = INFINITY;
     for (int32_t t = 0; t < s->n_tris; ++t) {
         const uint32_t *tv = s->tri + 3 * (size_t)t;
-        if (s->src[t] < 0 || (tv[0] != (uint32_t)v && tv[1] != (uint32_t)v && tv[2] != (uint32_t)v))
+        int q = corner_of(tv, v);
+        if (s->src[t] < 0 || q < 0)
             continue;
-        pf_vec3 a = pf_v3_load(s->x + 3 * (size_t)tv[0]);
-        pf_vec3 n = pf_v3_cross(pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[1]), a),
-                                pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[2]), a));
-        double len = pf_v3_norm(n);
-        if (len > 0)
-            in = pf_v3_sub(in, pf_v3_scale(n, 1 / len));
+        pf_vec3 a = pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[(q + 1) % 3]), x);
+        pf_vec3 b = pf_v3_sub(pf_v3_load(s->x + 3 * (size_t)tv[(q + 2) % 3]), x);
+        pf_vec3 n = pf_v3_cross(a, b);
+        double la = pf_v3_norm(a), lb = pf_v3_norm(b), ln = pf_v3_norm(n);
+        if (!(la > 0 && lb > 0 && ln > 0))
+            continue;
+        *h = fmin(*h, fmin(la, lb));
+        if (ln / (la * lb) > widest) {
+            widest = ln / (la * lb);
+            pf_vec3 mid = pf_v3_add(pf_v3_scale(a, 1 / la), pf_v3_scale(b, 1 / lb));
+            *dir = pf_v3_sub(pf_v3_normalize(mid), pf_v3_scale(n, 1e-3 / ln));
+        }
     }
-    return in;
+    return widest > 0;
+}
+
+/* Whether the material at vertex v lies towards the unit direction d: about 1 if so, 0 if not.
+ * Its triangles of the input surface are a disk about v (the caps this cut made so far face both
+ * of its sides, and are left out). Close to v the disk's winding number is the indicator of the
+ * material less the solid angle of its rim seen from v over 4 pi, the same wherever taken: its
+ * difference between x + h d and a point known inside (widest_corner), both at 1e-4 of v's
+ * shortest edge from v, is the indicator less one. */
+static double material_towards(const sc_surface *s, int32_t v, pf_vec3 d)
+{
+    pf_vec3 in = pf_v3(0, 0, 0), x = pf_v3_load(s->x + 3 * (size_t)v);
+    double h;
+    if (!widest_corner(s, v, &in, &h))
+        return 0;
+    pf_vec3 p = pf_v3_add(x, pf_v3_scale(d, 1e-4 * h)), r = pf_v3_add(x, pf_v3_scale(in, 1e-4 * h));
+    double w = 1;
+    for (int32_t t = 0; t < s->n_tris; ++t) {
+        const uint32_t *tv = s->tri + 3 * (size_t)t;
+        if (s->src[t] >= 0 && corner_of(tv, v) >= 0)
+            w += pf_winding_number(s->x, tv, 1, p) - pf_winding_number(s->x, tv, 1, r);
+    }
+    return w;
 }
 
 /* A vertex of the surface at a face's corner x (on the plane: a corner of an earlier cut's
- * caps) that the face's cap joins: of the copies there (one per side of the earlier cut), the
- * one whose material lies towards the face (the face lies on one side of the earlier cut);
- * -1 when there is none. */
+ * caps, or the point where this plane crosses an edge of them, the crack meeting an earlier one
+ * at a corner of the face only) that the face's cap joins: of the copies there (one per side of
+ * the earlier cut), the one whose material lies towards the face (the face lies on one side of
+ * the earlier cut); -1 when there is none. */
 static int32_t corner_vertex(const sc_state *c, const cap_buf *b, pf_vec3 x, pf_vec3 into)
 {
     int32_t best = -1, lo = 0, hi = b->n_vpt;
-    double best_score = 0;
+    double best_score = 0.5;
+    pf_vec3 d = pf_v3_normalize(into);
     while (lo < hi) { /* the first point at x.x - tol or beyond */
         int32_t mid = lo + (hi - lo) / 2;
         if (b->vpt[mid].x < x.x - c->g->tol)
@@ -376,10 +417,10 @@ static int32_t corner_vertex(const sc_state *c, const cap_buf *b, pf_vec3 x, pf_
         const sc_point *p = &c->pt[b->vpt[i].p];
         if (pf_v3_dist(p->x, x) > c->g->tol)
             continue;
-        pf_vec3 in = vertex_inward(c->s, p->orig);
-        double len = pf_v3_norm(in), score = len > 1e-9 ? pf_v3_dot(in, into) / len : 0;
+        int32_t v = p->orig >= 0 ? p->orig : p->id[0];
+        double score = material_towards(c->s, v, d);
         if (score > best_score)
-            best = p->orig, best_score = score;
+            best = v, best_score = score;
     }
     return best;
 }
@@ -398,6 +439,24 @@ static pf_status corner_point(sc_state *c, const cap_buf *b, uint32_t node, int3
     if (c->cap_pt[node] < 0 && c->cap_vert[node] < 0)
         c->cap_vert[node] = corner_vertex(c, b, x, pf_v3_sub(b->centroid, x));
     return pf_sc_cap_point(c, (int32_t)node, out, err);
+}
+
+/* Whether the piece a-b of an edge of a face on side sigma (its cap's boundary, counter-clockwise
+ * about the outward normal) bounds the cap: not where its middle lies on the section of the
+ * surface being built (the section pieces bound the cap there); else where the face beside it is
+ * inside the surface, by the parity 1e3 tol off its middle into the face (the middle itself may
+ * lie on the input's section, an earlier crack bending along the edge, undecided). */
+static bool piece_inside(const sc_state *c, pf_vec3 a, pf_vec3 b, int sigma)
+{
+    const sc_group *g = c->g;
+    pf_vec3 mid = pf_v3_scale(pf_v3_add(a, b), 0.5);
+    if (inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) < 0)
+        return false;
+    pf_vec3 left = pf_v3_cross(pf_v3_scale(g->plane.n, -sigma), pf_v3_sub(b, a));
+    double len = pf_v3_norm(left);
+    if (len > 0)
+        mid = pf_v3_add(mid, pf_v3_scale(left, 1e3 * g->tol / len));
+    return inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) == 1;
 }
 
 /* The boundary pieces of face k on the edge from corner node a to node b, inside the surface
@@ -454,9 +513,7 @@ static pf_status edge_pieces(sc_state *c, cap_buf *b, int64_t n_sec_edges, uint3
     b->chain_t[b->n_chain - 1] = 1;
     for (int32_t i = 0; i + 1 < b->n_chain; ++i) {
         int32_t p = b->chain[i], q = b->chain[i + 1], u, v;
-        pf_vec3 mid = pf_v3_scale(pf_v3_add(c->pt[p].x, c->pt[q].x), 0.5);
-        if (p == q || (whole < 0 &&
-                       inside_section(c, pf_v3_get(mid, g->ax[0]), pf_v3_get(mid, g->ax[1])) != 1))
+        if (p == q || (whole < 0 && !piece_inside(c, c->pt[p].x, c->pt[q].x, sigma)))
             continue;
         PF_TRY(cap_id(c, p, sigma, &u, err));
         PF_TRY(cap_id(c, q, sigma, &v, err));

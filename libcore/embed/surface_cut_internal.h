@@ -110,9 +110,9 @@ pf_status pf_sc_cap_point(sc_state *c, int32_t n, int32_t *out, pf_error *err);
  * around it by edges that are not slits (cap triangles, src -1, take the copy on their side);
  * copies get the direction into their triangles as their side. */
 pf_status pf_sc_duplicate(sc_state *c, pf_error *err);
-/* After every plane, before the duplication: each triangle with a border edge u -> v that a path
- * of border edges v -> ... -> u retraces through vertices on it (within tol: a corner a later
- * group made on an earlier cap's edge) is split at those vertices (surface_tjunction.c). */
+/* After the duplication: each triangle with a border edge u -> v that a path of border edges
+ * v -> ... -> u retraces through vertices on it (within tol: corners a later group made on an
+ * earlier cap's edge) is split at those vertices (surface_tjunction.c). */
 pf_status pf_sc_close_t_junctions(sc_state *c, double tol, pf_error *err);
 /* Caps of every face of the group (after its triangles are split). */
 pf_status pf_sc_caps(sc_state *c, pf_error *err);

@@ -529,7 +529,7 @@ static int compare_border(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static int32_t weld_root(int32_t *to, int32_t i)
+int32_t pf_sc_weld_root(int32_t *to, int32_t i)
 {
     while (to[i] != i)
         i = to[i] = to[to[i]];
@@ -538,7 +538,7 @@ static int32_t weld_root(int32_t *to, int32_t i)
 
 /* The vertices welded into others (to: their union-find parents, roots the lowest) dropped and
  * the others renumbered in order, in the triangles and the slits. */
-static pf_status renumber_welded(sc_state *c, int32_t *to, pf_error *err)
+pf_status pf_sc_renumber_welded(sc_state *c, int32_t *to, pf_error *err)
 {
     sc_surface *s = c->s;
     int32_t *num = NULL;
@@ -546,7 +546,7 @@ static pf_status renumber_welded(sc_state *c, int32_t *to, pf_error *err)
              "out of memory renumbering %d vertices", (int)s->n_verts);
     int32_t n = 0;
     for (int32_t i = 0; i < s->n_verts; ++i) {
-        int32_t r = weld_root(to, i); /* the lowest of its set: numbered already */
+        int32_t r = pf_sc_weld_root(to, i); /* the lowest of its set: numbered already */
         if (r == i) {
             memmove(s->x + 3 * (size_t)n, s->x + 3 * (size_t)i, 3 * sizeof *s->x);
             memmove(s->side + 3 * (size_t)n, s->side + 3 * (size_t)i, 3 * sizeof *s->side);
@@ -580,12 +580,12 @@ static void node_bodies(const sc_state *c, int32_t *vnode, int32_t *body)
     }
     for (int32_t f = 0; f < m->n_faces; ++f)
         for (int64_t k = m->face_offsets[f] + 1; k < m->face_offsets[f + 1]; ++k) {
-            int32_t a = weld_root(body, (int32_t)m->face_nodes[k - 1]),
-                    b = weld_root(body, (int32_t)m->face_nodes[k]);
+            int32_t a = pf_sc_weld_root(body, (int32_t)m->face_nodes[k - 1]),
+                    b = pf_sc_weld_root(body, (int32_t)m->face_nodes[k]);
             body[a > b ? a : b] = a < b ? a : b;
         }
     for (int32_t n = 0; n < m->n_nodes; ++n)
-        body[n] = weld_root(body, n);
+        body[n] = pf_sc_weld_root(body, n);
 }
 
 static pf_status weld_borders(sc_state *c, double tol, pf_error *err)
@@ -640,12 +640,12 @@ static pf_status weld_borders(sc_state *c, double tol, pf_error *err)
                 one_body = one_body && (na < 0 || nb_ < 0 || body[na] == body[nb_]);
             }
             for (int q = 0; q < 2 && one_body; ++q) {
-                int32_t a = weld_root(to, pairs[q][0]), b = weld_root(to, pairs[q][1]);
+                int32_t a = pf_sc_weld_root(to, pairs[q][0]), b = pf_sc_weld_root(to, pairs[q][1]);
                 if (a != b)
                     to[a > b ? a : b] = a < b ? a : b, any = true;
             }
         }
-    pf_status st = any ? renumber_welded(c, to, err) : PF_OK;
+    pf_status st = any ? pf_sc_renumber_welded(c, to, err) : PF_OK;
     pf_free(e);
     pf_free(to);
     pf_free(vnode);
@@ -826,6 +826,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
         st = pf_sc_duplicate(&c, err);
     if (st >= 0 && c.closed)
         st = pf_sc_close_t_junctions(&c, SC_PLANE_TOL * pf_v3_dist(ss.lo, ss.hi), err);
+    if (st >= 0 && c.closed)
+        st = pf_sc_weld_pinches(&c, SC_PLANE_TOL * pf_v3_dist(ss.lo, ss.hi), err);
     if (st >= 0)
         st = sides_of_earlier_caps(s, &work, err);
     if (st >= 0)

@@ -114,6 +114,14 @@ pf_status pf_sc_duplicate(sc_state *c, pf_error *err);
  * v -> ... -> u retraces through vertices on it (within tol: corners a later group made on an
  * earlier cap's edge) is split at those vertices (surface_tjunction.c). */
 pf_status pf_sc_close_t_junctions(sc_state *c, double tol, pf_error *err);
+/* After the T-junctions: two copies u, u' of a point (within tol) whose border edges u -> v and
+ * v -> u' meet at one vertex v (so lie on one body's sheet) made one (surface_tjunction.c). */
+pf_status pf_sc_weld_pinches(sc_state *c, double tol, pf_error *err);
+/* The root of i in the union-find to[] (paths halved). */
+int32_t pf_sc_weld_root(int32_t *to, int32_t i);
+/* The vertices welded into others (to: union-find parents, roots the lowest) dropped and the
+ * others renumbered in order, in the triangles and the slits. */
+pf_status pf_sc_renumber_welded(sc_state *c, int32_t *to, pf_error *err);
 /* Caps of every face of the group (after its triangles are split). */
 pf_status pf_sc_caps(sc_state *c, pf_error *err);
 

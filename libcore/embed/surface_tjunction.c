@@ -158,3 +158,34 @@ pf_status pf_sc_close_t_junctions(sc_state *c, double tol, pf_error *err)
     pf_free(e);
     return st;
 }
+
+pf_status pf_sc_weld_pinches(sc_state *c, double tol, pf_error *err)
+{
+    sc_surface *s = c->s;
+    tj_edge *e = NULL;
+    int64_t n = 0;
+    PF_TRY(border_edges(s, &e, &n, err));
+    int32_t *to = NULL;
+    if (n > 1 && !PF_ALLOC_N(to, (size_t)s->n_verts + 1)) {
+        pf_free(e);
+        return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
+                            "out of memory welding %d vertices", (int)s->n_verts);
+    }
+    for (int32_t i = 0; to && i < s->n_verts; ++i)
+        to[i] = i;
+    bool any = false;
+    for (int64_t i = 0; i < n && to; ++i) { /* u -> v, then v -> u' */
+        pf_vec3 xu = pf_v3_load(s->x + 3 * (size_t)e[i].u);
+        for (int64_t j = first_from(e, n, e[i].v, 0); j < n && e[j].u == e[i].v; ++j) {
+            if (e[j].v == e[i].u || pf_v3_dist(xu, pf_v3_load(s->x + 3 * (size_t)e[j].v)) > tol)
+                continue;
+            int32_t a = pf_sc_weld_root(to, (int32_t)e[i].u), b = pf_sc_weld_root(to, (int32_t)e[j].v);
+            if (a != b)
+                to[a > b ? a : b] = a < b ? a : b, any = true;
+        }
+    }
+    pf_status st = any ? pf_sc_renumber_welded(c, to, err) : PF_OK;
+    pf_free(to);
+    pf_free(e);
+    return st;
+}

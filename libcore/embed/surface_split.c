@@ -617,7 +617,7 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
 typedef struct plane_edge {
     uint32_t lo, hi; /* vertices, lo < hi */
     int32_t t;
-    int8_t side;
+    int8_t side, dir; /* the side of its third corner; +1: t has the edge from lo to hi */
 } plane_edge;
 
 static int compare_plane_edges(const void *p, const void *q)
@@ -655,7 +655,7 @@ static pf_status collect_plane_edges(split_ctx *k, int32_t nt, plane_edge **out,
                 }
                 e = ne;
             }
-            e[n++] = (plane_edge){a < b ? a : b, a < b ? b : a, t, k->cls[c]};
+            e[n++] = (plane_edge){a < b ? a : b, a < b ? b : a, t, k->cls[c], a < b ? 1 : -1};
         }
     }
     if (n > 1)
@@ -760,14 +760,13 @@ static pf_status plane_edges(split_ctx *k, const plane_edge *e, int32_t n, pf_er
 {
     for (int32_t i = 0; i < n;) {
         int32_t j = i;
-        int32_t tm = -1, tp = -1;
-        while (j < n && e[j].lo == e[i].lo && e[j].hi == e[i].hi) {
-            if (e[j].side < 0 && tm < 0)
-                tm = e[j].t;
-            if (e[j].side > 0 && tp < 0)
-                tp = e[j].t;
-            j++;
-        }
+        int32_t t[2][2] = {{-1, -1}, {-1, -1}}; /* [side > 0][dir > 0]: the first */
+        for (; j < n && e[j].lo == e[i].lo && e[j].hi == e[i].hi; ++j)
+            if (t[e[j].side > 0][e[j].dir > 0] < 0)
+                t[e[j].side > 0][e[j].dir > 0] = e[j].t;
+        /* of several on a side (caps of an earlier group), two traversing it the opposite ways */
+        int d = t[0][1] >= 0 && t[1][0] >= 0 ? 1 : 0;
+        int32_t tm = t[0][d] >= 0 ? t[0][d] : t[0][!d], tp = t[1][!d] >= 0 ? t[1][!d] : t[1][d];
         if (tm >= 0 && tp >= 0)
             PF_TRY(plane_edge_section(k, e[i].lo, e[i].hi, tm, tp, err));
         i = j;

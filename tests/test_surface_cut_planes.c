@@ -310,7 +310,7 @@ static void test_sphere_planes(void **state)
     (void)state;
     model md;
     make_sphere(&md);
-    static const int turn[24] = {3, 3, 2, 3, 3, 3, 2, 3, 3, 3, 3, 3,
+    static const int turn[24] = {3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3,
                                  3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3};
     static const int once[24] = {1, 2, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,
                                  1, 2, 1, 1, 1, 1, 1, 1, 1, 1, 3, 1};

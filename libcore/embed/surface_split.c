@@ -231,38 +231,29 @@ static void merge_vertex(split_ctx *k, int32_t w, int32_t to)
         k->vpt[to] = k->vpt[w];
 }
 
-/* The vertex an earlier group of this cut made as a cap corner at a corner of this group's faces
- * at x (within tol) and joined by an edge to a or b, or -1. The caps of both sides of the earlier
- * group may have a corner there (one per copy of the node) with the edge a-b between them, which
- * this plane splits at one point: the corners are made one vertex, which the duplication after
- * the last plane gives one copy per side again, by the slits, together with the edge's pieces
- * (rather than two vertices on the caps that the surface's triangles between them never join). */
+/* The vertex an earlier group of this cut made as a cap corner at a node at x (within tol; of
+ * this group's faces, or of the earlier group's only, where its crack bends off this plane) and
+ * joined by an edge to a or b, or -1. The caps of both sides of the earlier group may have a
+ * corner there (one per copy of the node) with the edge a-b between them, which this plane
+ * splits at one point: the corners are made one vertex, which the duplication after the last
+ * plane gives one copy per side again, by the slits, together with the edge's pieces (rather
+ * than two vertices on the caps that the surface's triangles between them never join). */
 static int32_t node_vertex_at(split_ctx *k, pf_vec3 x, int32_t a, int32_t b)
 {
     const sc_state *c = k->c;
-    const sc_group *g = c->g;
     const pf_mesh *m = c->m;
-    double u = pf_v3_get(x, g->ax[0]), v = pf_v3_get(x, g->ax[1]);
     int32_t found = -1;
-    for (int32_t f = 0; f < g->n_faces; ++f) {
-        const double *box = g->box + 4 * (size_t)f;
-        if (u < box[0] || u > box[2] || v < box[1] || v > box[3])
+    for (int32_t n = 0; n < m->n_nodes; ++n) {
+        int32_t w = c->cap_vert[n];
+        if (w < 0 || w >= k->nv || k->cls[w] != 0 ||
+            pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)n), x) > c->g->tol)
             continue;
-        int32_t face = g->face[f];
-        for (int64_t j = m->face_offsets[face]; j < m->face_offsets[face + 1]; ++j) {
-            int32_t n = (int32_t)m->face_nodes[j];
-            if (c->cap_vert[n] >= 0 && c->cap_vert[n] < k->nv &&
-                pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)n), x) <= g->tol &&
-                k->cls[c->cap_vert[n]] == 0) {
-                int32_t w = c->cap_vert[n];
-                if (has_surface_edge(c->s, w, a) || has_surface_edge(c->s, a, w) ||
-                    has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w)) {
-                    if (found < 0)
-                        found = w;
-                    else if (w != found)
-                        merge_vertex(k, w, found);
-                }
-            }
+        if (has_surface_edge(c->s, w, a) || has_surface_edge(c->s, a, w) ||
+            has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w)) {
+            if (found < 0)
+                found = w;
+            else if (w != found)
+                merge_vertex(k, w, found);
         }
     }
     return found;

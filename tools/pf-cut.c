@@ -87,7 +87,7 @@ typedef struct run {
     pf_weights weights;
     bool have_surf, surf_dropped, drop_surface;
     pf_embed_params embed;
-    pf_surface_cut_stats surf_stats; /* summed over the planes */
+    pf_surface_cut_stats surf_stats; /* of the embedded surface's cut */
     /* what was done */
     int32_t in_elems, in_nodes;
     double in_volume;
@@ -243,8 +243,26 @@ static pf_status clip(run *r, pf_error *err)
 
 /* One plane through the whole mesh: every element it crosses or touches and their neighbours
  * are requested, so that where the sliver rule leaves an element whole on one side, the crack
- * follows its face to the neighbour on the other side. *cut_face carried from cut to cut. */
-static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, pf_error *err)
+ * follows its face to the neighbour on the other side. *cut_face carried from cut to cut: the
+ * faces the planes of this run opened so far. */
+/* *opened (faces of the mesh before the cut, 1: opened by an earlier plane of this run) carried
+ * to the mesh after it, with the faces this cut opened. */
+static pf_status carry_opened(const pf_mesh *before, const pf_mesh *after, const pf_cut_result *res,
+                              int32_t **opened, pf_error *err)
+{
+    int32_t *now = pf_calloc((size_t)after->n_faces + 1, sizeof *now);
+    PF_CHECK(now, err, PF_ERR_NOMEM, "out of memory for %d face labels", (int)after->n_faces);
+    pf_status st = *opened ? pf_mesh_carry_face_label(after, before, res->parent, NULL,
+                                                      res->face_src, *opened, now, err)
+                           : PF_OK;
+    for (int32_t f = 0; f < after->n_faces; ++f)
+        now[f] = now[f] || res->opened[f];
+    pf_free(*opened);
+    *opened = now;
+    return st;
+}
+
+static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, int32_t **opened, pf_error *err)
 {
     pf_mesh *m = &r->mesh;
     pf_vec3 lo, hi;
@@ -286,33 +304,13 @@ static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, pf_error *err)
     pf_cut_result res = {0};
     pf_status st = pf_mesh_cut(m, req, n, &p, &out, &res, err);
     pf_free(req);
+    if (st >= 0)
+        st = carry_opened(m, &out, &res, opened, err);
     if (st < 0) {
         pf_error_prefix(err, "--plane %d", (int)k + 1);
+        pf_cut_result_release(&res);
+        pf_mesh_release(&out);
         return st;
-    }
-    if (r->have_surf) { /* the embedded surface along the faces this plane opened */
-        pf_surface cut_surf = {0};
-        pf_weights cut_w = {0};
-        pf_surface_cut_stats ss;
-        st = pf_surface_cut(&r->surf, &out, &res, &r->embed, &cut_surf, &cut_w, &ss, err);
-        if (st < 0) {
-            pf_error_prefix(err,
-                            "--plane %d: the embedded surface (--drop-surface cuts the mesh "
-                            "alone)",
-                            (int)k + 1);
-            pf_cut_result_release(&res);
-            pf_mesh_release(&out);
-            return st;
-        }
-        pf_surface_release(&r->surf);
-        pf_weights_release(&r->weights);
-        r->surf = cut_surf;
-        r->weights = cut_w;
-        r->surf_stats.n_split_tris += ss.n_split_tris;
-        r->surf_stats.n_duplicated += ss.n_duplicated;
-        r->surf_stats.n_cap_tris += ss.n_cap_tris;
-        r->surf_stats.cap_area += ss.cap_area;
-        r->surf_stats.n_uncapped += ss.n_uncapped;
     }
     r->split += res.n_split;
     r->snapped += res.n_snapped - missed;
@@ -327,6 +325,33 @@ static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, pf_error *err)
     pf_cut_result_release(&res);
     pf_mesh_release(m);
     *m = out;
+    return PF_OK;
+}
+
+/* The embedded surface along every face the planes of this run opened (opened), in one cut after
+ * the last plane, as pf-sim cuts it: where a crack bends from one plane onto another, the caps
+ * of both meet at the crease as one surface (cut plane by plane, the later plane has to split
+ * the earlier caps). Faces of earlier runs (cut_face also holds them) were cut then. */
+static pf_status cut_surface(run *r, uint8_t *cut_face, const int32_t *opened, pf_error *err)
+{
+    uint8_t *here = pf_calloc((size_t)r->mesh.n_faces + 1, 1);
+    PF_CHECK(here, err, PF_ERR_NOMEM, "out of memory for %d face flags", (int)r->mesh.n_faces);
+    for (int32_t f = 0; f < r->mesh.n_faces; ++f)
+        here[f] = opened[f] != 0;
+    pf_cut_result all = {.opened = here, .cut_face = cut_face};
+    pf_surface cut_surf = {0};
+    pf_weights cut_w = {0};
+    pf_status st =
+        pf_surface_cut(&r->surf, &r->mesh, &all, &r->embed, &cut_surf, &cut_w, &r->surf_stats, err);
+    pf_free(here);
+    if (st < 0) {
+        pf_error_prefix(err, "the embedded surface (--drop-surface cuts the mesh alone)");
+        return st;
+    }
+    pf_surface_release(&r->surf);
+    pf_weights_release(&r->weights);
+    r->surf = cut_surf;
+    r->weights = cut_w;
     return PF_OK;
 }
 
@@ -362,9 +387,13 @@ static pf_status cut(run *r, pf_error *err)
         r->have_surf = true;
     }
     uint8_t *cut_face = NULL;
+    int32_t *opened = NULL;
     for (int32_t k = 0; st >= 0 && k < r->n_planes; ++k)
-        st = cut_plane(r, k, &cut_face, err);
+        st = cut_plane(r, k, &cut_face, &opened, err);
+    if (st >= 0 && r->have_surf && opened)
+        st = cut_surface(r, cut_face, opened, err);
     pf_free(cut_face);
+    pf_free(opened);
     return st;
 }
 

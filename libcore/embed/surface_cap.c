@@ -89,7 +89,8 @@ static double seg_dist(double u, double v, const double *s)
 }
 
 /* 1 inside the surface, 0 outside, -1 on its section (within tol): on the section of the
- * surface being built, else the crossing parity of a ray along the first projected axis with
+ * surface being built (not of the caps earlier groups made: a face's edge along one is a crease
+ * of the cut, inside the surface), else the crossing parity of a ray along the first projected axis with
  * the input surface's section (closed curves: the surface being built is open where the caps of
  * the groups still to come are missing). */
 static int inside_section(const sc_state *c, double u, double v)

@@ -824,6 +824,8 @@ pf_status pf_surface_cut(const pf_surface *s, const pf_mesh *m, const pf_cut_res
         st = weld_borders(&c, SC_PLANE_TOL * pf_v3_dist(ss.lo, ss.hi), err);
     if (st >= 0)
         st = pf_sc_duplicate(&c, err);
+    if (st >= 0 && c.closed)
+        st = pf_sc_close_t_junctions(&c, SC_PLANE_TOL * pf_v3_dist(ss.lo, ss.hi), err);
     if (st >= 0)
         st = sides_of_earlier_caps(s, &work, err);
     if (st >= 0)

@@ -69,7 +69,8 @@ typedef struct sc_state {
     int32_t n_sec, cap_sec;
     sc_section *sec;
     int64_t n_seg, cap_seg;
-    double *seg;       /* [4 cap_seg] the whole section of the surface, projected */
+    double *seg;       /* [4 cap_seg] the whole section of the surface, projected, less that of
+                          the caps made by earlier groups of this cut */
     int32_t *node_pt;  /* [m->n_nodes] point of a canonical node, -1 */
     int32_t *cap_pt;   /* [m->n_nodes] point of a node as a cap corner, -1 */
     int32_t *cap_vert; /* [m->n_nodes] vertex of a node as a cap corner (all planes), -1 */
@@ -109,6 +110,10 @@ pf_status pf_sc_cap_point(sc_state *c, int32_t n, int32_t *out, pf_error *err);
  * around it by edges that are not slits (cap triangles, src -1, take the copy on their side);
  * copies get the direction into their triangles as their side. */
 pf_status pf_sc_duplicate(sc_state *c, pf_error *err);
+/* After the duplication: each triangle with a border edge u -> v that a path of border edges
+ * v -> ... -> u retraces through vertices on it (within tol: corners a later group made on an
+ * earlier cap's edge) is split at those vertices (surface_tjunction.c). */
+pf_status pf_sc_close_t_junctions(sc_state *c, double tol, pf_error *err);
 /* Caps of every face of the group (after its triangles are split). */
 pf_status pf_sc_caps(sc_state *c, pf_error *err);
 

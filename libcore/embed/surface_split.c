@@ -537,7 +537,12 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
         k->tri_any[t] = any;
         return PF_OK;
     }
-    PF_TRY(push_segment(c, pp, pq, err));
+    /* the surface's own section: not that of a cap an earlier group of this cut made, whose
+     * edge on this plane is the crease where this group's cap joins it (taken for the surface's
+     * section, that crease was left out of this group's caps: a hole along every bend of a
+     * crack from one plane to another) */
+    if (s->src[t] >= 0)
+        PF_TRY(push_segment(c, pp, pq, err));
     /* the points along the section: P, crossings, Q */
     int32_t nl = k->n_cross + 2;
     int32_t local[128],
@@ -720,7 +725,8 @@ static pf_status plane_edge_section(split_ctx *k, uint32_t lo, uint32_t hi, int3
     PF_TRY(vertex_point(k, (int32_t)hi, &Q, err));
     double pp[2], pq[2];
     PF_TRY(section_of(k, P, Q, pp, pq, err));
-    PF_TRY(push_segment(c, pp, pq, err));
+    if (c->s->src[tm] >= 0 || c->s->src[tp] >= 0) /* not between caps: as in split_triangle */
+        PF_TRY(push_segment(c, pp, pq, err));
     int32_t nl = k->n_cross + 2;
     int32_t *line = pf_alloc_array((size_t)nl, sizeof *line);
     PF_CHECK(line, err, PF_ERR_NOMEM, "out of memory for %d section points", (int)nl);

@@ -36,6 +36,22 @@ check "sliced bunny: every opened face capped (--stats)" grep -q '"uncapped_face
 check "sliced bunny: its embedded surface is cut and capped" grep -q "embedded surface: [1-9][0-9]* triangles split.*[1-9][0-9]* cap triangles" "$tmp/err"
 "$bin/pf-info" "$tmp/bunny_cut.pfs" >"$tmp/bunny_cut.txt" 2>&1
 check "sliced bunny: SURF, MESH and their WGHT, accepted by pf-info" sh -c "grep -q '^SURF' '$tmp/bunny_cut.txt' && grep -q '^WGHT' '$tmp/bunny_cut.txt' && '$bin/pf-info' '$tmp/bunny_cut.pfs' >/dev/null"
+# three planes whose cracks cross and bend onto the cells' faces: the surface is cut once along
+# all of them and stays closed, enclosing the cut mesh's volume (the slicer makes the mesh's
+# boundary the surface; 1e-9: sums over ~10^4 triangles and polyhedra); a second pf-cut cuts
+# a capped surface again (the faces the first opened are not cut twice) and keeps it closed
+planes3="--plane 0.05,0,0.45,0.2,0.1,1 --plane 0.1,0.02,0.4,1,0.3,0.2 --plane -0.1,0.05,0.5,0.3,-1,0.4"
+expect 0 "embedded surface" "$bin/pf-cut" "$tmp/bunny_sliced.pfs" $planes3 --stats "$tmp/cut3.json"
+cp "$tmp/out" "$tmp/bunny_cut3.pfs"
+check "three planes: every opened face capped" grep -q '"uncapped_faces": 0,' "$tmp/cut3.json"
+"$bin/pf-info" "$tmp/bunny_cut3.pfs" >"$tmp/cut3.txt" 2>&1
+check "three planes: the cut surface is closed and manifold" grep -q "^SURF .*triangles, closed, manifold" "$tmp/cut3.txt"
+v=$(mesh_volume "$tmp/bunny_cut3.pfs")
+sv=$(surf_volume "$tmp/bunny_cut3.pfs")
+check "three planes: the surface encloses the mesh's volume ($sv, $v)" close "$sv" "$v" 1e-9
+"$bin/pf-cut" "$tmp/bunny_sliced.pfs" --plane 0,0,0.6,0,0,1 --quiet --output "$tmp/ears.pfs"
+expect 0 "embedded surface" "$bin/pf-cut" "$tmp/ears.pfs" --plane 0.02,0.1,0.3,0,1,0.1
+check "a second pf-cut: the surface stays closed" sh -c "'$bin/pf-info' '$tmp/out' | grep -q '^SURF .*triangles, closed, manifold'"
 expect 0 "dropped from the stream: the embedded surface" "$bin/pf-cut" "$tmp/bunny_sliced.pfs" \
   --plane 0,0,0.5,0,0.2,1 --drop-surface
 check "--drop-surface: no SURF written" sh -c "! '$bin/pf-info' '$tmp/out' | grep -q '^SURF'"

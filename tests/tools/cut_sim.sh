@@ -2,7 +2,8 @@
 # two by a moving blade (data/scenes/bunny_cut.json); a blade that stops half way leaves one body
 # (both methods); pf-sim writes a MESH (with the "cut" face group) before the first frame on each
 # cut mesh; pf-info, pf-export and pf-render read the stream; the stream is the same twice and on
-# one thread; an embedded surface is cut and capped with the mesh; an imported tetrahedral mesh and
+# one thread; an embedded surface is cut and capped with the mesh, by one blade and by two whose
+# cracks cross (every surface closed); an imported tetrahedral mesh and
 # an octree are cut with both methods; a bad blade is an error naming the key.
 . "$(dirname "$0")/lib.sh"
 root=$(cd "$data/../.." && pwd)
@@ -69,6 +70,25 @@ check "embedded: pf-info accepts every surface and its weights" "$bin/pf-info" "
 check "embedded: a second SURF" test "$(grep -c '^SURF' "$tmp/binfo.txt")" -ge 2
 expect 0 "" "$bin/pf-export" --quiet --obj "$tmp/bobj" "$tmp/ball_cut.pfs"
 check "embedded: the caps are a group of the last OBJ" grep -q "cap" "$(ls "$tmp/bobj"/*.obj | tail -1)"
+
+# two blades whose cracks cross (one sweeps across, one down) through the embedded bunny: every
+# surface the run writes (one per change) is closed and manifold, the crossing and the bends of
+# the cracks onto the cells' faces capped, and the bunny ends in four pieces
+"$bin/pf-embed" --quiet "$tmp/bunny.pfs" >"$tmp/bunny_embedded.pfs"
+cat >"$tmp/cross.json" <<'JSON'
+{"material": {"E": 1e7, "nu": 0.3, "density": 1000}, "ground": {"point": [0, 0, -0.4]},
+ "time": {"dt": 0.0333333333333, "frames": 16, "substeps": 4},
+ "cuts": [{"blade": [[-0.7, -1, 0.42], [-0.7, 1, 0.42]],
+           "path": [{"time": 0.1, "translation": [0, 0, 0]}, {"time": 0.5, "translation": [1.4, 0, 0]}]},
+          {"blade": [[0.02, -1, 1.2], [0.02, 1, 1.2]],
+           "path": [{"time": 0.1, "translation": [0, 0, 0]}, {"time": 0.5, "translation": [0, 0, -1.8]}]}]}
+JSON
+expect 0 "4 bodies" "$bin/pf-sim" "$tmp/cross.json" --input "$tmp/bunny_embedded.pfs"
+"$bin/pf-info" "$tmp/out" | grep '^SURF' >"$tmp/cross_surf.txt"
+check "crossing blades: a surface per change ($(wc -l <"$tmp/cross_surf.txt"))" \
+  test "$(wc -l <"$tmp/cross_surf.txt")" -gt 2
+check "crossing blades: every surface closed and manifold" \
+  test "$(grep -vc 'closed, manifold$' "$tmp/cross_surf.txt")" = 0
 
 # an imported tetrahedral mesh (Gmsh, tests/data/bar_tets.geo) clamped by its physical group and
 # an octree bunny, each cut through by a plane, both methods: the same bodies

@@ -231,38 +231,29 @@ static void merge_vertex(split_ctx *k, int32_t w, int32_t to)
         k->vpt[to] = k->vpt[w];
 }
 
-/* The vertex an earlier group of this cut made as a cap corner at a corner of this group's faces
- * at x (within tol) and joined by an edge to a or b, or -1. The caps of both sides of the earlier
- * group may have a corner there (one per copy of the node) with the edge a-b between them, which
- * this plane splits at one point: the corners are made one vertex, which the duplication after
- * the last plane gives one copy per side again, by the slits, together with the edge's pieces
- * (rather than two vertices on the caps that the surface's triangles between them never join). */
+/* The vertex an earlier group of this cut made as a cap corner at a node at x (within tol; of
+ * this group's faces, or of the earlier group's only, where its crack bends off this plane) and
+ * joined by an edge to a or b, or -1. The caps of both sides of the earlier group may have a
+ * corner there (one per copy of the node) with the edge a-b between them, which this plane
+ * splits at one point: the corners are made one vertex, which the duplication after the last
+ * plane gives one copy per side again, by the slits, together with the edge's pieces (rather
+ * than two vertices on the caps that the surface's triangles between them never join). */
 static int32_t node_vertex_at(split_ctx *k, pf_vec3 x, int32_t a, int32_t b)
 {
     const sc_state *c = k->c;
-    const sc_group *g = c->g;
     const pf_mesh *m = c->m;
-    double u = pf_v3_get(x, g->ax[0]), v = pf_v3_get(x, g->ax[1]);
     int32_t found = -1;
-    for (int32_t f = 0; f < g->n_faces; ++f) {
-        const double *box = g->box + 4 * (size_t)f;
-        if (u < box[0] || u > box[2] || v < box[1] || v > box[3])
+    for (int32_t n = 0; n < m->n_nodes; ++n) {
+        int32_t w = c->cap_vert[n];
+        if (w < 0 || w >= k->nv || k->cls[w] != 0 ||
+            pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)n), x) > c->g->tol)
             continue;
-        int32_t face = g->face[f];
-        for (int64_t j = m->face_offsets[face]; j < m->face_offsets[face + 1]; ++j) {
-            int32_t n = (int32_t)m->face_nodes[j];
-            if (c->cap_vert[n] >= 0 && c->cap_vert[n] < k->nv &&
-                pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)n), x) <= g->tol &&
-                k->cls[c->cap_vert[n]] == 0) {
-                int32_t w = c->cap_vert[n];
-                if (has_surface_edge(c->s, w, a) || has_surface_edge(c->s, a, w) ||
-                    has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w)) {
-                    if (found < 0)
-                        found = w;
-                    else if (w != found)
-                        merge_vertex(k, w, found);
-                }
-            }
+        if (has_surface_edge(c->s, w, a) || has_surface_edge(c->s, a, w) ||
+            has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w)) {
+            if (found < 0)
+                found = w;
+            else if (w != found)
+                merge_vertex(k, w, found);
         }
     }
     return found;
@@ -622,7 +613,7 @@ static pf_status split_triangle(split_ctx *k, int32_t t, bool decide, pf_error *
 typedef struct plane_edge {
     uint32_t lo, hi; /* vertices, lo < hi */
     int32_t t;
-    int8_t side;
+    int8_t side, dir; /* the side of its third corner; +1: t has the edge from lo to hi */
 } plane_edge;
 
 static int compare_plane_edges(const void *p, const void *q)
@@ -660,7 +651,7 @@ static pf_status collect_plane_edges(split_ctx *k, int32_t nt, plane_edge **out,
                 }
                 e = ne;
             }
-            e[n++] = (plane_edge){a < b ? a : b, a < b ? b : a, t, k->cls[c]};
+            e[n++] = (plane_edge){a < b ? a : b, a < b ? b : a, t, k->cls[c], a < b ? 1 : -1};
         }
     }
     if (n > 1)
@@ -766,14 +757,13 @@ static pf_status plane_edges(split_ctx *k, const plane_edge *e, int32_t n, pf_er
 {
     for (int32_t i = 0; i < n;) {
         int32_t j = i;
-        int32_t tm = -1, tp = -1;
-        while (j < n && e[j].lo == e[i].lo && e[j].hi == e[i].hi) {
-            if (e[j].side < 0 && tm < 0)
-                tm = e[j].t;
-            if (e[j].side > 0 && tp < 0)
-                tp = e[j].t;
-            j++;
-        }
+        int32_t t[2][2] = {{-1, -1}, {-1, -1}}; /* [side > 0][dir > 0]: the first */
+        for (; j < n && e[j].lo == e[i].lo && e[j].hi == e[i].hi; ++j)
+            if (t[e[j].side > 0][e[j].dir > 0] < 0)
+                t[e[j].side > 0][e[j].dir > 0] = e[j].t;
+        /* of several on a side (caps of an earlier group), two traversing it the opposite ways */
+        int d = t[0][1] >= 0 && t[1][0] >= 0 ? 1 : 0;
+        int32_t tm = t[0][d] >= 0 ? t[0][d] : t[0][!d], tp = t[1][!d] >= 0 ? t[1][!d] : t[1][d];
         if (tm >= 0 && tp >= 0)
             PF_TRY(plane_edge_section(k, e[i].lo, e[i].hi, tm, tp, err));
         i = j;

@@ -81,6 +81,8 @@ typedef struct split_ctx {
     int64_t n_old_slit; /* c->slit[0 .. n_old_slit) sorted: the slits of earlier planes */
     int32_t n_sub, cap_sub;
     int32_t *sub; /* [3 n_sub] slits of earlier planes split by this one: a, b, the point */
+    int32_t n_corners;
+    int32_t *corners; /* [n_corners] nodes whose cap corner (earlier groups') is on the plane */
 } split_ctx;
 
 static int compare_u64(const void *a, const void *b)
@@ -243,10 +245,9 @@ static int32_t node_vertex_at(split_ctx *k, pf_vec3 x, int32_t a, int32_t b)
     const sc_state *c = k->c;
     const pf_mesh *m = c->m;
     int32_t found = -1;
-    for (int32_t n = 0; n < m->n_nodes; ++n) {
-        int32_t w = c->cap_vert[n];
-        if (w < 0 || w >= k->nv || k->cls[w] != 0 ||
-            pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)n), x) > c->g->tol)
+    for (int32_t i = 0; i < k->n_corners; ++i) {
+        int32_t n = k->corners[i], w = c->cap_vert[n];
+        if (pf_v3_dist(pf_v3_load(m->x + 3 * (size_t)n), x) > c->g->tol)
             continue;
         if (has_surface_edge(c->s, w, a) || has_surface_edge(c->s, a, w) ||
             has_surface_edge(c->s, w, b) || has_surface_edge(c->s, b, w)) {
@@ -771,6 +772,26 @@ static pf_status plane_edges(split_ctx *k, const plane_edge *e, int32_t n, pf_er
     return PF_OK;
 }
 
+/* k->corners: the nodes whose cap corner vertex (made by an earlier group) lies on the plane,
+ * in node order; the only ones an edge point may meet (node_vertex_at). */
+static pf_status plane_corners(split_ctx *k, pf_error *err)
+{
+    const sc_state *c = k->c;
+    int32_t n = 0;
+    for (int32_t i = 0; i < c->m->n_nodes; ++i) {
+        int32_t w = c->cap_vert[i];
+        n += w >= 0 && w < k->nv && k->cls[w] == 0;
+    }
+    PF_CHECK(PF_ALLOC_N(k->corners, (size_t)n + 1), err, PF_ERR_NOMEM,
+             "out of memory for %d cap corners", (int)n);
+    for (int32_t i = 0; i < c->m->n_nodes; ++i) {
+        int32_t w = c->cap_vert[i];
+        if (w >= 0 && w < k->nv && k->cls[w] == 0)
+            k->corners[k->n_corners++] = i;
+    }
+    return PF_OK;
+}
+
 pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
 {
     split_ctx k;
@@ -807,6 +828,8 @@ pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
             k.vpt[i] = -1;
         }
     }
+    if (st >= 0)
+        st = plane_corners(&k, err);
     /* first which triangles get a slit, so that their neighbours on the same edge points are
      * split there too (a section leaving the opened faces ends on a shared point) */
     for (int32_t t = 0; t < nt && st >= 0; ++t) {
@@ -850,6 +873,7 @@ pf_status pf_sc_split(sc_state *c, uint8_t *split_src, pf_error *err)
         st = push_subs(&k, err);
     pf_free(pe);
     pf_free(k.sub);
+    pf_free(k.corners);
     pf_free(k.cls);
     pf_free(k.dist);
     pf_free(k.vpt);

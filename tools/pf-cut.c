@@ -241,10 +241,6 @@ static pf_status clip(run *r, pf_error *err)
     return PF_OK;
 }
 
-/* One plane through the whole mesh: every element it crosses or touches and their neighbours
- * are requested, so that where the sliver rule leaves an element whole on one side, the crack
- * follows its face to the neighbour on the other side. *cut_face carried from cut to cut: the
- * faces the planes of this run opened so far. */
 /* *opened (faces of the mesh before the cut, 1: opened by an earlier plane of this run) carried
  * to the mesh after it, with the faces this cut opened. */
 static pf_status carry_opened(const pf_mesh *before, const pf_mesh *after, const pf_cut_result *res,
@@ -262,6 +258,11 @@ static pf_status carry_opened(const pf_mesh *before, const pf_mesh *after, const
     return st;
 }
 
+/* One plane through the whole mesh: every element it crosses or touches and their neighbours
+ * are requested, so that where the sliver rule leaves an element whole on one side, the crack
+ * follows its face to the neighbour on the other side. *cut_face carried from cut to cut (with
+ * the mesh's earlier "cut" group), and, when there is an embedded surface to cut, *opened: the
+ * faces the planes of this run opened so far. */
 static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, int32_t **opened, pf_error *err)
 {
     pf_mesh *m = &r->mesh;
@@ -304,7 +305,7 @@ static pf_status cut_plane(run *r, int32_t k, uint8_t **cut_face, int32_t **open
     pf_cut_result res = {0};
     pf_status st = pf_mesh_cut(m, req, n, &p, &out, &res, err);
     pf_free(req);
-    if (st >= 0)
+    if (st >= 0 && r->have_surf)
         st = carry_opened(m, &out, &res, opened, err);
     if (st < 0) {
         pf_error_prefix(err, "--plane %d", (int)k + 1);

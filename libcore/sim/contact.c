@@ -90,8 +90,6 @@ struct pf_contact {
 
 /* ---- set-up ------------------------------------------------------------------------------ */
 
-static pf_status count_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count, pf_error *err);
-
 static pf_status make_shapes(pf_contact *c, const pf_contact_setup *s, pf_error *err)
 {
     const pf_scene *sc = s->scene;
@@ -104,7 +102,7 @@ static pf_status make_shapes(pf_contact *c, const pf_contact_setup *s, pf_error 
     double points_per_node = 1;
     if (s->weights) {
         int32_t boundary_nodes = 0;
-        PF_TRY(count_boundary_nodes(s->mesh, NULL, &boundary_nodes, err));
+        PF_TRY(pf_contact_boundary_nodes(s->mesh, NULL, &boundary_nodes, err));
         points_per_node = (double)c->np / (boundary_nodes > 0 ? boundary_nodes : 1);
     }
     double automatic = s->auto_stiffness / points_per_node;
@@ -158,8 +156,7 @@ static pf_status make_shapes(pf_contact *c, const pf_contact_setup *s, pf_error 
     return PF_OK;
 }
 
-/* Flags the nodes of boundary faces (on [n_nodes], may be NULL) and counts them. */
-static pf_status count_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count, pf_error *err)
+pf_status pf_contact_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count, pf_error *err)
 {
     pf_boundary b = {0};
     PF_TRY(pf_boundary_extract(m, &b, err));
@@ -254,7 +251,7 @@ static pf_status place_samples(pf_contact *c, const pf_contact_setup *s, int32_t
     uint8_t *on = pf_calloc((size_t)s->mesh->n_nodes + 1, 1);
     int32_t nb = 0;
     PF_CHECK(on, err, PF_ERR_NOMEM, "cannot allocate node flags");
-    pf_status st = count_boundary_nodes(s->mesh, on, &nb, err);
+    pf_status st = pf_contact_boundary_nodes(s->mesh, on, &nb, err);
     int32_t *bnodes = st >= 0 ? pf_alloc_array((size_t)nb + 1, sizeof *bnodes) : NULL;
     if (st >= 0 && !bnodes)
         st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__, "cannot list boundary nodes");
@@ -346,8 +343,8 @@ static pf_status node_points(pf_contact *c, const pf_contact_setup *s, pf_error 
     const pf_contact_part *part = s->part;
     uint8_t *on = pf_calloc((size_t)m->n_nodes + 1, 1);
     PF_CHECK(on, err, PF_ERR_NOMEM, "cannot allocate node flags");
-    int32_t nodes = 0;
-    pf_status st = count_boundary_nodes(m, on, &nodes, err);
+    int32_t nodes = 0; /* a part's own boundary includes the faces between parts */
+    pf_status st = part ? PF_OK : pf_contact_boundary_nodes(m, on, &nodes, err);
     for (int32_t i = 0; part && i < m->n_nodes; ++i)
         on[i] = part->boundary[i];
     int64_t np = 0;

@@ -31,6 +31,9 @@ typedef struct pf_contact_part {
     const uint8_t *node_holds;    /* [n_nodes] nodes whose points the part holds (NULL: all) */
 } pf_contact_part;
 
+/* Flags the nodes of m's boundary faces (on [n_nodes], zeroed, may be NULL) and counts them. */
+pf_status pf_contact_boundary_nodes(const pf_mesh *m, uint8_t *on, int32_t *count, pf_error *err);
+
 /* What contact needs from the driver; every pointer borrowed for the contact's lifetime. */
 typedef struct pf_contact_setup {
     const pf_scene *scene; /* resolved; mesh obstacles' triangles handed over

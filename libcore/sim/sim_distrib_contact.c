@@ -27,10 +27,12 @@ pf_status pf_sim_distrib_contact_whole(const pf_mesh *m, contact_whole *w, pf_er
         return pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                             "cannot allocate the contact data of %d nodes", (int)m->n_nodes);
     }
-    for (int32_t f = 0; f < m->n_faces; ++f)
-        if (m->face_elems[2 * f] < 0 || m->face_elems[2 * f + 1] < 0)
-            for (int64_t q = m->face_offsets[f]; q < m->face_offsets[f + 1]; ++q)
-                w->boundary[m->face_nodes[q]] = 1;
+    int32_t n_boundary;
+    pf_status st = pf_contact_boundary_nodes(m, w->boundary, &n_boundary, err);
+    if (st < 0) {
+        pf_free(last);
+        return st;
+    }
     for (int32_t i = 0; i < m->n_nodes; ++i)
         last[i] = -1;
     for (int32_t e = 0; e < m->n_elems; ++e)

@@ -185,12 +185,12 @@ pf_status pf_solver_create(pf_solver **out, const pf_block_matrix *a,
         s->z = pf_alloc_array(n, sizeof *s->z);
         s->d = pf_alloc_array(n, sizeof *s->d);
         s->q = pf_alloc_array(n, sizeof *s->q);
-        if (st >= 0 && triples_in_blocks(a)) {
+        bool triples = triples_in_blocks(a);
+        if (triples) {
             s->diag_factor = pf_alloc_array(3 * (n - 1) + 1, sizeof *s->diag_factor);
             s->congruence = pf_alloc_array(2 * (n - 1) + 1, sizeof *s->congruence);
         }
-        if (!s->r || !s->z || !s->d || !s->q ||
-            (triples_in_blocks(a) && (!s->diag_factor || !s->congruence)))
+        if (!s->r || !s->z || !s->d || !s->q || (triples && (!s->diag_factor || !s->congruence)))
             st = pf_error_set(err, PF_ERR_NOMEM, __FILE__, __LINE__,
                               "cannot allocate the solver's vectors for %lld unknowns",
                               (long long)s->n);
